@@ -1,0 +1,162 @@
+"""The validated, resolved case: typed dataclasses, SI units everywhere.
+
+This is the contract between the case reader (``impactsim.case.load``) and the rest of the code.
+Every quantity here is a plain float in SI units (m, s, kg, Pa, K, J); angles are radians.
+The reader fills every default, so code downstream never looks for a missing key.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+
+@dataclass
+class Strength:
+    """Deviatoric strength model (ALGORITHMS.md 2)."""
+
+    model: str = "elastic"  # "elastic" | "ideal-plastic" | "johnson-cook"
+    yield_stress: float = 0.0  # [Pa] ideal-plastic Y0
+    A: float = 0.0  # [Pa] Johnson-Cook
+    B: float = 0.0  # [Pa]
+    n: float = 1.0  # [-]
+    C: float = 0.0  # [-]
+    m: float = 1.0  # [-]
+    strain_rate_ref: float = 1.0  # [1/s] reference plastic strain rate eps_dot0
+    room_temperature: float = 293.15  # [K]
+    melt_temperature: float = 1.0e9  # [K]
+
+
+@dataclass
+class EOS:
+    """Pressure model (ALGORITHMS.md 2)."""
+
+    model: str = "linear"  # "linear" | "mie-gruneisen"
+    c0: float = 0.0  # [m/s] bulk sound speed of the linear Us-up Hugoniot
+    s: float = 0.0  # [-] slope of Us = c0 + s up
+    gamma0: float = 0.0  # [-] Grueneisen coefficient at the reference density
+
+
+@dataclass
+class Failure:
+    """Fracture and erosion data (ALGORITHMS.md 4). None switches a mechanism off."""
+
+    spall_strength: float | None = None  # [Pa] max tensile principal stress -> damaged
+    loosening: float | None = None  # [-] chi* : damaged -> fully fractured when 1 - V0/V > chi*
+    erosion: str | None = None  # "plastic-strain" | "jc-damage" | "principal-strain" | "fractured"
+    erosion_value: float | None = None  # threshold of the erosion criterion (strain, or D = 1)
+    jc_damage: tuple[float, float, float, float, float] | None = None  # D1..D5
+    fracture_strain: float | None = None  # node separation [Z]
+
+
+@dataclass
+class Material:
+    name: str
+    density: float  # [kg/m^3] reference density rho0
+    shear_modulus: float  # [Pa] G
+    bulk_modulus: float  # [Pa] K (for "linear" EOS; for Mie-Grueneisen rho0 c0^2 if not given)
+    specific_heat: float = 450.0  # [J/(kg K)] c_v, for adiabatic heating
+    taylor_quinney: float = 0.9  # [-] share of plastic work that heats
+    initial_temperature: float = 293.15  # [K]
+    strength: Strength = field(default_factory=Strength)
+    eos: EOS = field(default_factory=EOS)
+    failure: Failure = field(default_factory=Failure)
+    source: str = ""  # where the numbers come from (library entries carry their reference)
+
+
+@dataclass
+class NodeSelector:
+    """A set of nodes of one body, chosen geometrically in world coordinates after placement.
+
+    kind "box": nodes with lo <= x <= hi componentwise (params: lo, hi).
+    kind "outside-radius": nodes farther than `radius` from the line through `center` along `axis`
+      (the rim of a round plate; params: center, axis, radius).
+    kind "plane": nodes within `tolerance` of the plane through `point` with normal `normal`.
+    kind "all": every node of the body.
+    """
+
+    kind: str
+    params: dict = field(default_factory=dict)  # SI floats / 3-tuples
+
+
+@dataclass
+class Constraint:
+    """Prescribed velocity on a node set; a None component stays free. fixed == all zeros."""
+
+    nodes: NodeSelector
+    velocity: tuple[float | None, float | None, float | None] = (0.0, 0.0, 0.0)  # [m/s]
+
+
+@dataclass
+class Body:
+    name: str
+    material: str  # key into Case.materials
+    shape: str  # "box" | "plate" | "cylinder" | "sphere" | "file" | "cube12"
+    # shape parameters, SI: box/plate: size (3,) ; cylinder: radius, height, axis (3,) ;
+    # sphere: radius ; file: path (Path, resolved against the case file), scale ;
+    # cube12: size (edge length, scalar)
+    dimensions: dict = field(default_factory=dict)
+    position: tuple[float, float, float] = (0.0, 0.0, 0.0)  # [m] centre of the primitive
+    rotation: tuple[float, float, float] = (0.0, 0.0, 0.0)  # [rad] intrinsic x-y-z Euler angles
+    mesh_size: float = 0.0  # [m] target edge length
+    mesher: str = "gmsh"  # "gmsh" | "structured"
+    velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)  # [m/s]
+    angular_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)  # [rad/s] about `position`
+    constraints: list[Constraint] = field(default_factory=list)
+
+
+@dataclass
+class Wall:
+    """Rigid planar wall: the half space (x - point) . normal < 0 is forbidden."""
+
+    point: tuple[float, float, float] = (0.0, 0.0, 0.0)  # [m]
+    normal: tuple[float, float, float] = (0.0, 0.0, 1.0)  # unit, points into the allowed side
+    friction: float = 0.0  # Coulomb coefficient; 0 = frictionless sliding
+
+
+@dataclass
+class Run:
+    name: str
+    end_time: float  # [s]
+    cfl: float = 0.6  # Courant number
+    element: str = "tet4"  # "tet4" | "anp" (averaged nodal pressure tet, Bonet & Burton 1998)
+    q_quadratic: float = 1.5  # artificial viscosity C_q
+    q_linear: float = 0.06  # artificial viscosity C_l
+    max_steps: int = 10_000_000
+    dt_collapse: float = 1.0e-3  # stop when dt < dt_collapse * initial dt
+    threads: int = 0  # numba threads; 0 = all
+
+
+@dataclass
+class Output:
+    directory: Path | None = None  # None = out/<run.name> relative to the working directory
+    frames: int = 20  # evenly spaced frames after the initial one (ignored if times given)
+    times: list[float] | None = None  # [s] explicit frame times
+    history_every: int = 1  # write a history row every N steps
+    fields: list[str] | None = None  # None = all fields
+
+
+@dataclass
+class Contact:
+    passes: list[str] = field(default_factory=lambda: ["node-face", "edge-edge"])
+    friction: float = 0.0  # Coulomb coefficient
+    self_contact: bool = False
+
+
+@dataclass
+class Fracture:
+    particles_per_element: int = 1
+    particle_collisions: bool = False
+    erosion_region: str = "surface"  # "surface" | "anywhere"
+
+
+@dataclass
+class Case:
+    source: Path | None  # the case file (None when built in Python)
+    run: Run
+    materials: dict[str, Material]
+    bodies: list[Body]
+    walls: list[Wall] = field(default_factory=list)
+    output: Output = field(default_factory=Output)
+    contact: Contact = field(default_factory=Contact)
+    fracture: Fracture = field(default_factory=Fracture)
