@@ -1,0 +1,145 @@
+"""A time series of VTU files indexed by a ParaView collection file (.pvd).
+
+`SeriesWriter.write` writes one frame, `<prefix>_00000.vtu` (meshio, binary, zlib-compressed),
+then rewrites the collection `<pvd_name>` listing every frame written so far; both through
+`atomic.replacing`, so a killed run leaves a readable series of the finished frames. Two writers
+can share a directory: the solver writes the mesh as ``frame_*.vtu`` / ``series.pvd`` and the
+particles as ``particles_*.vtu`` / ``particles.pvd``.
+
+Array conventions of a frame (k = number of points or of cells):
+- ``(k,)`` and ``(k, c)`` arrays are written as they are (bool as uint8);
+- ``(k, 6)`` arrays are symmetric tensors in the model's Voigt order xx, yy, zz, xy, yz, zx and
+  are expanded to ``(k, 9)`` row-major full tensors, as are ``(k, 3, 3)`` arrays: ParaView shows
+  a 9-component array as a tensor (components, eigenvalues, von Mises of its own).
+"""
+
+from __future__ import annotations
+
+import os
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from xml.sax.saxutils import quoteattr
+
+import meshio
+import numpy as np
+
+from impactsim.output.atomic import replacing, write_text
+
+# full row-major 3x3 tensor from Voigt xx, yy, zz, xy, yz, zx
+_VOIGT_TO_FULL = np.array([0, 3, 5, 3, 1, 4, 5, 4, 2])
+
+
+def voigt_to_tensor(s: np.ndarray) -> np.ndarray:
+    """(k, 6) symmetric tensors xx, yy, zz, xy, yz, zx -> (k, 9) row-major 3x3 tensors."""
+    return np.ascontiguousarray(np.asarray(s)[:, _VOIGT_TO_FULL])
+
+
+class SeriesWriter:
+    """Writes numbered VTU frames into `directory` and keeps `<pvd_name>` listing them.
+
+    `frames` holds (time [s], file name) of every frame written, in order.
+    """
+
+    def __init__(self, directory: str | os.PathLike, prefix: str = "frame", pvd_name: str = "series.pvd"):
+        self.directory = Path(directory)
+        self.directory.mkdir(parents=True, exist_ok=True)
+        self.prefix = prefix
+        self.pvd_path = self.directory / pvd_name
+        self.frames: list[tuple[float, str]] = []
+
+    def write(
+        self,
+        time: float,
+        points: np.ndarray,
+        cells: np.ndarray | None = None,
+        point_data: dict[str, np.ndarray] | None = None,
+        cell_data: dict[str, np.ndarray] | None = None,
+        keep: np.ndarray | None = None,
+    ) -> Path:
+        """Write the frame at `time` [s] and return its path.
+
+        points: (n, 3) float [m]. cells: (e, 4) int tetrahedra, or None (or (e, 1)) for one vertex
+        cell per point (particles). point_data: name -> (n, ...) array. cell_data: name ->
+        (e, ...) array. keep: (e,) bool, False for cells left out of the file (eroded elements);
+        their cell data is dropped with them, the points stay.
+        """
+        time = float(time)
+        if not np.isfinite(time):
+            raise ValueError(f"frame time must be finite, got {time}")
+        pts = np.asarray(points, dtype=np.float64)
+        if pts.ndim != 2 or pts.shape[1] != 3:
+            raise ValueError(f"points must have shape (n, 3), got {pts.shape}")
+        n = pts.shape[0]
+        cell_type, conn = _cell_block(cells, n)
+        e = conn.shape[0]
+        pdata = {name: _field(name, value, n, "point") for name, value in (point_data or {}).items()}
+        cdata = {name: _field(name, value, e, "cell") for name, value in (cell_data or {}).items()}
+        if keep is not None:
+            keep = np.asarray(keep)
+            if keep.dtype != np.bool_ or keep.shape != (e,):
+                raise ValueError(f"keep must be a ({e},) bool array, got {keep.dtype} {keep.shape}")
+            conn = conn[keep]
+            cdata = {name: value[keep] for name, value in cdata.items()}
+
+        mesh = meshio.Mesh(
+            pts,
+            [(cell_type, np.ascontiguousarray(conn))],
+            point_data=pdata,
+            cell_data={name: [value] for name, value in cdata.items()},
+        )
+        name = f"{self.prefix}_{len(self.frames):05d}.vtu"
+        path = self.directory / name
+        with replacing(path) as tmp:
+            meshio.write(tmp, mesh, file_format="vtu", binary=True, compression="zlib")
+        self.frames.append((time, name))
+        write_text(self.pvd_path, collection_xml(self.frames))
+        return path
+
+
+def collection_xml(frames: list[tuple[float, str]]) -> str:
+    """The ParaView collection (.pvd) text listing `frames` as (time [s], relative file name)."""
+    lines = [
+        '<?xml version="1.0"?>',
+        '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
+        "  <Collection>",
+    ]
+    for time, name in frames:
+        lines.append(f'    <DataSet timestep="{time!r}" part="0" file={quoteattr(name)}/>')
+    lines += ["  </Collection>", "</VTKFile>", ""]
+    return "\n".join(lines)
+
+
+def read_collection(pvd_path: str | os.PathLike) -> list[tuple[float, Path]]:
+    """(time [s], absolute file path) of every data set listed in a .pvd file, in file order."""
+    pvd_path = Path(pvd_path)
+    root = ET.parse(pvd_path).getroot()
+    if root.tag != "VTKFile" or root.get("type") != "Collection":
+        raise ValueError(f"{pvd_path}: not a VTK collection file")
+    return [
+        (float(ds.get("timestep", "0")), pvd_path.parent / ds.get("file", ""))
+        for ds in root.iter("DataSet")
+    ]
+
+
+def _cell_block(cells: np.ndarray | None, n_point: int) -> tuple[str, np.ndarray]:
+    if cells is None:
+        return "vertex", np.arange(n_point, dtype=np.int64).reshape(-1, 1)
+    conn = np.asarray(cells)
+    if conn.ndim != 2 or conn.shape[1] not in (1, 4) or not np.issubdtype(conn.dtype, np.integer):
+        raise ValueError(f"cells must be an integer (e, 4) or (e, 1) array, got {conn.dtype} {conn.shape}")
+    if conn.size and (conn.min() < 0 or conn.max() >= n_point):
+        raise ValueError(f"cells refer to points outside 0..{n_point - 1}")
+    return ("tetra" if conn.shape[1] == 4 else "vertex"), conn
+
+
+def _field(name: str, value: np.ndarray, k: int, kind: str) -> np.ndarray:
+    a = np.asarray(value)
+    if a.dtype == np.bool_:
+        a = a.astype(np.uint8)
+    if a.ndim == 3 and a.shape[1:] == (3, 3):
+        a = a.reshape(a.shape[0], 9)
+    elif a.ndim == 2 and a.shape[1] == 6:
+        a = voigt_to_tensor(a)
+    if a.ndim not in (1, 2) or a.shape[0] != k:
+        raise ValueError(f"{kind} data {name!r}: expected shape ({k},) or ({k}, c), got {a.shape}")
+    return np.ascontiguousarray(a)
