@@ -1,0 +1,117 @@
+"""history.csv: one line of scalars per recorded step, safe against a killed run.
+
+Rows are kept in memory as finished text lines and handed to the operating system in one write
+call every `flush_rows` rows, every `flush_seconds` of wall time, and at `close`, so the file only
+ever holds whole lines: a killed run loses at most the rows of the last interval. `close` also
+fsyncs. Floats are written with `repr`, the shortest text that reads back to the same double
+(bit-exact through numpy or float()); integers as integers; a missing value as an empty field.
+"""
+
+from __future__ import annotations
+
+import os
+import time as _time
+from pathlib import Path
+
+import numpy as np
+
+
+class HistoryWriter:
+    """CSV file at `path` with a header line of `columns`, written at creation.
+
+    `add_columns` extends the header until the first `row`; after that the columns are fixed.
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike,
+        columns: list[str],
+        flush_rows: int = 100,
+        flush_seconds: float = 1.0,
+    ):
+        self.path = Path(path)
+        self.columns: list[str] = []
+        self._index: dict[str, int] = {}
+        self._flush_rows = max(1, int(flush_rows))
+        self._flush_seconds = float(flush_seconds)
+        self._pending: list[str] = []
+        self._n_rows = 0
+        self._last_flush = _time.monotonic()
+        self._check_names(columns)
+        self._file = open(self.path, "wb", buffering=0)
+        self.add_columns(columns)
+
+    def add_columns(self, names: list[str]) -> None:
+        """Append `names` to the columns and rewrite the header; only before the first row."""
+        if self._n_rows:
+            raise RuntimeError(f"{self.path}: columns cannot change after the first row")
+        self._check_names(names)
+        self.columns += list(names)
+        self._index = {name: i for i, name in enumerate(self.columns)}
+        self._file.seek(0)
+        self._file.truncate()
+        self._write((",".join(self.columns) + "\n").encode())
+
+    def row(self, values: dict[str, float]) -> None:
+        """Append one line; columns absent from `values` (or None) are left empty."""
+        unknown = values.keys() - self._index.keys()
+        if unknown:
+            raise KeyError(f"{self.path}: unknown columns {sorted(unknown)}; columns are {self.columns}")
+        fields = [""] * len(self.columns)
+        for name, value in values.items():
+            fields[self._index[name]] = _format(value)
+        self._pending.append(",".join(fields) + "\n")
+        self._n_rows += 1
+        if len(self._pending) >= self._flush_rows or _time.monotonic() - self._last_flush >= self._flush_seconds:
+            self.flush()
+
+    def flush(self) -> None:
+        """Hand the pending whole lines to the operating system in one write."""
+        if self._pending:
+            self._write("".join(self._pending).encode())
+            self._pending.clear()
+        self._last_flush = _time.monotonic()
+
+    def close(self) -> None:
+        """Flush, fsync and close; further calls do nothing."""
+        if self._file.closed:
+            return
+        try:
+            self.flush()
+            os.fsync(self._file.fileno())
+        finally:
+            self._file.close()
+
+    @property
+    def closed(self) -> bool:
+        return self._file.closed
+
+    def __enter__(self) -> HistoryWriter:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def _write(self, data: bytes) -> None:
+        view = memoryview(data)
+        while view:  # a raw write may be partial; finish the lines before returning
+            view = view[self._file.write(view):]
+
+    def _check_names(self, names: list[str]) -> None:
+        seen = set(self.columns)
+        for name in names:
+            if not isinstance(name, str) or not name or any(c in name for c in ',"\r\n'):
+                raise ValueError(f"invalid history column name {name!r}")
+            if name in seen:
+                raise ValueError(f"duplicate history column {name!r}")
+            seen.add(name)
+
+
+def _format(value) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, (bool, np.bool_)):
+        return str(int(value))
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    return repr(float(value))  # shortest round-trip text; 'nan', 'inf', '-inf' when not finite
