@@ -1,0 +1,121 @@
+"""Pointwise material laws (ALGORITHMS.md 2): EOS pressure and yield stress of one element.
+
+Small numba functions over scalars, inlined into the element kernel and tested alone.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+
+from impactsim.materials import params as P
+
+
+@numba.njit(cache=True, inline="always")
+def hugoniot_pressure(eta, rho0, c0, s):
+    """Pressure on the principal Hugoniot of a linear Us-up material and its slope dp_H/deta.
+
+    eta = 1 - rho0/rho (compression > 0). With Us = c0 + s up and mass/momentum jumps
+    (eta = up/Us, p_H = rho0 Us up): p_H = rho0 c0^2 eta / (1 - s eta)^2. In tension the
+    Hugoniot is continued linearly, p_H = rho0 c0^2 eta. The denominator is kept away from the
+    Hugoniot's limit compression 1/s (where p_H diverges) so an overrun element stays finite.
+    """
+    k = rho0 * c0 * c0
+    if eta <= 0.0:
+        return k * eta, k
+    den = 1.0 - s * eta
+    if den < 0.05:
+        den = 0.05
+    return k * eta / (den * den), k * (1.0 + s * eta) / (den * den * den)
+
+
+@numba.njit(cache=True, inline="always")
+def eos_linear_part(code, rho, rho0, bulk, c0, s, gamma0):
+    """Pressure as p = a + b e (e specific internal energy [J/kg]) and the isentropic sound speed
+    squared at that state as c2 = c2a + c2b p.
+
+    linear:        p = K (rho/rho0 - 1), c^2 = K/rho0 (b = 0).
+    Mie-Grueneisen (Gamma rho = Gamma0 rho0, referenced to the Hugoniot):
+                   p = p_H(eta) (1 - Gamma0 eta / 2) + Gamma0 rho0 e,
+                   c^2 = dp/drho|_s = [dp_H/deta (1 - Gamma0 eta/2) - Gamma0 p_H/2] rho0/rho^2
+                         + Gamma0 rho0 p / rho^2.
+    """
+    if code == P.MIE_GRUNEISEN:
+        eta = 1.0 - rho0 / rho
+        ph, dph = hugoniot_pressure(eta, rho0, c0, s)
+        a = ph * (1.0 - 0.5 * gamma0 * eta)
+        b = gamma0 * rho0
+        r2 = rho0 / (rho * rho)
+        c2a = (dph * (1.0 - 0.5 * gamma0 * eta) - 0.5 * gamma0 * ph) * r2
+        c2b = gamma0 * r2
+        return a, b, c2a, c2b
+    return bulk * (rho / rho0 - 1.0), 0.0, bulk / rho0, 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def flow_stress(code, mp, eps_p, eps_rate, temperature):
+    """Yield stress [Pa] and its slope d sigma_y / d eps_p for one material row `mp`.
+
+    ideal-plastic: sigma_y = Y0 (Prandtl-Reuss).
+    Johnson-Cook:  sigma_y = (A + B eps_p^n)(1 + C ln(eps_rate/eps_rate0))(1 - T*^m), the rate
+                   term floored at 1 (no softening below the reference rate), T* clamped to [0, 1].
+    elastic:       infinite (never yields).
+    """
+    if code == P.IDEAL_PLASTIC:
+        return mp[P.Y0], 0.0
+    if code == P.JOHNSON_COOK:
+        rate = 1.0
+        r = eps_rate / mp[P.EPSDOT0]
+        if r > 1.0:
+            rate = 1.0 + mp[P.JC_C] * math.log(r)
+        thermal = 1.0
+        t_room = mp[P.T_ROOM]
+        t_star = (temperature - t_room) / (mp[P.T_MELT] - t_room)
+        if t_star >= 1.0:
+            return 0.0, 0.0
+        if t_star > 0.0:
+            thermal = 1.0 - t_star ** mp[P.JC_M]
+        n = mp[P.JC_N]
+        hard = mp[P.JC_A]
+        slope = 0.0
+        if eps_p > 0.0:
+            epn = eps_p ** n
+            hard += mp[P.JC_B] * epn
+            slope = mp[P.JC_B] * n * epn / eps_p
+        return hard * rate * thermal, slope * rate * thermal
+    return math.inf, 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def radial_return(code, mp, shear, seq_trial, eps_p, eps_rate, temperature):
+    """Plastic strain increment of the radial return to the yield surface (ALGORITHMS.md 2).
+
+    Solves seq_trial - 3 G d_eps - sigma_y(eps_p + d_eps) = 0 for d_eps >= 0 by Newton's method
+    safeguarded with bisection on [0, (seq_trial - sigma_y(eps_p)) / 3G]. Returns (d_eps,
+    sigma_y at the end); d_eps = 0 when the trial state is elastic.
+    """
+    sy, _ = flow_stress(code, mp, eps_p, eps_rate, temperature)
+    if seq_trial <= sy:
+        return 0.0, sy
+    g3 = 3.0 * shear
+    hi = (seq_trial - sy) / g3
+    lo = 0.0
+    d = hi
+    for _ in range(30):
+        sy_d, h = flow_stress(code, mp, eps_p + d, eps_rate, temperature)
+        f = seq_trial - g3 * d - sy_d
+        if abs(f) <= 1e-12 * seq_trial:
+            return d, sy_d
+        if f > 0.0:
+            lo = d
+        else:
+            hi = d
+        dn = d + f / (g3 + h)
+        if dn <= lo or dn >= hi:
+            dn = 0.5 * (lo + hi)
+        d = dn
+        if hi - lo <= 1e-15 * (1.0 + eps_p):
+            break
+    sy_d, _ = flow_stress(code, mp, eps_p + d, eps_rate, temperature)
+    return d, sy_d

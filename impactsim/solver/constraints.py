@@ -1,0 +1,99 @@
+"""Kinematic constraints on the predictor velocities: prescribed node velocities and rigid walls.
+
+Both are velocity-stage passes (ALGORITHMS.md 1, step 3): they see x^n and U* and correct U*.
+Energy: a prescribed velocity does work R . U dt with the reaction R = m (U - U*) / dt; a
+stationary wall does no work, and the kinetic energy its inelastic node impacts remove is counted
+as dissipated (``contact_dissipated``), so the balance KE + IE + dissipated - work stays closed.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from impactsim.solver.passes import Pass
+
+
+@numba.njit(cache=True)
+def apply_prescribed(v, mass, nodes, mask, velocity):
+    """Set the prescribed components; return the work of the reactions over the step [J]."""
+    work = 0.0
+    for k in range(nodes.shape[0]):
+        i = nodes[k]
+        for d in range(3):
+            if mask[k, d]:
+                vn = velocity[k, d]
+                work += mass[i] * (vn - v[i, d]) * vn
+                v[i, d] = vn
+    return work
+
+
+@numba.njit(cache=True)
+def apply_walls(x, v, mass, walls, dt):
+    """Rigid planar walls as a kinematic constraint (compressive only).
+
+    walls (w, 7): point, unit normal (into the allowed side), Coulomb friction coefficient.
+    A node whose predicted position x + dt U* would lie behind a wall gets the normal velocity
+    that lands it on the wall (a node already behind it by round-off is put back on it); the
+    wall never pulls. Friction takes up to mu times the normal velocity change from the
+    tangential velocity. Returns (kinetic energy removed [J], number of nodes touched).
+    """
+    removed = 0.0
+    touched = 0
+    for w in range(walls.shape[0]):
+        px, py, pz = walls[w, 0], walls[w, 1], walls[w, 2]
+        nx, ny, nz = walls[w, 3], walls[w, 4], walls[w, 5]
+        mu = walls[w, 6]
+        for i in range(x.shape[0]):
+            d_now = (x[i, 0] - px) * nx + (x[i, 1] - py) * ny + (x[i, 2] - pz) * nz
+            vn = v[i, 0] * nx + v[i, 1] * ny + v[i, 2] * nz
+            # the node must end on or in front of the wall: d_now + dt vn >= 0
+            vn_min = -d_now / dt
+            if vn >= vn_min:
+                continue
+            dvn = vn_min - vn
+            e0 = v[i, 0] ** 2 + v[i, 1] ** 2 + v[i, 2] ** 2
+            v[i, 0] += dvn * nx
+            v[i, 1] += dvn * ny
+            v[i, 2] += dvn * nz
+            if mu > 0.0:
+                vn2 = v[i, 0] * nx + v[i, 1] * ny + v[i, 2] * nz
+                tx, ty, tz = v[i, 0] - vn2 * nx, v[i, 1] - vn2 * ny, v[i, 2] - vn2 * nz
+                vt = np.sqrt(tx * tx + ty * ty + tz * tz)
+                if vt > 0.0:
+                    cut = min(vt, mu * dvn) / vt
+                    v[i, 0] -= cut * tx
+                    v[i, 1] -= cut * ty
+                    v[i, 2] -= cut * tz
+            e1 = v[i, 0] ** 2 + v[i, 1] ** 2 + v[i, 2] ** 2
+            removed += 0.5 * mass[i] * (e0 - e1)
+            touched += 1
+    return removed, touched
+
+
+class PrescribedVelocityPass(Pass):
+    """Fixed and prescribed-velocity node sets of the case ([[body.constraint]])."""
+
+    name = "boundary-conditions"
+    stage = "velocity"
+
+    def run(self, model, dt):
+        model.energy_terms["external_work"] += apply_prescribed(
+            model.v, model.mass, model.bc_nodes, model.bc_mask, model.bc_velocity)
+
+
+class WallPass(Pass):
+    """Rigid planar walls of the case ([[wall]])."""
+
+    name = "walls"
+    stage = "velocity"
+
+    def __init__(self):
+        self.touched = 0
+
+    def run(self, model, dt):
+        removed, self.touched = apply_walls(model.x, model.v, model.mass, model.walls, dt)
+        model.energy_terms["contact_dissipated"] += removed
+
+    def history(self, model):
+        return {"wall_nodes": float(self.touched)}

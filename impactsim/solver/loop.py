@@ -1,0 +1,156 @@
+"""The explicit time loop of ALGORITHMS.md 1 and its pass pipeline.
+
+Per step n -> n+1:
+  1. dt = C_cfl * min stable element step (growth limited, clamped to the next output time);
+  2. gather element forces F^n per node, predictor U* = U^n + dt F^n / m;
+  3. velocity-stage passes correct U* (prescribed velocities, walls, contact: ALGORITHMS.md 3);
+  4. x^{n+1} = x^n + dt U^{n+1}, after all corrections;
+  5. element update at x^{n+1}: strain rates, stresses, EOS, forces F^{n+1}, next stable dt;
+  6. fracture-stage passes.
+"""
+
+from __future__ import annotations
+
+import math
+import time as wallclock
+
+import numpy as np
+
+from impactsim.model import Model
+from impactsim.solver import element as E
+from impactsim.solver.nodal import (element_volumes, gather_and_predict, internal_energy,
+                                    kinetic_energy, move, nodal_volume_ratio)
+from impactsim.solver.passes import Pass
+
+DT_GROWTH = 1.1  # the step may grow by at most this factor per step
+
+
+class SimulationStopped(Exception):
+    """The run cannot go on (inverted element, collapsing time step, non-finite state)."""
+
+
+class Simulation:
+    """The state of a run: a Model, its passes and the integrator's own buffers.
+
+    cfl: Courant number; element: "tet4" or "anp"; cq, cl: artificial viscosity coefficients;
+    dt_collapse: stop when dt falls below this fraction of the first step.
+    """
+
+    def __init__(self, model: Model, passes: list[Pass], cfl: float = 0.6, element: str = "tet4",
+                 cq: float = 1.2, cl: float = 0.06, dt_collapse: float = 1e-3):
+        self.model = model
+        self.cfl = cfl
+        self.cq, self.cl = cq, cl
+        self.dt_collapse = dt_collapse
+        self.use_anp = element == "anp"
+        self.velocity_passes = [p for p in passes if p.stage == "velocity"]
+        self.fracture_passes = [p for p in passes if p.stage == "fracture"]
+        self.other_passes = [p for p in passes if p.stage not in ("velocity", "fracture")]
+        ne, nn = model.n_elem, model.n_node
+        self.elem_force = np.zeros((4 * ne, 3))
+        self.chunk_out = np.zeros((E.n_chunks(ne), E.N_OUT))
+        self.jnode = np.ones(nn)
+        self.vol_now = np.zeros(ne)
+        self.vol_eos = model.vol.copy() if self.use_anp else model.vol
+        self.timings: dict[str, float] = {"element": 0.0, "nodes": 0.0}
+        for p in passes:
+            self.timings[p.name] = 0.0
+        self.dt = 0.0  # the last step taken [s]
+        self.dt_stable = math.inf  # min stable element step at the current state [s]
+        self.dt_first = None
+        self.worst_element = -1
+        self._update_elements(0.0)  # forces and stable step of the initial state
+
+    @property
+    def passes(self) -> list[Pass]:
+        return self.velocity_passes + self.fracture_passes + self.other_passes
+
+    def next_dt(self, limit: float = math.inf) -> float:
+        dt = self.cfl * self.dt_stable
+        if self.dt > 0.0:
+            dt = min(dt, DT_GROWTH * self.dt)
+        return min(dt, limit)
+
+    def step(self, limit: float = math.inf) -> float:
+        """Advance one step, not beyond `limit` seconds; returns the step taken [s]."""
+        m = self.model
+        dt = self.next_dt(limit)
+        if not (dt > 0.0 and math.isfinite(dt)):
+            raise SimulationStopped(f"non-finite or zero time step ({dt!r}) at t = {m.time:.6g} s")
+        if self.dt_first is None:
+            self.dt_first = dt
+        elif dt < self.dt_collapse * self.dt_first and dt < limit:
+            raise SimulationStopped(
+                f"time step collapsed to {dt:.3e} s (first step {self.dt_first:.3e} s) at "
+                f"t = {m.time:.6g} s; the smallest step is in element {self.worst_element} "
+                f"(body {m.body_names[m.elem_body[self.worst_element]]!r})")
+        dtv = 0.5 * (self.dt + dt) if self.dt > 0.0 else 0.5 * dt
+        t0 = wallclock.perf_counter()
+        gather_and_predict(self.elem_force, m.n2e_ptr, m.n2e, m.mass, m.force, m.v, dtv)
+        t1 = wallclock.perf_counter()
+        self.timings["nodes"] += t1 - t0
+        for p in self.velocity_passes:
+            p.run(m, dt)
+            t2 = wallclock.perf_counter()
+            self.timings[p.name] += t2 - t1
+            t1 = t2
+        move(m.x, m.v, dt)
+        self.timings["nodes"] += wallclock.perf_counter() - t1
+        self._update_elements(dt)
+        t1 = wallclock.perf_counter()
+        for p in self.fracture_passes:
+            p.run(m, dt)
+            t2 = wallclock.perf_counter()
+            self.timings[p.name] += t2 - t1
+            t1 = t2
+        for p in self.other_passes:
+            p.run(m, dt)
+            t2 = wallclock.perf_counter()
+            self.timings[p.name] += t2 - t1
+            t1 = t2
+        self.dt = dt
+        m.time += dt
+        m.step += 1
+        return dt
+
+    def _update_elements(self, dt: float) -> None:
+        m = self.model
+        t0 = wallclock.perf_counter()
+        if self.use_anp:
+            element_volumes(m.x, m.conn, m.status, self.vol_now)
+            nodal_volume_ratio(self.vol_now, m.vol0, m.status, m.n2e_ptr, m.n2e, self.jnode)
+        E.element_update(m.x, m.v, m.conn, m.elem_mat, m.status, m.sdev, m.pressure, m.q, m.eps_p,
+                         m.eps_rate, m.temperature, m.energy, m.vol, self.vol_eos, m.vol0,
+                         m.elem_mass, m.mat_params, self.jnode, self.use_anp, dt, self.cq,
+                         self.cl, self.elem_force, self.chunk_out)
+        out = self.chunk_out
+        k = int(np.argmin(out[:, E.OUT_DT]))
+        self.dt_stable = float(out[k, E.OUT_DT])
+        self.worst_element = int(out[k, E.OUT_WORST])
+        m.energy_terms["viscous"] += float(out[:, E.OUT_QWORK].sum())
+        self.timings["element"] += wallclock.perf_counter() - t0
+        inverted = int(out[:, E.OUT_INVERTED].sum())
+        if inverted:
+            raise SimulationStopped(
+                f"{inverted} element(s) inverted (negative volume) at t = {m.time + dt:.6g} s")
+
+    # --- accounting ----------------------------------------------------------------------------
+    def energies(self) -> dict[str, float]:
+        """Energy terms [J]; total = kinetic + internal + dissipated + eroded - external work."""
+        m = self.model
+        ke = kinetic_energy(m.v, m.mass)
+        ie = internal_energy(m.energy, m.elem_mass, m.status)
+        t = m.energy_terms
+        out = {"kinetic_energy": ke, "internal_energy": ie, "viscous_energy": t["viscous"],
+               "contact_dissipated": t["contact_dissipated"], "external_work": t["external_work"],
+               "eroded_energy": t["eroded"]}
+        for key, val in t.items():
+            if key not in ("viscous", "contact_dissipated", "external_work", "eroded"):
+                out[key] = val
+        out["total_energy"] = (ke + ie + t["contact_dissipated"] + t["eroded"]
+                               + t.get("particles", 0.0) - t["external_work"])
+        return out
+
+    def momentum(self) -> np.ndarray:
+        m = self.model
+        return m.mass @ m.v
