@@ -1,0 +1,334 @@
+"""The case-file keys, in one machine-readable table.
+
+Every table of the case file and every key in it, with its type (and physical dimension), its
+default and its meaning. The reader (``impactsim.case.read``) checks names and converts values with
+it, and the reference (``impactsim.case.reference``, docs/case-reference.md) is rendered from it,
+so the accepted keys and their documentation cannot drift apart. Defaults are taken from the
+dataclasses of ``impactsim.case.schema`` where those have one.
+"""
+
+from __future__ import annotations
+
+from dataclasses import MISSING, dataclass, fields
+
+from impactsim.case import schema
+
+
+class _Marker:
+    def __init__(self, name: str):
+        self.name = name
+
+    def __repr__(self) -> str:
+        return self.name
+
+
+REQUIRED = _Marker("REQUIRED")  # the key must be given
+COMPUTED = _Marker("COMPUTED")  # the default depends on other keys (see default_doc)
+
+# kinds of values:
+#   quantity (dim)        number in SI or "<number> <unit>"
+#   vector (dim)          3 quantities
+#   quantity-list (dim)   any number of quantities
+#   number                dimensionless float
+#   number-list (length)  fixed number of dimensionless floats
+#   int, bool, string, path
+#   choice (choices), choice-list (choices), string-list
+#   velocity-or-free      3 velocities, each may be "free"
+#   length-or-vector      a length (cube12) or 3 lengths (box, plate)
+KINDS = {"quantity", "vector", "quantity-list", "number", "number-list", "int", "bool", "string",
+         "path", "choice", "choice-list", "string-list", "velocity-or-free", "length-or-vector"}
+
+
+@dataclass(frozen=True)
+class Key:
+    name: str
+    kind: str
+    doc: str
+    default: object = REQUIRED
+    dim: str = ""
+    choices: tuple[str, ...] = ()
+    default_doc: str = ""  # shown in the reference instead of the default value
+    length: int = 0  # number-list
+
+    def __post_init__(self) -> None:
+        assert self.kind in KINDS, self.kind
+
+
+@dataclass(frozen=True)
+class Table:
+    name: str
+    doc: str
+    keys: tuple[Key | Table, ...]
+    array: bool = False  # an array of tables ([[body]])
+    shorthands: tuple[str, ...] = ()  # strings accepted in place of the table ("all", "none")
+    default: object = None  # for the reference: absent table means ...
+
+    def get(self, name: str) -> Key | Table | None:
+        for item in self.keys:
+            if item.name == name:
+                return item
+        return None
+
+    @property
+    def names(self) -> list[str]:
+        return [item.name for item in self.keys]
+
+
+def _d(cls: type, name: str) -> object:
+    """The default of a schema dataclass field (for one source of defaults)."""
+    for f in fields(cls):
+        if f.name == name:
+            if f.default is not MISSING:
+                return f.default
+            if f.default_factory is not MISSING:
+                return f.default_factory()
+    raise KeyError(f"{cls.__name__}.{name} has no default")
+
+
+ELEMENTS = ("tet4", "anp")
+STRENGTH_MODELS = ("elastic", "ideal-plastic", "johnson-cook")
+EOS_MODELS = ("linear", "mie-gruneisen")
+EROSION_CRITERIA = ("plastic-strain", "jc-damage", "principal-strain", "fractured")
+SHAPES = ("box", "plate", "cylinder", "sphere", "file", "cube12")
+MESHERS = ("gmsh", "structured")
+CONTACT_PASSES = ("node-face", "edge-edge")
+EROSION_REGIONS = ("surface", "anywhere")
+ELASTIC_CONSTANTS = ("youngs_modulus", "poisson_ratio", "shear_modulus", "bulk_modulus")
+
+# which shape keys a shape takes; the body's other keys apply to every shape
+SHAPE_KEYS: dict[str, tuple[str, ...]] = {
+    "box": ("size",),
+    "plate": ("size",),
+    "cylinder": ("radius", "diameter", "height", "length", "axis"),
+    "sphere": ("radius", "diameter"),
+    "file": ("path", "scale"),
+    "cube12": ("size",),
+}
+STRUCTURED_SHAPES = ("box", "plate", "cube12")
+UNMESHED_SHAPES = ("file", "cube12")  # shapes whose mesh_size is optional
+
+# which strength / EOS keys a model takes (besides `model`)
+STRENGTH_KEYS: dict[str, tuple[str, ...]] = {
+    "elastic": (),
+    "ideal-plastic": ("yield_stress",),
+    "johnson-cook": ("A", "B", "n", "C", "m", "strain_rate_ref", "room_temperature",
+                     "melt_temperature"),
+}
+EOS_KEYS: dict[str, tuple[str, ...]] = {
+    "linear": ("c0",),
+    "mie-gruneisen": ("c0", "s", "gamma0"),
+}
+
+RUN = Table("run", "Time integration and run control.", (
+    Key("name", "string", "Name of the run; names the default output folder out/<name>.",
+        COMPUTED, default_doc="the case file's stem"),
+    Key("end_time", "quantity", "Simulated time at which the run ends (> 0).", dim="time"),
+    Key("cfl", "number", "Courant number C_cfl of the time step, in (0, 1].",
+        _d(schema.Run, "cfl")),
+    Key("element", "choice", "Element formulation: constant-strain tet, or the averaged "
+        "nodal-pressure tet (Bonet & Burton 1998) against volumetric locking.",
+        _d(schema.Run, "element"), choices=ELEMENTS),
+    Key("q_quadratic", "number", "Quadratic artificial viscosity coefficient C_q (>= 0).",
+        _d(schema.Run, "q_quadratic")),
+    Key("q_linear", "number", "Linear artificial viscosity coefficient C_l (>= 0).",
+        _d(schema.Run, "q_linear")),
+    Key("max_steps", "int", "Stop after this many steps (>= 1).", _d(schema.Run, "max_steps")),
+    Key("dt_collapse", "number", "Stop when the time step falls below this fraction of the "
+        "initial one (a collapsing element), in (0, 1).", _d(schema.Run, "dt_collapse")),
+    Key("threads", "int", "Numba threads; 0 = all cores.", _d(schema.Run, "threads")),
+))
+
+STRENGTH = Table("strength", "Deviatoric strength model. Keys other than `model` apply to one "
+                 "model only: ideal-plastic takes yield_stress; johnson-cook takes A, B, n, C, m, "
+                 "strain_rate_ref, room_temperature, melt_temperature.", (
+    Key("model", "choice", "Strength model.", _d(schema.Strength, "model"),
+        choices=STRENGTH_MODELS),
+    Key("yield_stress", "quantity", "Yield stress Y0 of ideal plasticity (> 0); required for "
+        "ideal-plastic.", REQUIRED, dim="pressure", default_doc="required (ideal-plastic)"),
+    Key("A", "quantity", "Johnson-Cook initial yield stress (> 0); required for johnson-cook.",
+        REQUIRED, dim="pressure", default_doc="required (johnson-cook)"),
+    Key("B", "quantity", "Johnson-Cook hardening modulus (>= 0); required for johnson-cook.",
+        REQUIRED, dim="pressure", default_doc="required (johnson-cook)"),
+    Key("n", "number", "Johnson-Cook hardening exponent.", _d(schema.Strength, "n")),
+    Key("C", "number", "Johnson-Cook strain-rate coefficient.", _d(schema.Strength, "C")),
+    Key("m", "number", "Johnson-Cook thermal softening exponent.", _d(schema.Strength, "m")),
+    Key("strain_rate_ref", "quantity", "Reference plastic strain rate eps_dot0 (> 0).",
+        _d(schema.Strength, "strain_rate_ref"), dim="rate"),
+    Key("room_temperature", "quantity", "Johnson-Cook reference (room) temperature.",
+        _d(schema.Strength, "room_temperature"), dim="temperature"),
+    Key("melt_temperature", "quantity", "Johnson-Cook melting temperature; the default means "
+        "no thermal softening.", _d(schema.Strength, "melt_temperature"), dim="temperature"),
+), default="elastic")
+
+EOS = Table("eos", "Pressure model. linear: p = K (1 - V/V0) with the bulk modulus of the "
+            "material (c0 optional, K = rho c0^2 if K is not given); mie-gruneisen: linear "
+            "Us-up Hugoniot with Grueneisen coefficient (c0, s, gamma0 required).", (
+    Key("model", "choice", "Equation of state.", _d(schema.EOS, "model"), choices=EOS_MODELS),
+    Key("c0", "quantity", "Bulk sound speed (Hugoniot intercept).", 0.0, dim="velocity",
+        default_doc="required (mie-gruneisen)"),
+    Key("s", "number", "Hugoniot slope s of Us = c0 + s up (>= 0).", 0.0,
+        default_doc="required (mie-gruneisen)"),
+    Key("gamma0", "number", "Grueneisen coefficient at the reference density (>= 0).", 0.0,
+        default_doc="required (mie-gruneisen)"),
+), default="linear")
+
+FAILURE = Table("failure", "Fracture and erosion data; a mechanism is off when its key is "
+                "absent. The string \"none\" in place of the table switches off everything a "
+                "library entry brings.", (
+    Key("spall_strength", "quantity", "Spall: a cell whose maximum principal tensile stress "
+        "exceeds this is damaged (> 0).", None, dim="pressure"),
+    Key("loosening", "number", "Loosening chi*: a damaged cell with 1 - V0/V > chi* is fully "
+        "fractured, in (0, 1); needs spall_strength.", None),
+    Key("erosion", "choice", "Erosion criterion: elements meeting it are deleted.", None,
+        choices=EROSION_CRITERIA),
+    Key("erosion_value", "number", "Threshold of the erosion criterion (> 0).", COMPUTED,
+        default_doc="1.0 for jc-damage, none for fractured, else required"),
+    Key("jc_damage", "number-list", "Johnson-Cook fracture constants D1..D5; needed by "
+        "erosion = \"jc-damage\".", None, length=5),
+    Key("fracture_strain", "number", "Node separation [Z]: plastic strain at which coincident "
+        "node copies come apart (> 0).", None),
+), shorthands=("none",), default="no failure")
+
+MATERIAL = Table("material", "A material. Start from a library entry with `library` and "
+                 "override any key, or give everything. Elastic constants: any two of "
+                 "youngs_modulus, poisson_ratio, shear_modulus, bulk_modulus; or shear_modulus "
+                 "alone with eos.c0 (K = rho c0^2). Keys given in the case replace the library's "
+                 "(elastic constants as a set; strength and eos key by key unless the model "
+                 "changes).", (
+    Key("name", "string", "Name bodies refer to.", COMPUTED, default_doc="the library name"),
+    Key("library", "string", "Library entry to start from (see impactsim.materials.library).",
+        None),
+    Key("density", "quantity", "Reference density rho0 (> 0).", dim="density"),
+    Key("youngs_modulus", "quantity", "Young's modulus E (> 0).", None, dim="pressure"),
+    Key("poisson_ratio", "number", "Poisson's ratio, in (-1, 0.5).", None),
+    Key("shear_modulus", "quantity", "Shear modulus G (> 0).", None, dim="pressure"),
+    Key("bulk_modulus", "quantity", "Bulk modulus K (> 0).", None, dim="pressure"),
+    Key("specific_heat", "quantity", "Specific heat c_v for adiabatic heating (> 0).",
+        _d(schema.Material, "specific_heat"), dim="specific_heat"),
+    Key("taylor_quinney", "number", "Share of plastic work that heats, in [0, 1].",
+        _d(schema.Material, "taylor_quinney")),
+    Key("initial_temperature", "quantity", "Initial temperature (> 0 K).",
+        _d(schema.Material, "initial_temperature"), dim="temperature"),
+    Key("source", "string", "Where the numbers come from.", "",
+        default_doc="the library entry's source"),
+    STRENGTH,
+    EOS,
+    FAILURE,
+), array=True)
+
+BOX = Table("box", "Nodes with lo <= x <= hi componentwise.", (
+    Key("lo", "vector", "Lower corner.", dim="length"),
+    Key("hi", "vector", "Upper corner.", dim="length"),
+))
+
+PLANE = Table("plane", "Nodes within `tolerance` of a plane.", (
+    Key("point", "vector", "A point of the plane.", dim="length"),
+    Key("normal", "vector", "Plane normal (nonzero; normalised on load).", dim="dimensionless"),
+))
+
+NODES = Table("nodes", "Node set of the body in world coordinates after placement: the string "
+              "\"all\", or a table with exactly one of `box`, `outside_radius`, `plane`.", (
+    BOX,
+    Key("outside_radius", "quantity", "Nodes farther than this from the line through `center` "
+        "along `axis` (the rim of a round plate).", None, dim="length"),
+    Key("center", "vector", "A point of the axis (with outside_radius).", COMPUTED,
+        dim="length", default_doc="the body's position"),
+    Key("axis", "vector", "Axis direction (with outside_radius).", (0.0, 0.0, 1.0),
+        dim="dimensionless"),
+    PLANE,
+    Key("tolerance", "quantity", "Distance from the plane (with plane).", COMPUTED,
+        dim="length", default_doc="0.01 x mesh_size (1 um without one)"),
+), shorthands=("all",))
+
+CONSTRAINT = Table("constraint", "Prescribed velocity on a node set of the body.", (
+    NODES,
+    Key("velocity", "velocity-or-free", "Prescribed velocity; a component may be \"free\".",
+        COMPUTED, default_doc="required unless fixed = true"),
+    Key("fixed", "bool", "Shorthand for velocity = [0, 0, 0].", False),
+), array=True)
+
+BODY = Table("body", "A body: a meshed primitive (or a mesh file) of one material, placed, "
+             "moving. Shape keys: box, plate: size = [lx, ly, lz]; cylinder: radius or diameter, "
+             "height or length, axis; sphere: radius or diameter; file: path, scale; cube12 (the "
+             "12-tet cube): size (edge length). The initial velocity is `velocity`, or `speed` "
+             "with `direction` (optionally tilted by `obliquity` about `obliquity_axis`).", (
+    Key("name", "string", "Name of the body.", COMPUTED, default_doc="body<index>"),
+    Key("material", "string", "A [[material]] name, or directly a library name."),
+    Key("shape", "choice", "Primitive.", choices=SHAPES),
+    Key("size", "length-or-vector", "box, plate: [lx, ly, lz]; cube12: edge length.",
+        default_doc="required (box, plate, cube12)", dim="length"),
+    Key("radius", "quantity", "cylinder, sphere: radius (or give diameter).", REQUIRED,
+        dim="length", default_doc="required (cylinder, sphere)"),
+    Key("diameter", "quantity", "cylinder, sphere: diameter (or give radius).", None,
+        dim="length"),
+    Key("height", "quantity", "cylinder: height along the axis (or give length).", REQUIRED,
+        dim="length", default_doc="required (cylinder)"),
+    Key("length", "quantity", "cylinder: same as height.", None, dim="length"),
+    Key("axis", "vector", "cylinder: axis direction (normalised on load).", (0.0, 0.0, 1.0),
+        dim="dimensionless"),
+    Key("path", "path", "file: mesh file (any meshio format), relative to the case file.",
+        REQUIRED, default_doc="required (file)"),
+    Key("scale", "number", "file: factor from file units to m (> 0).", 1.0),
+    Key("position", "vector", "Centre of the primitive (of the mesh volume for file).",
+        _d(schema.Body, "position"), dim="length"),
+    Key("rotation", "vector", "Intrinsic x-y-z Euler angles, applied before translation.",
+        _d(schema.Body, "rotation"), dim="angle"),
+    Key("mesh_size", "quantity", "Target element edge length (> 0).", REQUIRED, dim="length",
+        default_doc="required (not for cube12, file)"),
+    Key("mesher", "choice", "Mesh generator; structured only for box, plate, cube12.",
+        _d(schema.Body, "mesher"), choices=MESHERS),
+    Key("velocity", "vector", "Initial velocity.", _d(schema.Body, "velocity"), dim="velocity"),
+    Key("speed", "quantity", "Initial speed along `direction` (instead of velocity).", None,
+        dim="velocity"),
+    Key("direction", "vector", "Direction of `speed` (normalised on load).", None,
+        dim="dimensionless", default_doc="required with speed"),
+    Key("obliquity", "quantity", "Tilt of `direction` away from itself by this angle about "
+        "`obliquity_axis` (with speed).", 0.0, dim="angle"),
+    Key("obliquity_axis", "vector", "Axis of the obliquity rotation; only its part "
+        "perpendicular to `direction` counts.", (0.0, 1.0, 0.0), dim="dimensionless"),
+    Key("angular_velocity", "vector", "Initial angular velocity about `position`.",
+        _d(schema.Body, "angular_velocity"), dim="angular_velocity"),
+    CONSTRAINT,
+), array=True)
+
+WALL = Table("wall", "A rigid planar wall: the half space (x - point) . normal < 0 is "
+             "forbidden.", (
+    Key("point", "vector", "A point of the wall plane.", _d(schema.Wall, "point"), dim="length"),
+    Key("normal", "vector", "Normal into the allowed side (nonzero; normalised on load).",
+        _d(schema.Wall, "normal"), dim="dimensionless"),
+    Key("friction", "number", "Coulomb friction coefficient (>= 0).",
+        _d(schema.Wall, "friction")),
+), array=True)
+
+OUTPUT = Table("output", "What is written, and where.", (
+    Key("directory", "path", "Output folder, relative to the working directory.", None,
+        default_doc="out/<run.name>"),
+    Key("frames", "int", "Evenly spaced frames after the initial one (>= 1); ignored when "
+        "times is given.", _d(schema.Output, "frames")),
+    Key("times", "quantity-list", "Explicit frame times (>= 0, increasing).", None, dim="time"),
+    Key("history_every", "int", "Write a history.csv row every N steps (>= 1).",
+        _d(schema.Output, "history_every")),
+    Key("fields", "string-list", "Fields written to the frames.", None, default_doc="all"),
+))
+
+CONTACT = Table("contact", "Contact between bodies. Contact passes run only with two or more "
+                "bodies, or with self_contact.", (
+    Key("passes", "choice-list", "Contact passes, in the order they run each step.",
+        tuple(_d(schema.Contact, "passes")), choices=CONTACT_PASSES),
+    Key("friction", "number", "Coulomb friction coefficient (>= 0).",
+        _d(schema.Contact, "friction")),
+    Key("self_contact", "bool", "Contact of a body with itself (and contact passes with one "
+        "body).", _d(schema.Contact, "self_contact")),
+))
+
+FRACTURE = Table("fracture", "How fractured material is represented.", (
+    Key("particles_per_element", "int", "Particles replacing one fully fractured boundary "
+        "cell (>= 1).", _d(schema.Fracture, "particles_per_element")),
+    Key("particle_collisions", "bool", "Particles collide with each other, not only with "
+        "surfaces.", _d(schema.Fracture, "particle_collisions")),
+    Key("erosion_region", "choice", "Where erosion may delete elements: only at the contact "
+        "surface [R20], or anywhere.", _d(schema.Fracture, "erosion_region"),
+        choices=EROSION_REGIONS),
+))
+
+ROOT = Table("", "The case file.", (RUN, MATERIAL, BODY, WALL, OUTPUT, CONTACT, FRACTURE))
