@@ -1,0 +1,120 @@
+"""series: VTU frames round-trip through meshio and the .pvd lists every frame with its time."""
+
+import xml.etree.ElementTree as ET
+
+import meshio
+import numpy as np
+import pytest
+
+from impactsim.output.series import SeriesWriter, read_collection, voigt_to_tensor
+
+POINTS = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]], dtype=np.float64)
+TETS = np.array([[0, 1, 2, 3], [1, 2, 4, 3], [0, 2, 1, 4]], dtype=np.int32)
+
+
+def _frame_data(rng):
+    point_data = {"velocity": rng.normal(size=(5, 3)), "displacement": rng.normal(size=(5, 3))}
+    cell_data = {
+        "stress": rng.normal(size=(3, 6)),
+        "pressure": rng.normal(size=3),
+        "von_mises": rng.random(3),
+        "plastic_strain": rng.random(3),
+        "temperature": 293.0 + rng.random(3),
+        "status": np.array([0, 1, 3], dtype=np.int8),
+        "body": np.array([0, 0, 1], dtype=np.int32),
+    }
+    return point_data, cell_data
+
+
+def test_vtu_round_trip(tmp_path):
+    rng = np.random.default_rng(1)
+    point_data, cell_data = _frame_data(rng)
+    path = SeriesWriter(tmp_path).write(0.0, POINTS, TETS, point_data, cell_data)
+    assert path == tmp_path / "frame_00000.vtu"
+    assert b'compressor="vtkZLibDataCompressor"' in path.read_bytes()[:400]
+
+    mesh = meshio.read(path)
+    np.testing.assert_array_equal(mesh.points, POINTS)
+    assert [block.type for block in mesh.cells] == ["tetra"]
+    np.testing.assert_array_equal(mesh.cells[0].data, TETS)
+    for name, value in point_data.items():
+        np.testing.assert_array_equal(mesh.point_data[name], value)
+    for name, value in cell_data.items():
+        expected = voigt_to_tensor(value) if name == "stress" else value
+        np.testing.assert_array_equal(mesh.cell_data[name][0], expected)
+    assert mesh.cell_data["status"][0].dtype == np.int8
+
+
+def test_stress_is_written_as_symmetric_3x3_tensor(tmp_path):
+    s6 = np.array([[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]])  # xx yy zz xy yz zx
+    full = voigt_to_tensor(s6).reshape(3, 3)
+    np.testing.assert_array_equal(full, [[1, 4, 6], [4, 2, 5], [6, 5, 3]])
+    writer = SeriesWriter(tmp_path)
+    tensor = np.broadcast_to(full, (3, 3, 3))
+    path = writer.write(0.0, POINTS, TETS, cell_data={"stress": tensor})
+    np.testing.assert_array_equal(meshio.read(path).cell_data["stress"][0], tensor.reshape(3, 9))
+
+
+def test_keep_drops_eroded_cells_and_their_data(tmp_path):
+    rng = np.random.default_rng(2)
+    point_data, cell_data = _frame_data(rng)
+    keep = np.array([True, False, True])
+    path = SeriesWriter(tmp_path).write(0.0, POINTS, TETS, point_data, cell_data, keep=keep)
+    mesh = meshio.read(path)
+    np.testing.assert_array_equal(mesh.cells[0].data, TETS[keep])
+    np.testing.assert_array_equal(mesh.cell_data["von_mises"][0], cell_data["von_mises"][keep])
+    assert len(mesh.points) == len(POINTS)
+
+
+def test_pvd_lists_every_frame_with_exact_times(tmp_path):
+    writer = SeriesWriter(tmp_path)
+    times = [0.0, 0.1 + 0.2, 1e-7 / 3.0]
+    for i, time in enumerate(times):
+        writer.write(time, POINTS + i, TETS)
+        listed = read_collection(tmp_path / "series.pvd")
+        assert [t for t, _ in listed] == times[: i + 1]
+    root = ET.parse(tmp_path / "series.pvd").getroot()
+    assert root.tag == "VTKFile" and root.get("type") == "Collection"
+    files = [ds.get("file") for ds in root.find("Collection").iter("DataSet")]
+    assert files == ["frame_00000.vtu", "frame_00001.vtu", "frame_00002.vtu"]
+    assert all(ds.get("part") == "0" for ds in root.iter("DataSet"))
+    assert sorted(p.name for p in tmp_path.iterdir()) == files + ["series.pvd"]
+
+
+def test_particle_series_with_n_particles(tmp_path):
+    rng = np.random.default_rng(3)
+    x = rng.random((7, 3))
+    data = {"radius": rng.random(7), "velocity": rng.normal(size=(7, 3)), "mass": rng.random(7)}
+    writer = SeriesWriter(tmp_path, prefix="particles", pvd_name="particles.pvd")
+    path = writer.write(2e-6, x, point_data=data)
+    assert path.name == "particles_00000.vtu"
+    mesh = meshio.read(path)
+    np.testing.assert_array_equal(mesh.points, x)
+    assert [block.type for block in mesh.cells] == ["vertex"]
+    np.testing.assert_array_equal(mesh.cells[0].data.ravel(), np.arange(7))
+    for name, value in data.items():
+        np.testing.assert_array_equal(mesh.point_data[name], value)
+    assert read_collection(tmp_path / "particles.pvd") == [(2e-6, path)]
+
+
+def test_particle_series_with_no_particles_is_a_valid_file(tmp_path):
+    pv = pytest.importorskip("pyvista")  # meshio 5.3 cannot read back an empty VTU; VTK can
+    writer = SeriesWriter(tmp_path, prefix="particles", pvd_name="particles.pvd")
+    data = {"radius": np.zeros(0), "velocity": np.zeros((0, 3)), "mass": np.zeros(0)}
+    path = writer.write(0.0, np.zeros((0, 3)), point_data=data)
+    piece = ET.parse(path).getroot().find("UnstructuredGrid/Piece")
+    assert piece.get("NumberOfPoints") == "0" and piece.get("NumberOfCells") == "0"
+    grid = pv.read(path)
+    assert grid.n_points == 0 and grid.n_cells == 0
+    assert set(grid.point_data.keys()) == {"radius", "velocity", "mass"}
+
+
+def test_shape_errors_name_the_field(tmp_path):
+    writer = SeriesWriter(tmp_path)
+    with pytest.raises(ValueError, match="pressure"):
+        writer.write(0.0, POINTS, TETS, cell_data={"pressure": np.zeros(2)})
+    with pytest.raises(ValueError, match="cells"):
+        writer.write(0.0, POINTS, TETS[:, :3])
+    with pytest.raises(ValueError, match="keep"):
+        writer.write(0.0, POINTS, TETS, keep=np.ones(3, dtype=int))
+    assert writer.frames == [] and not (tmp_path / "series.pvd").exists()
