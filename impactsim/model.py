@@ -63,6 +63,7 @@ class Model:
     # --- energy bookkeeping (all [J], accumulated since t = 0) ---------------------------------
     energy_terms: dict = field(default_factory=dict)
     time: float = 0.0  # [s]
+    dtv: float = 0.0  # [s] velocity step of the current predictor U* = U + dtv F/m
     step: int = 0
 
     @property

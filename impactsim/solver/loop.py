@@ -85,6 +85,7 @@ class Simulation:
                 f"t = {m.time:.6g} s; the smallest step is in element {self.worst_element} "
                 f"(body {m.body_names[m.elem_body[self.worst_element]]!r})")
         dtv = 0.5 * (self.dt + dt) if self.dt > 0.0 else 0.5 * dt
+        m.dtv = dtv
         t0 = wallclock.perf_counter()
         gather_and_predict(self.elem_force, m.n2e_ptr, m.n2e, m.mass, m.force, m.v, dtv)
         t1 = wallclock.perf_counter()

@@ -1,0 +1,59 @@
+"""The pass pipeline built from the case: a pass exists only when the scene asks for its effect."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from impactsim.case.schema import Case
+from impactsim.materials.params import bulk_sound_speed
+from impactsim.model import Model
+from impactsim.solver.constraints import PrescribedVelocityPass, WallPass
+from impactsim.solver.passes import Pass
+
+
+def build_passes(case: Case, model: Model) -> list[Pass]:
+    """Velocity-stage passes in their order (boundary conditions, walls, contact in the order the
+    case lists them), then fracture-stage passes."""
+    passes: list[Pass] = []
+    if len(model.bc_nodes):
+        passes.append(PrescribedVelocityPass())
+    if len(model.walls):
+        passes.append(WallPass())
+    if (len(case.bodies) > 1 or case.contact.self_contact) and case.contact.passes:
+        from impactsim.contact import make_contact_passes
+
+        passes.extend(make_contact_passes(case, model))
+    if any(_has_failure(m) for m in case.materials.values()):
+        from impactsim.fracture import make_fracture_passes
+
+        passes.extend(make_fracture_passes(case, model))
+    return passes
+
+
+def _has_failure(mat) -> bool:
+    f = mat.failure
+    return any(v is not None for v in (f.spall_strength, f.loosening, f.erosion))
+
+
+def mach_warnings(case: Case) -> list[str]:
+    """ALGORITHMS.md 1 [D19 after Fomin et al.]: with M0 = U0/C0, M0 <= 0.75 suits
+    elastic-plastic flow with a simple EOS, 0.75 < M0 < 1.5 needs a hydrodynamic EOS, and beyond
+    1.5 phase transitions (out of scope) matter. U0 is the largest closing speed of a body with
+    another body or a wall; C0 the body's bulk sound speed."""
+    out = []
+    vel = [np.asarray(b.velocity, float) for b in case.bodies]
+    for i, body in enumerate(case.bodies):
+        speeds = [np.linalg.norm(vel[i] - vel[j]) for j in range(len(vel)) if j != i]
+        if case.walls:
+            speeds.append(np.linalg.norm(vel[i]))
+        if not speeds:
+            continue
+        mat = case.materials[body.material]
+        m0 = max(speeds) / bulk_sound_speed(mat)
+        if m0 > 1.5:
+            out.append(f"body {body.name!r}: impact Mach number M0 = {m0:.2f} > 1.5: phase "
+                       "transitions may matter and are outside the model (ALGORITHMS.md 1)")
+        elif m0 > 0.75 and mat.eos.model != "mie-gruneisen":
+            out.append(f"body {body.name!r}: impact Mach number M0 = {m0:.2f} > 0.75 with a "
+                       f"{mat.eos.model} EOS: a hydrodynamic (Mie-Grueneisen) EOS is needed here")
+    return out

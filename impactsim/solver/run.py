@@ -1,0 +1,221 @@
+"""Run a case: mesh, build the state and the passes, integrate, write the outputs."""
+
+from __future__ import annotations
+
+import math
+import platform
+import time as wallclock
+from pathlib import Path
+
+import numpy as np
+
+from impactsim.case.schema import Case
+from impactsim.model import ERODED, Model
+from impactsim.solver.build import build_model
+from impactsim.solver.loop import Simulation, SimulationStopped
+from impactsim.solver.pipeline import build_passes, mach_warnings
+
+CORE_COLUMNS = ["time", "step", "dt", "kinetic_energy", "internal_energy", "viscous_energy",
+                "contact_dissipated", "external_work", "eroded_energy", "total_energy",
+                "momentum_x", "momentum_y", "momentum_z"]
+
+
+class SimulationError(Exception):
+    """A run that cannot start (bad mesh, inconsistent state): printed without a traceback."""
+
+
+def frame_times(case: Case) -> np.ndarray:
+    end = case.run.end_time
+    if case.output.times is not None:
+        t = np.array(sorted(set(float(v) for v in case.output.times if 0.0 <= v <= end)))
+    else:
+        t = np.linspace(0.0, end, case.output.frames + 1)
+    return t
+
+
+def frame_fields(model: Model) -> tuple[dict, dict]:
+    """Point and cell data of a frame (DESIGN.md Output)."""
+    from impactsim.output.series import voigt_to_tensor
+
+    s = model.sdev
+    sigma = s.copy()
+    sigma[:, :3] -= model.pressure[:, None]
+    vm = np.sqrt(1.5 * (np.sum(s[:, :3] ** 2, axis=1) + 2.0 * np.sum(s[:, 3:] ** 2, axis=1)))
+    point = {"velocity": model.v, "displacement": model.x - model.x0}
+    cell = {"stress": voigt_to_tensor(sigma), "pressure": model.pressure, "von_mises": vm,
+            "plastic_strain": model.eps_p, "temperature": model.temperature,
+            "status": model.status.astype(np.int32), "body": model.elem_body,
+            "density": model.elem_mass / np.where(model.vol > 0, model.vol, np.inf),
+            "internal_energy": model.energy}
+    return point, cell
+
+
+def body_summary(model: Model) -> dict:
+    out = {}
+    for b, name in enumerate(model.body_names):
+        sl = slice(model.node_start[b], model.node_start[b + 1])
+        m = float(model.mass[sl].sum())
+        p = model.mass[sl] @ model.v[sl]
+        out[name] = {"mass": m, "momentum": p.tolist(),
+                     "mean_velocity": (p / m).tolist() if m > 0 else [0.0, 0.0, 0.0],
+                     "nodes": int(sl.stop - sl.start),
+                     "elements": int(model.elem_start[b + 1] - model.elem_start[b])}
+    return out
+
+
+def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
+             meshes: list | None = None) -> dict:
+    """Run `case`, writing series.pvd + frames, history.csv, summary.json and case.resolved.toml
+    into out_dir (default out/<run name>). Returns the summary dict. A run that has to stop
+    (inverted element, collapsing step, interrupt) still writes its last frame and summary."""
+    import numba
+
+    from impactsim.case import case_to_dict
+    from impactsim.output.history import HistoryWriter
+    from impactsim.output.progress import Progress
+    from impactsim.output.series import SeriesWriter
+    from impactsim.output.summary import write_resolved_case, write_summary
+
+    start = wallclock.perf_counter()
+    out = Path(out_dir) if out_dir is not None else (
+        case.output.directory or Path("out") / case.run.name)
+    out.mkdir(parents=True, exist_ok=True)
+    if case.run.threads > 0:
+        numba.set_num_threads(min(case.run.threads, numba.config.NUMBA_NUM_THREADS))
+    bar = Progress(case.run.end_time, enabled=progress)
+    timings: dict[str, float] = {}
+
+    write_resolved_case(out / "case.resolved.toml", case_to_dict(case))
+    t = wallclock.perf_counter()
+    if meshes is None:
+        from impactsim.mesh import mesh_body
+
+        meshes = [mesh_body(b) for b in case.bodies]
+    timings["meshing"] = wallclock.perf_counter() - t
+    try:
+        model = build_model(case, meshes)
+    except ValueError as err:
+        raise SimulationError(f"{case.run.name}: {err}") from err
+    passes = build_passes(case, model)
+    bar.log(f"{case.run.name}: {model.n_node} nodes, {model.n_elem} elements, "
+            f"{model.n_body} bodies; passes: " + (", ".join(p.name for p in passes) or "none"))
+    for w in mach_warnings(case):
+        bar.log("warning: " + w)
+    sim = Simulation(model, passes, cfl=case.run.cfl, element=case.run.element,
+                     cq=case.run.q_quadratic, cl=case.run.q_linear,
+                     dt_collapse=case.run.dt_collapse)
+    timings["setup"] = wallclock.perf_counter() - start - timings["meshing"]
+
+    series = SeriesWriter(out)
+    fields = case.output.fields
+    columns = CORE_COLUMNS + [k for p in passes for k in p.history(model)]
+    history = HistoryWriter(out / "history.csv", list(dict.fromkeys(columns)))
+    times = frame_times(case)
+    next_frame = 0
+    end = case.run.end_time
+    eps_t = 1e-9 * end
+    e0 = None
+    stopped = None
+    first_step_seconds = None
+    t_out = 0.0
+
+    def write_frame():
+        nonlocal t_out
+        t1 = wallclock.perf_counter()
+        point, cell = frame_fields(model)
+        if fields is not None:
+            point = {k: v for k, v in point.items() if k in fields}
+            cell = {k: v for k, v in cell.items() if k in fields}
+        series.write(model.time, model.x, model.conn, point, cell, keep=model.status != ERODED)
+        t_out += wallclock.perf_counter() - t1
+
+    def history_row():
+        nonlocal t_out
+        t1 = wallclock.perf_counter()
+        row = {"time": model.time, "step": model.step, "dt": sim.dt}
+        row.update(sim.energies())
+        row = {k: v for k, v in row.items() if k in history.columns}
+        p = sim.momentum()
+        row.update(momentum_x=p[0], momentum_y=p[1], momentum_z=p[2])
+        for pa in passes:
+            row.update(pa.history(model))
+        history.row(row)
+        t_out += wallclock.perf_counter() - t1
+        return row
+
+    try:
+        e0 = history_row()["total_energy"]
+        if times.size and times[0] <= eps_t:
+            write_frame()
+            next_frame = 1
+        while model.time < end - eps_t:
+            if model.step >= case.run.max_steps:
+                stopped = f"max_steps = {case.run.max_steps} reached at t = {model.time:.6g} s"
+                break
+            limit = (times[next_frame] if next_frame < len(times) else end) - model.time
+            sim.step(limit)
+            if first_step_seconds is None:
+                first_step_seconds = wallclock.perf_counter() - start
+            if model.step % case.output.history_every == 0:
+                history_row()
+            while next_frame < len(times) and model.time >= times[next_frame] - eps_t:
+                write_frame()
+                next_frame += 1
+            bar.update(model.time, model.step, sim.dt)
+    except SimulationStopped as err:
+        stopped = str(err)
+    except KeyboardInterrupt:
+        stopped = f"interrupted at t = {model.time:.6g} s"
+    finally:
+        if stopped is not None:
+            bar.log(f"stopped: {stopped}")
+            try:
+                history_row()
+                write_frame()
+            except Exception:  # the state may be non-finite; the frames so far stand
+                pass
+        history.close()
+        bar.close()
+
+    energies = sim.energies()
+    wall = wallclock.perf_counter() - start
+    timings.update({k: v for k, v in sim.timings.items()})
+    timings["output"] = t_out
+    summary = {
+        "case": case.run.name,
+        "source": str(case.source) if case.source else None,
+        "nodes": model.n_node, "elements": model.n_elem, "bodies": body_summary(model),
+        "steps": model.step, "time": model.time, "end_time": end,
+        "wall_seconds": wall, "seconds_to_first_step": first_step_seconds,
+        "seconds_per_pass": timings,
+        "ns_per_element_step": (1e9 * sim.timings["element"] / (model.n_elem * model.step)
+                                if model.step else None),
+        "passes": [p.name for p in passes],
+        "energy": energies,
+        "energy_balance_error": ((energies["total_energy"] - e0) / max(abs(e0), 1e-300)
+                                 if e0 else 0.0),
+        "stopped": stopped,
+        "threads": numba.get_num_threads(),
+        "versions": {"impactsim": _version(), "numpy": np.__version__,
+                     "numba": numba.__version__, "python": platform.python_version()},
+    }
+    for p in passes:
+        summary.update(p.summary(model))
+    write_summary(out / "summary.json", summary)
+    if progress:
+        bar.log(_timing_table(timings, wall))
+    return summary
+
+
+def _timing_table(timings: dict[str, float], wall: float) -> str:
+    lines = [f"{'pass':<24}{'seconds':>10}{'share':>8}"]
+    for k, v in sorted(timings.items(), key=lambda kv: -kv[1]):
+        lines.append(f"{k:<24}{v:>10.3f}{100 * v / wall if wall > 0 else math.nan:>7.1f}%")
+    lines.append(f"{'total (wall)':<24}{wall:>10.3f}")
+    return "\n".join(lines)
+
+
+def _version() -> str:
+    from impactsim import __version__
+
+    return __version__
