@@ -1,0 +1,122 @@
+"""Mesh quality measures of a tet mesh, vectorised over elements.
+
+Definitions, for a tet with volume V, face areas A_0..A_3, circumradius R and inradius
+r = 3V / (A_0 + A_1 + A_2 + A_3):
+
+- aspect ratio: the normalised radius ratio R / (3 r). It is 1 for the regular tet and grows
+  without bound as the tet flattens (slivers, needles, caps and wedges all score high).
+- dihedral angles: the 6 interior angles between the two faces meeting at each edge,
+  theta_kl = arccos(-n_k . n_l) for the outward unit normals of the faces opposite nodes k and l;
+  70.53 degrees (arccos 1/3) for the regular tet.
+- altitude (the characteristic length L_e of the time step, ALGORITHMS.md 1): the smallest
+  height of the tet, 3 V / max_k A_k.
+- stable time step: dt = cfl * min_e L_e / c for a wave speed c; the dilatational wave speed of
+  an elastic material is c = sqrt((K + 4G/3) / rho).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from impactsim.mesh.orient import signed_volumes
+
+# Nodes (a, b, c) of the face opposite node k, ordered so the normal (b - a) x (c - a) points
+# outward for a positively oriented tet.
+FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
+EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]])
+# The edge (i, j) is shared by the faces opposite the two other nodes (k, l).
+EDGE_FACES = np.array([[2, 3], [1, 3], [1, 2], [0, 3], [0, 2], [0, 1]])
+
+
+def face_area_vectors(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """Outward area vectors of the 4 faces of each tet, (e, 4, 3) [m^2]; face k is opposite node k."""
+    x = points[tets]
+    a, b, c = x[:, FACES[:, 0]], x[:, FACES[:, 1]], x[:, FACES[:, 2]]
+    return 0.5 * np.cross(b - a, c - a)
+
+
+def altitudes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """Smallest altitude 3 V / max face area of each tet: (e,) float64 [m] (L_e of the time step)."""
+    areas = np.linalg.norm(face_area_vectors(points, tets), axis=2)
+    return 3.0 * np.abs(signed_volumes(points, tets)) / areas.max(axis=1)
+
+
+def _sq(v: np.ndarray) -> np.ndarray:
+    """Squared length of each row of v (m, 3), as a column (m, 1)."""
+    return np.einsum("ij,ij->i", v, v)[:, None]
+
+
+def aspect_ratios(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """Normalised radius ratio R / (3 r) of each tet: (e,) float64, 1 for the regular tet.
+
+    R = |a^2 (b x c) + b^2 (c x a) + c^2 (a x b)| / (12 V) with a, b, c the edges from node 0;
+    r = 3 V / total face area. A zero-volume tet has an infinite ratio.
+    """
+    x = points[tets]
+    a, b, c = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0], x[:, 3] - x[:, 0]
+    numerator = np.linalg.norm(_sq(a) * np.cross(b, c) + _sq(b) * np.cross(c, a)
+                               + _sq(c) * np.cross(a, b), axis=1)
+    volume = np.abs(np.einsum("ij,ij->i", a, np.cross(b, c))) / 6.0
+    surface = np.linalg.norm(face_area_vectors(points, tets), axis=2).sum(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        circumradius = numerator / (12.0 * volume)
+        inradius = 3.0 * volume / surface
+        return np.where(volume > 0.0, circumradius / (3.0 * inradius), np.inf)
+
+
+def dihedral_angles(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """The 6 interior dihedral angles of each tet, (e, 6) [degrees], in the order of EDGES."""
+    n = face_area_vectors(points, tets)
+    n = n / np.linalg.norm(n, axis=2, keepdims=True)
+    cosine = -np.einsum("ijk,ijk->ij", n[:, EDGE_FACES[:, 0]], n[:, EDGE_FACES[:, 1]])
+    return np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+
+
+def unique_edge_lengths(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """Length of every distinct mesh edge (shared edges counted once): (m,) float64 [m]."""
+    pairs = np.sort(tets[:, EDGES].reshape(-1, 2), axis=1).astype(np.int64)
+    pairs = np.unique(pairs[:, 0] * len(points) + pairs[:, 1])
+    i, j = np.divmod(pairs, len(points))
+    return np.linalg.norm(points[j] - points[i], axis=1)
+
+
+def stable_dt(points: np.ndarray, tets: np.ndarray, wave_speed: float, cfl: float = 1.0) -> float:
+    """Expected stable explicit time step cfl * min_e L_e / c [s] (L_e: see altitudes)."""
+    return float(cfl * altitudes(points, tets).min() / wave_speed)
+
+
+def sound_speed(density: float, bulk_modulus: float, shear_modulus: float) -> float:
+    """Dilatational (longitudinal) elastic wave speed sqrt((K + 4G/3) / rho) [m/s]."""
+    return float(np.sqrt((bulk_modulus + 4.0 * shear_modulus / 3.0) / density))
+
+
+def quality(points: np.ndarray, tets: np.ndarray, wave_speed: float | None = None,
+            cfl: float = 1.0) -> dict:
+    """Quality summary of a tet mesh (definitions in the module docstring).
+
+    points: (n, 3) float64 [m]; tets: (e, 4) integer, positively oriented.
+    Keys: nodes, elements, volume [m^3], edge_min, edge_mean, edge_max [m] (over distinct edges),
+    aspect_max, aspect_mean [-], dihedral_min, dihedral_max [deg], altitude_min [m]; with
+    `wave_speed` [m/s] also stable_dt [s] = cfl * altitude_min / wave_speed.
+    """
+    volumes = signed_volumes(points, tets)
+    edges = unique_edge_lengths(points, tets)
+    aspect = aspect_ratios(points, tets)
+    dihedral = dihedral_angles(points, tets)
+    altitude = altitudes(points, tets)
+    report = {
+        "nodes": int(len(points)),
+        "elements": int(len(tets)),
+        "volume": float(volumes.sum()),
+        "edge_min": float(edges.min()),
+        "edge_mean": float(edges.mean()),
+        "edge_max": float(edges.max()),
+        "aspect_max": float(aspect.max()),
+        "aspect_mean": float(aspect.mean()),
+        "dihedral_min": float(dihedral.min()),
+        "dihedral_max": float(dihedral.max()),
+        "altitude_min": float(altitude.min()),
+    }
+    if wave_speed is not None:
+        report["stable_dt"] = float(cfl * report["altitude_min"] / wave_speed)
+    return report
