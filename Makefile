@@ -1,0 +1,40 @@
+# impactsim: every command a developer or CI needs. `make test` is what CI runs.
+PYTHON ?= python3
+VENV ?= .venv
+PY := $(VENV)/bin/python
+BIN := $(VENV)/bin
+CASES := elastic-bar-wall taylor-bar two-cubes two-cylinders elastic-bars hertz-spheres
+SWEEP ?= cases/sweeps/mesh-size.toml
+
+.PHONY: setup test hard bench cases demo accuracy clean
+
+$(PY):
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install --upgrade pip >/dev/null
+
+setup: $(PY)
+	$(BIN)/pip install -e '.[test]'
+
+# the whole fast suite: unit, verification, CLI and the fast share of the stability suite
+test: setup
+	$(BIN)/python -m pytest -q -m "not slow"
+
+# the long versions of the stability suite
+hard: setup
+	$(BIN)/python -m pytest -q -m slow tests/hard
+
+bench: setup
+	$(BIN)/python benchmarks/run.py
+
+# run the bundled scenes (outputs in out/<case>/)
+cases: setup
+	@for c in $(CASES); do \
+	  if [ -f cases/$$c.toml ]; then $(BIN)/impactsim run cases/$$c.toml || exit $$?; fi; \
+	done
+
+demo: setup
+	$(BIN)/impactsim run cases/elastic-bar-wall.toml
+
+clean:
+	rm -rf out build *.egg-info .pytest_cache
+	find . -name __pycache__ -prune -exec rm -rf {} +
