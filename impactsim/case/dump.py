@@ -59,7 +59,10 @@ def _material(m: Material) -> dict:
 
 
 def _model_table(obj: Strength | EOS, keys: tuple[str, ...]) -> dict:
-    return {"model": obj.model, **{k: getattr(obj, k) for k in keys}}
+    table = {"model": obj.model, **{k: getattr(obj, k) for k in keys}}
+    if isinstance(obj, EOS) and obj.model == "linear" and obj.c0 == 0.0:
+        del table["c0"]  # not given: the linear EOS uses the bulk modulus
+    return table
 
 
 def _body(b: Body) -> dict:

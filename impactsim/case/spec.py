@@ -120,7 +120,7 @@ EOS_KEYS: dict[str, tuple[str, ...]] = {
 }
 
 RUN = Table("run", "Time integration and run control.", (
-    Key("name", "string", "Name of the run; names the default output folder out/<name>.",
+    Key("name", "string", "Name of the run; names the default output folder `out/<name>`.",
         COMPUTED, default_doc="the case file's stem"),
     Key("end_time", "quantity", "Simulated time at which the run ends (> 0).", dim="time"),
     Key("cfl", "number", "Courant number C_cfl of the time step, in (0, 1].",
@@ -219,12 +219,12 @@ MATERIAL = Table("material", "A material. Start from a library entry with `libra
 BOX = Table("box", "Nodes with lo <= x <= hi componentwise.", (
     Key("lo", "vector", "Lower corner.", dim="length"),
     Key("hi", "vector", "Upper corner.", dim="length"),
-))
+), default="none (off)")
 
 PLANE = Table("plane", "Nodes within `tolerance` of a plane.", (
     Key("point", "vector", "A point of the plane.", dim="length"),
     Key("normal", "vector", "Plane normal (nonzero; normalised on load).", dim="dimensionless"),
-))
+), default="none (off)")
 
 NODES = Table("nodes", "Node set of the body in world coordinates after placement: the string "
               "\"all\", or a table with exactly one of `box`, `outside_radius`, `plane`.", (
@@ -238,7 +238,7 @@ NODES = Table("nodes", "Node set of the body in world coordinates after placemen
     PLANE,
     Key("tolerance", "quantity", "Distance from the plane (with plane).", COMPUTED,
         dim="length", default_doc="0.01 x mesh_size (1 um without one)"),
-), shorthands=("all",))
+), shorthands=("all",), default="**required**")
 
 CONSTRAINT = Table("constraint", "Prescribed velocity on a node set of the body.", (
     NODES,
@@ -252,7 +252,7 @@ BODY = Table("body", "A body: a meshed primitive (or a mesh file) of one materia
              "height or length, axis; sphere: radius or diameter; file: path, scale; cube12 (the "
              "12-tet cube): size (edge length). The initial velocity is `velocity`, or `speed` "
              "with `direction` (optionally tilted by `obliquity` about `obliquity_axis`).", (
-    Key("name", "string", "Name of the body.", COMPUTED, default_doc="body<index>"),
+    Key("name", "string", "Name of the body.", COMPUTED, default_doc="`body<index>`"),
     Key("material", "string", "A [[material]] name, or directly a library name."),
     Key("shape", "choice", "Primitive.", choices=SHAPES),
     Key("size", "length-or-vector", "box, plate: [lx, ly, lz]; cube12: edge length.",
@@ -302,7 +302,7 @@ WALL = Table("wall", "A rigid planar wall: the half space (x - point) . normal <
 
 OUTPUT = Table("output", "What is written, and where.", (
     Key("directory", "path", "Output folder, relative to the working directory.", None,
-        default_doc="out/<run.name>"),
+        default_doc="`out/<run.name>`"),
     Key("frames", "int", "Evenly spaced frames after the initial one (>= 1); ignored when "
         "times is given.", _d(schema.Output, "frames")),
     Key("times", "quantity-list", "Explicit frame times (>= 0, increasing).", None, dim="time"),

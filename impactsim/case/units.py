@@ -37,18 +37,23 @@ _TIME = {"s": _F(1), "ms": _F("1e-3"), "us": _F("1e-6"), "ns": _F("1e-9")}
 _DEG = _F(math.pi / 180.0)
 
 
-def _build() -> dict[str, tuple[str, Fraction, Fraction]]:
-    """unit (normalised spelling) -> (dimension, factor, offset): SI = value * factor + offset."""
+def _build() -> tuple[dict[str, tuple[str, Fraction, Fraction]], dict[str, list[str]]]:
+    """unit (normalised spelling) -> (dimension, factor, offset): SI = value * factor + offset;
+    and dimension -> the units as they are shown in messages and docs."""
     units: dict[str, tuple[str, Fraction, Fraction]] = {}
+    shown: dict[str, list[str]] = {}
 
     def add(dim: str, spellings: dict[str, Fraction | int | str], offset: str = "0") -> None:
         for name, factor in spellings.items():
             units[_normalise(name)] = (dim, _F(factor), _F(offset))
+            shown.setdefault(dim, []).append(name)
 
     add("length", _LENGTH)
     add("time", _TIME)
-    add("velocity", {f"{l}/{t}": fl / ft for l, fl in _LENGTH.items() for t, ft in _TIME.items()
-                     if l not in ("nm", "in")})
+    add("velocity", {f"{l}/{t}": _LENGTH[l] / _TIME[t] for l, t in (
+        ("m", "s"), ("km", "s"), ("mm", "us"), ("mm", "ms"), ("mm", "s"), ("cm", "s"),
+        ("cm", "us"), ("m", "ms"))})
+    add("velocity", {"km/h": _F(1000, 3600)})
     add("pressure", {"Pa": 1, "kPa": 1000, "MPa": 10**6, "GPa": 10**9, "TPa": 10**12,
                      "bar": 10**5, "kbar": 10**8, "Mbar": 10**11, "N/m^2": 1, "N/mm^2": 10**6,
                      "psi": "6894.757293168361", "ksi": "6894757.293168361"})
@@ -62,7 +67,7 @@ def _build() -> dict[str, tuple[str, Fraction, Fraction]]:
     add("rate", {"1/s": 1, "/s": 1, "s^-1": 1, "1/ms": 1000, "/ms": 1000, "1/us": 10**6,
                  "/us": 10**6})
     add("angular_velocity", {"rad/s": 1, "deg/s": _DEG, "rpm": _F(math.pi / 30.0)})
-    return units
+    return units, shown
 
 
 def _normalise(unit: str) -> str:
@@ -73,13 +78,13 @@ def _normalise(unit: str) -> str:
     return unit
 
 
-UNITS = _build()
+UNITS, _SHOWN = _build()
 _NUMBER = re.compile(r"^\s*([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(.*?)\s*$")
 
 
 def units_of(dimension: str) -> list[str]:
-    """The unit spellings accepted for a dimension, as written in UNITS (normalised)."""
-    return [u for u, (dim, _, _) in UNITS.items() if dim == dimension]
+    """The units accepted for a dimension, as shown in messages and docs."""
+    return list(_SHOWN.get(dimension, []))
 
 
 def describe_dimension(dimension: str) -> str:
@@ -129,7 +134,7 @@ def _parse_string(text: str, dimension: str, key: str) -> float:
 
 
 def _near_unit(norm: str, dimension: str) -> str:
-    lower = [u for u in units_of(dimension) if u.lower() == norm.lower()]
+    lower = [u for u in units_of(dimension) if _normalise(u).lower() == norm.lower()]
     if lower:
         return f" (did you mean '{lower[0]}'?)"
     return ""
@@ -146,18 +151,18 @@ def _show(value: object) -> str:
 
 
 def format_quantity(value: float, dimension: str) -> str:
-    """A readable '80 us' / '3.81 mm' / '1.6 GPa' for summaries (not for re-reading exactly)."""
+    """A readable '80 us' / '0.8 mm' / '1.6 GPa' for summaries (not for re-reading exactly)."""
+    # (unit, factor, smallest magnitude shown in that unit)
     pick = {
-        "length": [("km", 1e3), ("m", 1.0), ("mm", 1e-3), ("um", 1e-6)],
-        "time": [("s", 1.0), ("ms", 1e-3), ("us", 1e-6), ("ns", 1e-9)],
-        "pressure": [("GPa", 1e9), ("MPa", 1e6), ("kPa", 1e3), ("Pa", 1.0)],
-        "velocity": [("km/s", 1e3), ("m/s", 1.0)],
+        "length": [("km", 1e3, 1e3), ("m", 1.0, 1.0), ("mm", 1e-3, 1e-4), ("um", 1e-6, 0.0)],
+        "time": [("s", 1.0, 1.0), ("ms", 1e-3, 1e-3), ("us", 1e-6, 1e-7), ("ns", 1e-9, 0.0)],
+        "pressure": [("GPa", 1e9, 1e9), ("MPa", 1e6, 1e6), ("kPa", 1e3, 1e3), ("Pa", 1.0, 0.0)],
+        "velocity": [("km/s", 1e3, 1e4), ("m/s", 1.0, 0.0)],
     }.get(dimension)
     if not pick:
-        si = DIMENSIONS[dimension][0]
-        return f"{value:.4g} {si}".strip()
-    for unit, factor in pick:
-        if abs(value) >= factor:
+        return f"{value:.4g} {DIMENSIONS[dimension][0]}".strip()
+    for unit, factor, smallest in pick:
+        if abs(value) >= smallest:
             return f"{value / factor:.4g} {unit}"
-    unit, factor = pick[-1]
+    unit, factor, _ = pick[-1]
     return f"{value / factor:.4g} {unit}"

@@ -1,0 +1,224 @@
+"""What a case would do, for ``impactsim check``: the resolved case and a "what would run" summary.
+
+``describe_case(case)`` is the resolved case as TOML (every default filled in, SI units) followed
+by the summary lines of ``what_would_run(case)``: bodies with their estimated element counts,
+walls, the stages of the time loop with the passes active in each, output and end time. The
+pieces (``body_volume``, ``estimate_elements``, ``active_passes``) are separate functions so a
+cost estimator can build on them.
+"""
+
+from __future__ import annotations
+
+import math
+
+import tomli_w
+
+from impactsim.case.dump import case_to_dict
+from impactsim.case.schema import Body, Case
+from impactsim.case.units import format_quantity
+
+# Tetrahedra per mesh_size^3 of volume that gmsh makes for a target edge length h: a regular
+# tet of edge h has volume h^3 / (6 sqrt 2) ~ h^3 / 8.5; gmsh's meshes land at about 6-9.
+TETS_PER_H3 = 8.5
+TETS_PER_HEX = 6  # the structured mesher: max(1, round(l / h)) cells per axis, 6 Kuhn tets each
+CUBE12_TETS = 12
+
+
+def describe_case(case: Case) -> str:
+    """The resolved case as TOML, then the summary of what would run."""
+    resolved = tomli_w.dumps(case_to_dict(case))
+    return "# resolved case (defaults filled in, SI units)\n" + resolved + "\n" + \
+        "\n".join(what_would_run(case)) + "\n"
+
+
+def body_volume(body: Body) -> float | None:
+    """[m^3] of the primitive; None for a mesh file (known only once read)."""
+    d = body.dimensions
+    if body.shape in ("box", "plate"):
+        lx, ly, lz = d["size"]
+        return lx * ly * lz
+    if body.shape == "cube12":
+        return d["size"] ** 3
+    if body.shape == "cylinder":
+        return math.pi * d["radius"] ** 2 * d["height"]
+    if body.shape == "sphere":
+        return 4.0 / 3.0 * math.pi * d["radius"] ** 3
+    return None
+
+
+def estimate_elements(body: Body) -> int | None:
+    """Approximate tetrahedron count of the body's mesh; None when unknown before meshing."""
+    if body.shape == "cube12":
+        return CUBE12_TETS
+    if body.shape == "file":
+        return None
+    if body.mesher == "structured":
+        cells = 1
+        for length in body.dimensions["size"]:
+            cells *= max(1, round(length / body.mesh_size))
+        return TETS_PER_HEX * cells
+    volume = body_volume(body)
+    return max(1, round(volume / (body.mesh_size**3 / TETS_PER_H3)))
+
+
+def has_contact(case: Case) -> bool:
+    return (len(case.bodies) >= 2 or case.contact.self_contact) and bool(case.contact.passes)
+
+
+def active_passes(case: Case) -> list[tuple[str, str]]:
+    """(stage, pass name) of every pass the case asks for, in the order they would run.
+
+    Stages as in impactsim.solver.passes: "velocity" passes correct the predicted velocities
+    (boundary conditions, walls, contact), "fracture" passes follow the element update.
+    """
+    used = [case.materials[b.material] for b in case.bodies]
+    fail = [m.failure for m in used]
+    passes: list[tuple[str, str]] = []
+    if any(b.constraints for b in case.bodies):
+        passes.append(("velocity", "boundary-conditions"))
+    if case.walls:
+        passes.append(("velocity", "walls"))
+    if has_contact(case):
+        passes += [("velocity", name) for name in case.contact.passes]
+    makes_particles = any(f.loosening is not None for f in fail)
+    if makes_particles:
+        passes.append(("velocity", "particle-contact"))
+        if case.fracture.particle_collisions:
+            passes.append(("velocity", "particle-collisions"))
+    if any(f.spall_strength is not None for f in fail):
+        passes.append(("fracture", "spall"))
+    if makes_particles:
+        passes += [("fracture", "loosening"), ("fracture", "particles")]
+    if any(f.erosion == "jc-damage" for f in fail):
+        passes.append(("fracture", "jc-damage"))
+    if any(f.erosion is not None for f in fail):
+        passes.append(("fracture", "erosion"))
+    if any(f.fracture_strain is not None for f in fail):
+        passes.append(("fracture", "node-separation"))
+    return passes
+
+
+def what_would_run(case: Case) -> list[str]:
+    """The summary, one line per item (a cost estimate can append its own lines)."""
+    run = case.run
+    lines = ["# ---- what would run " + "-" * 58,
+             f"# run '{run.name}'" + (f" from {case.source}" if case.source else ""),
+             "#", "# bodies:"]
+    total, unknown = 0, False
+    for body in case.bodies:
+        n = estimate_elements(body)
+        total += n or 0
+        unknown |= n is None
+        lines.append("#   " + _body_line(case, body, n))
+    lines.append(f"#   total: ≈ {total:,} tetrahedra" + (" + the mesh files'" if unknown else ""))
+    if case.walls:
+        lines.append("# walls:")
+        for i, w in enumerate(case.walls):
+            friction = f"friction {w.friction:g}" if w.friction else "frictionless"
+            lines.append(f"#   wall[{i}]: point {_vec(w.point, 'length')}, normal "
+                         f"({', '.join(f'{c:g}' for c in w.normal)}), {friction}")
+    passes = active_passes(case)
+    velocity = [name for stage, name in passes if stage == "velocity"]
+    fracture = [name for stage, name in passes if stage == "fracture"]
+    lines += [
+        "#",
+        "# time loop, each step:",
+        f"#   1. time step: CFL {run.cfl:g} x smallest element transit time; stop when it falls "
+        f"below {run.dt_collapse:g} x the first",
+        "#   2. forces from element stresses, predictor U* = U + dt F/m",
+        f"#   3. velocity passes: {', '.join(velocity) or 'none'}",
+        "#   4. move nodes",
+        f"#   5. element update: {_element_line(case)}",
+        f"#   6. fracture passes: {', '.join(fracture) or 'none'}",
+        "#",
+        f"# active passes: {', '.join(name for _, name in passes) or 'none'}",
+    ]
+    if len(case.bodies) < 2 and not case.contact.self_contact and case.contact.passes:
+        lines.append("#   (no contact passes: one body and contact.self_contact = false)")
+    out = case.output
+    frames = f"frames at {len(out.times)} given times" if out.times else \
+        f"{out.frames} frames + the initial one"
+    directory = out.directory if out.directory is not None else f"out/{run.name}"
+    lines += [f"# output: {frames}, history every {out.history_every} step(s), "
+              f"to {directory}",
+              f"# end time: {format_quantity(run.end_time, 'time')} "
+              f"(at most {run.max_steps:,} steps)"]
+    lines += [f"# warning: {w}" for w in warnings(case)]
+    return lines
+
+
+def warnings(case: Case) -> list[str]:
+    """Things that validate but look unintended."""
+    out = []
+    used = {b.material for b in case.bodies}
+    for name in case.materials:
+        if name not in used:
+            out.append(f"material '{name}' is not used by any body")
+    for body in case.bodies:
+        if body.mesh_size > 0 and body.shape != "file":
+            smallest = _smallest_dimension(body)
+            if smallest is not None and body.mesh_size > smallest:
+                out.append(f"body '{body.name}': mesh_size "
+                           f"{format_quantity(body.mesh_size, 'length')} exceeds its smallest "
+                           f"dimension {format_quantity(smallest, 'length')}")
+        mat = case.materials[body.material]
+        c0 = mat.eos.c0 or math.sqrt(mat.bulk_modulus / mat.density)
+        speed = math.sqrt(sum(v * v for v in body.velocity))
+        if speed / c0 > 0.75 and mat.eos.model == "linear":
+            out.append(f"body '{body.name}': speed/c0 = {speed / c0:.2f} > 0.75 with a linear "
+                       "EOS: a Mie-Grueneisen EOS describes such impacts better (ALGORITHMS.md 1)")
+    return out
+
+
+def _smallest_dimension(body: Body) -> float | None:
+    d = body.dimensions
+    if body.shape in ("box", "plate"):
+        return min(d["size"])
+    if body.shape == "cube12":
+        return None
+    if body.shape == "cylinder":
+        return min(2 * d["radius"], d["height"])
+    return 2 * d["radius"]
+
+
+def _body_line(case: Case, body: Body, n: int | None) -> str:
+    mat = case.materials[body.material]
+    d = body.dimensions
+    L = lambda v: format_quantity(v, "length")  # noqa: E731
+    if body.shape in ("box", "plate"):
+        geometry = f"{body.shape} {' x '.join(L(s) for s in d['size'])}"
+    elif body.shape == "cube12":
+        geometry = f"cube12 edge {L(d['size'])}"
+    elif body.shape == "cylinder":
+        geometry = f"cylinder r {L(d['radius'])}, h {L(d['height'])}"
+    elif body.shape == "sphere":
+        geometry = f"sphere r {L(d['radius'])}"
+    else:
+        geometry = f"file {d['path']} (scale {d['scale']:g})"
+    if body.shape == "cube12":
+        mesh = "12 tetrahedra"
+    elif n is None:
+        mesh = "element count known after meshing"
+    else:
+        size = f"mesh {L(body.mesh_size)} {body.mesher}, " if body.mesh_size else ""
+        mesh = f"{size}≈ {n:,} tetrahedra"
+    speed = math.sqrt(sum(v * v for v in body.velocity))
+    motion = f", v {_vec(body.velocity, 'velocity')}" if speed else ", at rest"
+    fixed = f", {len(body.constraints)} constraint(s)" if body.constraints else ""
+    return (f"{body.name}: {geometry} at {_vec(body.position, 'length')}, {mat.name} "
+            f"({mat.strength.model}, {mat.eos.model}), {mesh}{motion}{fixed}")
+
+
+def _element_line(case: Case) -> str:
+    used = [case.materials[n] for n in dict.fromkeys(b.material for b in case.bodies)]
+    strength = sorted({m.strength.model for m in used})
+    eos = sorted({m.eos.model for m in used})
+    thermal = any(m.strength.model == "johnson-cook" and m.strength.melt_temperature < 1e8
+                  for m in used)
+    return (f"{case.run.element}, strength {'/'.join(strength)}, eos {'/'.join(eos)}, "
+            f"artificial viscosity C_q {case.run.q_quadratic:g} C_l {case.run.q_linear:g}"
+            + (", adiabatic temperature" if thermal else ""))
+
+
+def _vec(v, dim: str) -> str:
+    return "(" + ", ".join(format_quantity(c, dim) if c else "0" for c in v) + ")"

@@ -1,0 +1,112 @@
+"""`impactsim check`: the resolved case and what would run, on stdout, exit 0."""
+
+import tomllib
+
+from click.testing import CliRunner
+
+from impactsim.case import load_case
+from impactsim.case.describe import active_passes, describe_case, estimate_elements
+from impactsim.cli import main
+
+TWO_BODIES = """\
+[run]
+name = "sphere-plate"
+end_time = "4 us"
+
+[[body]]
+name = "sphere"
+material = "steel-52100"
+shape = "sphere"
+radius = "1 cm"
+mesh_size = "1 mm"
+speed = "2 km/s"
+direction = [0, 0, -1]
+
+[[body]]
+name = "plate"
+material = "al-2024-t3"
+shape = "box"
+size = ["60 mm", "60 mm", "2 mm"]
+mesh_size = "0.5 mm"
+mesher = "structured"
+[[body.constraint]]
+nodes = { outside_radius = "28 mm" }
+fixed = true
+"""
+
+ONE_ELASTIC_BAR = """\
+[run]
+end_time = "20 us"
+
+[[body]]
+name = "bar"
+material = "steel-elastic"
+shape = "cylinder"
+radius = "5 mm"
+height = "100 mm"
+mesh_size = "2 mm"
+velocity = [0, 0, "-10 m/s"]
+
+[[wall]]
+normal = [0, 0, 1]
+"""
+
+
+def run_check(tmp_path, text, *args):
+    path = tmp_path / "case.toml"
+    path.write_text(text)
+    return CliRunner().invoke(main, ["check", str(path), *args]), path
+
+
+def test_check_prints_resolved_case_and_what_would_run(tmp_path):
+    result, path = run_check(tmp_path, TWO_BODIES)
+    assert result.exit_code == 0, result.output
+    out = result.stdout
+    # the resolved case: SI values, defaults filled, the library material written out
+    assert "end_time = 4e-06" in out
+    assert "cfl = 0.6" in out
+    assert 'name = "al-2024-t3"' in out and "spall_strength = 1600000000.0" in out
+    assert "velocity = [\n    0.0,\n    0.0,\n    -2000.0,\n]" in out
+    # what would run
+    assert "sphere: sphere r 10 mm" in out and "≈ 35,605 tetrahedra" in out
+    assert "plate: box 60 mm x 60 mm x 2 mm" in out and "≈ 345,600 tetrahedra" in out  # 120 x 120 x 4 cells x 6
+    assert "velocity passes: boundary-conditions, node-face, edge-edge, particle-contact" in out
+    assert "fracture passes: spall, loosening, particles" in out
+    assert "end time: 4 us" in out
+    assert result.stderr == ""
+
+
+def test_check_output_is_itself_a_loadable_case(tmp_path):
+    result, path = run_check(tmp_path, TWO_BODIES)
+    resolved = tmp_path / "resolved.toml"
+    resolved.write_text(result.stdout)
+    again = load_case(resolved)
+    again.source = path
+    assert again == load_case(path)
+
+
+def test_check_applies_overrides(tmp_path):
+    result, _ = run_check(tmp_path, TWO_BODIES, "--set", "body.sphere.mesh_size=2 mm",
+                          "--set", 'contact.passes=["node-face"]')
+    assert result.exit_code == 0, result.output
+    assert "mesh_size = 0.002" in result.stdout
+    assert "velocity passes: boundary-conditions, node-face, particle-contact" in result.stdout
+
+
+def test_single_body_has_no_contact_and_no_fracture(tmp_path):
+    path = tmp_path / "bar.toml"
+    path.write_text(ONE_ELASTIC_BAR)
+    case = load_case(path)
+    assert active_passes(case) == [("velocity", "walls")]
+    text = describe_case(case)
+    assert "fracture passes: none" in text
+    assert "no contact passes: one body" in text
+    # volume / (h^3 / 8.5): pi 5^2 100 mm^3 / (8 mm^3 / 8.5)
+    assert estimate_elements(case.bodies[0]) == round(3.14159265358979 * 25 * 100 / (8 / 8.5))
+    tomllib.loads(text)  # the summary lines are TOML comments
+
+
+def test_self_contact_turns_contact_on_for_one_body(tmp_path):
+    path = tmp_path / "bar.toml"
+    path.write_text(ONE_ELASTIC_BAR + "[contact]\nself_contact = true\npasses = [\"node-face\"]\n")
+    assert ("velocity", "node-face") in active_passes(load_case(path))
