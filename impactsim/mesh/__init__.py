@@ -16,6 +16,8 @@ Shapes (Body.dimensions, SI):
 Modules: primitives (gmsh), structured (structured box, cube12), importer (meshio),
 orient (orientation and placement), renumber (Z-order), quality (measures), report (the
 ``impactsim mesh`` command), cache (meshes kept on disk), topology (faces and adjacency).
+Note: the attribute ``impactsim.mesh.quality`` is the function ``quality(points, tets)``; the
+module's other names are imported with ``from impactsim.mesh.quality import ...``.
 """
 
 from __future__ import annotations

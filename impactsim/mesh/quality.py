@@ -35,15 +35,43 @@ def face_area_vectors(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
     return 0.5 * np.cross(b - a, c - a)
 
 
-def altitudes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
-    """Smallest altitude 3 V / max face area of each tet: (e,) float64 [m] (L_e of the time step)."""
-    areas = np.linalg.norm(face_area_vectors(points, tets), axis=2)
-    return 3.0 * np.abs(signed_volumes(points, tets)) / areas.max(axis=1)
+def _geometry(points: np.ndarray, tets: np.ndarray):
+    """(face area vectors (e, 4, 3), face areas (e, 4), volumes |V| (e,)) shared by the measures."""
+    vectors = face_area_vectors(points, tets)
+    return vectors, np.linalg.norm(vectors, axis=2), np.abs(signed_volumes(points, tets))
+
+
+def _altitudes(areas: np.ndarray, volume: np.ndarray) -> np.ndarray:
+    return 3.0 * volume / areas.max(axis=1)
+
+
+def _aspect_ratios(points, tets, areas, volume) -> np.ndarray:
+    x = points[tets]
+    a, b, c = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0], x[:, 3] - x[:, 0]
+    numerator = np.linalg.norm(_sq(a) * np.cross(b, c) + _sq(b) * np.cross(c, a)
+                               + _sq(c) * np.cross(a, b), axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        circumradius = numerator / (12.0 * volume)
+        inradius = 3.0 * volume / areas.sum(axis=1)
+        return np.where(volume > 0.0, circumradius / (3.0 * inradius), np.inf)
+
+
+def _dihedral_angles(vectors: np.ndarray, areas: np.ndarray) -> np.ndarray:
+    with np.errstate(divide="ignore", invalid="ignore"):
+        n = vectors / areas[:, :, None]
+    cosine = -np.einsum("ijk,ijk->ij", n[:, EDGE_FACES[:, 0]], n[:, EDGE_FACES[:, 1]])
+    return np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
 
 
 def _sq(v: np.ndarray) -> np.ndarray:
     """Squared length of each row of v (m, 3), as a column (m, 1)."""
     return np.einsum("ij,ij->i", v, v)[:, None]
+
+
+def altitudes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """Smallest altitude 3 V / max face area of each tet: (e,) float64 [m] (L_e of the time step)."""
+    _, areas, volume = _geometry(points, tets)
+    return _altitudes(areas, volume)
 
 
 def aspect_ratios(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
@@ -52,24 +80,17 @@ def aspect_ratios(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
     R = |a^2 (b x c) + b^2 (c x a) + c^2 (a x b)| / (12 V) with a, b, c the edges from node 0;
     r = 3 V / total face area. A zero-volume tet has an infinite ratio.
     """
-    x = points[tets]
-    a, b, c = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0], x[:, 3] - x[:, 0]
-    numerator = np.linalg.norm(_sq(a) * np.cross(b, c) + _sq(b) * np.cross(c, a)
-                               + _sq(c) * np.cross(a, b), axis=1)
-    volume = np.abs(np.einsum("ij,ij->i", a, np.cross(b, c))) / 6.0
-    surface = np.linalg.norm(face_area_vectors(points, tets), axis=2).sum(axis=1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        circumradius = numerator / (12.0 * volume)
-        inradius = 3.0 * volume / surface
-        return np.where(volume > 0.0, circumradius / (3.0 * inradius), np.inf)
+    _, areas, volume = _geometry(points, tets)
+    return _aspect_ratios(points, tets, areas, volume)
 
 
 def dihedral_angles(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
-    """The 6 interior dihedral angles of each tet, (e, 6) [degrees], in the order of EDGES."""
-    n = face_area_vectors(points, tets)
-    n = n / np.linalg.norm(n, axis=2, keepdims=True)
-    cosine = -np.einsum("ijk,ijk->ij", n[:, EDGE_FACES[:, 0]], n[:, EDGE_FACES[:, 1]])
-    return np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+    """The 6 interior dihedral angles of each tet, (e, 6) [degrees], in the order of EDGES.
+
+    NaN for the angles of a face of zero area.
+    """
+    vectors, areas, _ = _geometry(points, tets)
+    return _dihedral_angles(vectors, areas)
 
 
 def unique_edge_lengths(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
@@ -99,22 +120,22 @@ def quality(points: np.ndarray, tets: np.ndarray, wave_speed: float | None = Non
     aspect_max, aspect_mean [-], dihedral_min, dihedral_max [deg], altitude_min [m]; with
     `wave_speed` [m/s] also stable_dt [s] = cfl * altitude_min / wave_speed.
     """
-    volumes = signed_volumes(points, tets)
+    vectors, areas, volume = _geometry(points, tets)
     edges = unique_edge_lengths(points, tets)
-    aspect = aspect_ratios(points, tets)
-    dihedral = dihedral_angles(points, tets)
-    altitude = altitudes(points, tets)
+    aspect = _aspect_ratios(points, tets, areas, volume)
+    dihedral = _dihedral_angles(vectors, areas)
+    altitude = _altitudes(areas, volume)
     report = {
         "nodes": int(len(points)),
         "elements": int(len(tets)),
-        "volume": float(volumes.sum()),
+        "volume": float(signed_volumes(points, tets).sum()),
         "edge_min": float(edges.min()),
         "edge_mean": float(edges.mean()),
         "edge_max": float(edges.max()),
         "aspect_max": float(aspect.max()),
         "aspect_mean": float(aspect.mean()),
-        "dihedral_min": float(dihedral.min()),
-        "dihedral_max": float(dihedral.max()),
+        "dihedral_min": float(np.nanmin(dihedral)),
+        "dihedral_max": float(np.nanmax(dihedral)),
         "altitude_min": float(altitude.min()),
     }
     if wave_speed is not None:
