@@ -55,6 +55,9 @@ def merge_library(raw: dict, path: KeyPath) -> tuple[dict, list[str]]:
 
 def read_material(raw: dict, path: KeyPath) -> Material:
     """One [[material]] table (merged with its library entry if it names one)."""
+    hint = raw.get("name", raw.get("library"))
+    if isinstance(hint, str) and hint:
+        path = path.labelled(f'material "{hint}"')
     if "library" in raw:
         Reader(raw, MATERIAL, path)  # names the case's own unknown keys before merging
         raw, _ = merge_library(raw, path)

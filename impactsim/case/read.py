@@ -11,7 +11,7 @@ import math
 from pathlib import Path
 
 from impactsim.case.errors import KeyPath, suggest
-from impactsim.case.spec import COMPUTED, REQUIRED, Key, Table
+from impactsim.case.spec import REQUIRED, Key, Table
 from impactsim.case.units import describe_dimension, parse_quantity
 
 _TYPE_NAMES = {bool: "a boolean", int: "an integer", float: "a number", str: "a string",
@@ -222,6 +222,3 @@ def non_negative(value: float, path: KeyPath) -> float:
         raise path.error(f"must be >= 0, got {value:g}")
     return value
 
-
-__all__ = ["Reader", "convert", "check_names", "unit_vector", "positive", "in_range",
-           "non_negative", "type_name", "COMPUTED"]

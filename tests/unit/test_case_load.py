@@ -154,7 +154,7 @@ def error(tmp_path, text, overrides=()) -> str:
 
 def full_case(tmp_path):
     (tmp_path / "meshes").mkdir(exist_ok=True)
-    (tmp_path / "meshes" / "part.msh").write_text("placeholder: only its existence is checked")
+    (tmp_path / "meshes" / "part.msh").write_text("not a real mesh: only its existence is checked")
     return load(tmp_path, FULL)
 
 
@@ -414,7 +414,7 @@ ERRORS = [
      'material[0].strength.model (material "al")', "did you mean 'johnson-cook'?"),
     ('poisson_ratio = 0.25', 'poisson_ratio = 0.25\neos = { model = "gruneisen" }',
      'material[0].eos.model (material "al")', "did you mean 'mie-gruneisen'?"),
-    ("", '[[material]]\nname = "x"\nlibrary = "al-2042-t3"\n', "material[1].library",
+    ("", '[[material]]\nname = "x"\nlibrary = "al-2042-t3"\n', 'material[1].library (material "x")',
      "unknown library material 'al-2042-t3'; did you mean 'al-2024-t3'?"),
     ('density = "2700 kg/m^3"', "density = 0", 'material[0].density (material "al")', "> 0, got 0"),
     ('youngs_modulus = "70 GPa"', 'youngs_modulus = "-70 GPa"', 'material[0].youngs_modulus (material "al")', "> 0"),
