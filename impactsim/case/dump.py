@@ -7,6 +7,7 @@ Every default is written out, so the result documents exactly what ran; tomli_w 
 from __future__ import annotations
 
 from dataclasses import fields
+from pathlib import PurePath
 
 from impactsim.case.schema import (EOS, Body, Case, Constraint, Material, NodeSelector, Strength,
                                    Wall)
@@ -21,8 +22,6 @@ def case_to_dict(case: Case) -> dict:
     if case.walls:
         out["wall"] = [_wall(w) for w in case.walls]
     output = _fields(case.output)
-    if output["directory"] is not None:
-        output["directory"] = str(output["directory"])
     out["output"] = _plain({k: v for k, v in output.items() if v is not None})
     out["contact"] = _plain(_fields(case.contact))
     out["fracture"] = _plain(_fields(case.fracture))
@@ -34,11 +33,15 @@ def _fields(obj) -> dict:
 
 
 def _plain(value):
-    """Tuples -> lists, recursively (tomli_w writes lists)."""
+    """Tuples -> lists, paths -> strings, numpy arrays and scalars -> Python, recursively."""
     if isinstance(value, dict):
         return {k: _plain(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
         return [_plain(v) for v in value]
+    if isinstance(value, PurePath):
+        return str(value)
+    if hasattr(value, "tolist"):  # a case built in Python may hold numpy values
+        return _plain(value.tolist())
     return value
 
 
@@ -67,8 +70,7 @@ def _model_table(obj: Strength | EOS, keys: tuple[str, ...]) -> dict:
 
 def _body(b: Body) -> dict:
     out = {"name": b.name, "material": b.material, "shape": b.shape}
-    for key, value in b.dimensions.items():
-        out[key] = str(value) if key == "path" else value
+    out.update(b.dimensions)
     out.update(position=b.position, rotation=b.rotation)
     if b.mesh_size > 0.0:
         out["mesh_size"] = b.mesh_size

@@ -519,3 +519,20 @@ def test_reference_documents_every_key():
                 "self_contact", "erosion_region", "jc_damage", "history_every"]:
         assert f"`{key}`" in text
     assert "`ofhc-copper`" in text and "`d16t`" in text
+
+
+def test_case_built_in_python_dumps_and_reloads():
+    """A Case made in Python (numpy values allowed) gives a resolved TOML that loads back."""
+    import numpy as np
+
+    from impactsim.case.schema import EOS, Body, Case, Material, Run, Strength
+
+    steel = Material(name="s", density=7850.0, shear_modulus=80e9, bulk_modulus=160e9,
+                     strength=Strength(model="ideal-plastic", yield_stress=1e9),
+                     eos=EOS(model="linear"))
+    body = Body(name="b", material="s", shape="box", dimensions={"size": (0.01, 0.01, 0.01)},
+                mesh_size=0.002, velocity=tuple(np.array([0.0, 0.0, -50.0])))
+    case = Case(source=None, run=Run(name="py", end_time=1e-5), materials={"s": steel},
+                bodies=[body])
+    again = load_case_text(tomli_w.dumps(case_to_dict(case)))
+    assert again == case
