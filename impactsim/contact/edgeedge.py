@@ -1,0 +1,244 @@
+"""Edge-edge pass ([D19], ALGORITHMS.md 3.2, the paper's contribution).
+
+Boundary edge [a, b] of body 1 and [e, f] of body 2, all points moving linearly over the step.
+They can only cross when the four points are coplanar: det[x_b - x_a, x_e - x_a, x_f - x_a](t) = 0,
+a cubic in t. At each root in [0, tau] (earliest first) the two lines meet; the root is kept when
+the meeting point lies inside both segments (0 <= alpha, beta <= 1). There, with n the unit normal
+of both lines (along the common perpendicular dc, d on [a,b], c on [e,f]) oriented from body 1
+toward body 2 before the crossing, [D19 eq. 11]
+
+    N_c = [(1-a) U*_na + a U*_nb - (1-b) U*_ne - b U*_nf]
+          / (tau [(1-b)^2/m_e + b^2/m_f + (1-a)^2/m_a + a^2/m_b])      (a = alpha, b = beta)
+
+and, only when N_c > 0 (approaching), [D19 eq. 12]
+
+    U_ne += tau (1-b) N_c / m_e,  U_nf += tau b N_c / m_f,
+    U_na -= tau (1-a) N_c / m_a,  U_nb -= tau a N_c / m_b   (m_b, not the paper's misprinted m_a).
+
+The normal direction at the crossing is (b - a) x (f - e); "before the crossing" is decided by the
+material points d and c (parameters alpha, beta) at t = 0: n points from d toward c.
+
+Departure from the paper, for persistent contact (as in the node-face pass): edges that start the
+step within ``band`` of each other, with the closest points inside both segments, count as
+touching at t = 0. Their order "before the crossing" is then not reliable (they may have crossed
+by round-off), so n is oriented by the bodies' outward normals at the edges instead (the sum of
+the unit normals of the boundary faces at each edge): n . (nu_1 - nu_2) > 0. The same holds for a
+root whose material points d, c start at most ``band`` apart.
+Parallel edges (|(b-a) x (f-e)| <= 1e-6 |b-a| |f-e|) have no crossing point; they are skipped
+(the node-face pass covers them).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+
+from impactsim.contact.cubic import cubic_coefficients, cubic_roots_in
+
+PARALLEL_SIN = 1e-6  # edges closer to parallel than this (sine of the angle) are skipped
+SEGMENT_EPS = 1e-9  # tolerance of 0 <= alpha, beta <= 1
+
+
+@numba.njit(cache=True)
+def line_parameters(ax, ay, az, d1x, d1y, d1z, ex, ey, ez, d2x, d2y, d2z):
+    """Closest points of the lines a + alpha d1 and e + beta d2: (alpha, beta, |d1 x d2|^2,
+    |d1|^2 |d2|^2). alpha = |ad|/|ab|, beta = |ec|/|ef| of ALGORITHMS.md 3.2."""
+    rx = ax - ex
+    ry = ay - ey
+    rz = az - ez
+    A = d1x * d1x + d1y * d1y + d1z * d1z
+    B = d1x * d2x + d1y * d2y + d1z * d2z
+    E = d2x * d2x + d2y * d2y + d2z * d2z
+    C = d1x * rx + d1y * ry + d1z * rz
+    F = d2x * rx + d2y * ry + d2z * rz
+    den = A * E - B * B
+    if not den > 0.0:
+        return 0.0, 0.0, 0.0, A * E
+    return (B * F - C * E) / den, (A * F - B * C) / den, den, A * E
+
+
+@numba.njit(cache=True)
+def _edge_edge_at(t, force_nu, band, ia, ib, ie, jf, x, v, mass, tau, mu, nu_x, nu_y, nu_z):
+    """Crossing of edges [ia, ib] (body 1) and [ie, jf] (body 2) at time t (ALGORITHMS.md 3.2).
+
+    n is oriented by the material points d, c at t = 0 (d -> c), unless ``force_nu`` or they
+    are at most ``band`` apart along n: then by nu = nu_1 - nu_2 (outward normals).
+    Returns -1 when not a valid crossing, 0 when valid but not approaching, else tau N_c [N s]."""
+    ax = x[ia, 0] + t * v[ia, 0]
+    ay = x[ia, 1] + t * v[ia, 1]
+    az = x[ia, 2] + t * v[ia, 2]
+    d1x = x[ib, 0] + t * v[ib, 0] - ax
+    d1y = x[ib, 1] + t * v[ib, 1] - ay
+    d1z = x[ib, 2] + t * v[ib, 2] - az
+    ex = x[ie, 0] + t * v[ie, 0]
+    ey = x[ie, 1] + t * v[ie, 1]
+    ez = x[ie, 2] + t * v[ie, 2]
+    d2x = x[jf, 0] + t * v[jf, 0] - ex
+    d2y = x[jf, 1] + t * v[jf, 1] - ey
+    d2z = x[jf, 2] + t * v[jf, 2] - ez
+    al, be, den, ae = line_parameters(ax, ay, az, d1x, d1y, d1z, ex, ey, ez, d2x, d2y, d2z)
+    if not den > PARALLEL_SIN * PARALLEL_SIN * ae:
+        return -1.0
+    if al < -SEGMENT_EPS or al > 1.0 + SEGMENT_EPS or be < -SEGMENT_EPS or be > 1.0 + SEGMENT_EPS:
+        return -1.0
+    al = min(max(al, 0.0), 1.0)
+    be = min(max(be, 0.0), 1.0)
+    # n along the common perpendicular: (b - a) x (f - e)
+    nx = d1y * d2z - d1z * d2y
+    ny = d1z * d2x - d1x * d2z
+    nz = d1x * d2y - d1y * d2x
+    inv = 1.0 / math.sqrt(den)
+    nx *= inv
+    ny *= inv
+    nz *= inv
+    # from body 1 toward body 2 before the crossing: d -> c at t = 0
+    s = ((1.0 - be) * x[ie, 0] + be * x[jf, 0] - (1.0 - al) * x[ia, 0] - al * x[ib, 0]) * nx \
+        + ((1.0 - be) * x[ie, 1] + be * x[jf, 1] - (1.0 - al) * x[ia, 1] - al * x[ib, 1]) * ny \
+        + ((1.0 - be) * x[ie, 2] + be * x[jf, 2] - (1.0 - al) * x[ia, 2] - al * x[ib, 2]) * nz
+    if force_nu or abs(s) <= band:
+        s = nx * nu_x + ny * nu_y + nz * nu_z
+    if s == 0.0:
+        return -1.0
+    if s < 0.0:
+        nx = -nx
+        ny = -ny
+        nz = -nz
+    una = v[ia, 0] * nx + v[ia, 1] * ny + v[ia, 2] * nz
+    unb = v[ib, 0] * nx + v[ib, 1] * ny + v[ib, 2] * nz
+    une = v[ie, 0] * nx + v[ie, 1] * ny + v[ie, 2] * nz
+    unf = v[jf, 0] * nx + v[jf, 1] * ny + v[jf, 2] * nz
+    ma = mass[ia]
+    mb = mass[ib]
+    me = mass[ie]
+    mf = mass[jf]
+    S = ((1.0 - be) ** 2 / me + be * be / mf + (1.0 - al) ** 2 / ma + al * al / mb)
+    # [D19 eq. 11]
+    Nc = ((1.0 - al) * una + al * unb - (1.0 - be) * une - be * unf) / (tau * S)
+    if not Nc > 0.0:
+        return 0.0
+    J = tau * Nc
+    # [D19 eq. 12], m_b in the last correction (ALGORITHMS.md 3.2 [note])
+    for d in range(3):
+        nd = nx if d == 0 else (ny if d == 1 else nz)
+        v[ie, d] += (1.0 - be) * J / me * nd
+        v[jf, d] += be * J / mf * nd
+        v[ia, d] -= (1.0 - al) * J / ma * nd
+        v[ib, d] -= al * J / mb * nd
+    if mu > 0.0:
+        # Coulomb friction: relative tangential velocity of body 1's point d over body 2's c
+        vx = ((1.0 - al) * v[ia, 0] + al * v[ib, 0]) - ((1.0 - be) * v[ie, 0] + be * v[jf, 0])
+        vy = ((1.0 - al) * v[ia, 1] + al * v[ib, 1]) - ((1.0 - be) * v[ie, 1] + be * v[jf, 1])
+        vz = ((1.0 - al) * v[ia, 2] + al * v[ib, 2]) - ((1.0 - be) * v[ie, 2] + be * v[jf, 2])
+        vn = vx * nx + vy * ny + vz * nz
+        vx -= vn * nx
+        vy -= vn * ny
+        vz -= vn * nz
+        vt = math.sqrt(vx * vx + vy * vy + vz * vz)
+        if vt > 0.0:
+            Jt = min(vt / S, mu * J)
+            for d in range(3):
+                td = (vx if d == 0 else (vy if d == 1 else vz)) / vt
+                v[ie, d] += (1.0 - be) * Jt / me * td
+                v[jf, d] += be * Jt / mf * td
+                v[ia, d] -= (1.0 - al) * Jt / ma * td
+                v[ib, d] -= al * Jt / mb * td
+    return J
+
+
+@numba.njit(cache=True)
+def edge_edge_correct(ia, ib, ie, jf, x, v, mass, tau, mu, band, nu_x, nu_y, nu_z):
+    """One edge-edge pair (ALGORITHMS.md 3.2): the cubic, root selection in [0, tau], segment
+    test, alpha, beta, the normal, N_c [D19 eq. 11] and the corrections [D19 eq. 12]. Corrects v
+    in place; returns the normal impulse tau N_c [N s] (0 when nothing was done).
+    (nu_x, nu_y, nu_z) = nu_1 - nu_2, the difference of the bodies' outward normals at the two
+    edges, orients n only for touching edges (``band``, see the module docstring)."""
+    ax = x[ia, 0]
+    ay = x[ia, 1]
+    az = x[ia, 2]
+    if band > 0.0:
+        d1x = x[ib, 0] - ax
+        d1y = x[ib, 1] - ay
+        d1z = x[ib, 2] - az
+        d2x = x[jf, 0] - x[ie, 0]
+        d2y = x[jf, 1] - x[ie, 1]
+        d2z = x[jf, 2] - x[ie, 2]
+        al, be, den, ae = line_parameters(ax, ay, az, d1x, d1y, d1z, x[ie, 0], x[ie, 1],
+                                          x[ie, 2], d2x, d2y, d2z)
+        if (den > PARALLEL_SIN * PARALLEL_SIN * ae and -SEGMENT_EPS <= al <= 1.0 + SEGMENT_EPS
+                and -SEGMENT_EPS <= be <= 1.0 + SEGMENT_EPS):
+            gx = x[ie, 0] + be * d2x - ax - al * d1x
+            gy = x[ie, 1] + be * d2y - ay - al * d1y
+            gz = x[ie, 2] + be * d2z - az - al * d1z
+            if gx * gx + gy * gy + gz * gz <= band * band:
+                J = _edge_edge_at(0.0, True, band, ia, ib, ie, jf, x, v, mass, tau, mu,
+                                  nu_x, nu_y, nu_z)
+                if J > 0.0:
+                    return J
+    a, b, c, d = cubic_coefficients(
+        x[ib, 0] - ax, x[ib, 1] - ay, x[ib, 2] - az,
+        x[ie, 0] - ax, x[ie, 1] - ay, x[ie, 2] - az,
+        x[jf, 0] - ax, x[jf, 1] - ay, x[jf, 2] - az,
+        v[ib, 0] - v[ia, 0], v[ib, 1] - v[ia, 1], v[ib, 2] - v[ia, 2],
+        v[ie, 0] - v[ia, 0], v[ie, 1] - v[ia, 1], v[ie, 2] - v[ia, 2],
+        v[jf, 0] - v[ia, 0], v[jf, 1] - v[ia, 1], v[jf, 2] - v[ia, 2])
+    n, r0, r1, r2 = cubic_roots_in(a, b, c, d, tau)
+    for k in range(n):
+        t = r0 if k == 0 else (r1 if k == 1 else r2)
+        J = _edge_edge_at(t, False, band, ia, ib, ie, jf, x, v, mass, tau, mu, nu_x, nu_y,
+                          nu_z)
+        if J > 0.0:
+            return J
+    return 0.0
+
+
+@numba.njit(cache=True)
+def edge_normals(x, faces, face_edges, out):
+    """Outward normal at each boundary edge: the sum of the unit normals of its boundary faces
+    (used only to orient touching edge pairs, see the module docstring). out (g, 3)."""
+    for g in range(out.shape[0]):
+        out[g, 0] = 0.0
+        out[g, 1] = 0.0
+        out[g, 2] = 0.0
+    for f in range(faces.shape[0]):
+        a = faces[f, 0]
+        b = faces[f, 1]
+        c = faces[f, 2]
+        e1x = x[b, 0] - x[a, 0]
+        e1y = x[b, 1] - x[a, 1]
+        e1z = x[b, 2] - x[a, 2]
+        e2x = x[c, 0] - x[a, 0]
+        e2y = x[c, 1] - x[a, 1]
+        e2z = x[c, 2] - x[a, 2]
+        nx = e1y * e2z - e1z * e2y
+        ny = e1z * e2x - e1x * e2z
+        nz = e1x * e2y - e1y * e2x
+        nn = math.sqrt(nx * nx + ny * ny + nz * nz)
+        if nn > 0.0:
+            for j in range(3):
+                g = face_edges[f, j]
+                if g >= 0:
+                    out[g, 0] += nx / nn
+                    out[g, 1] += ny / nn
+                    out[g, 2] += nz / nn
+
+
+@numba.njit(cache=True)
+def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band):
+    """Gauss-Seidel sweep over candidate edge pairs (ALGORITHMS.md 3.2): sequentially, in the
+    given (sorted) order, each pair seeing the velocities already corrected. ``pairs (k, 2)``
+    rows of indices into ``edges`` (body 1 edge, body 2 edge); ``normals (g, 3)`` from
+    ``edge_normals``. Returns (pairs corrected, sum of normal impulses [N s])."""
+    applied = 0
+    total = 0.0
+    for k in range(pairs.shape[0]):
+        g1 = pairs[k, 0]
+        g2 = pairs[k, 1]
+        J = edge_edge_correct(edges[g1, 0], edges[g1, 1], edges[g2, 0], edges[g2, 1], x, v, mass,
+                              tau, mu, band,
+                              normals[g1, 0] - normals[g2, 0], normals[g1, 1] - normals[g2, 1],
+                              normals[g1, 2] - normals[g2, 2])
+        if J > 0.0:
+            applied += 1
+            total += J
+    return applied, total
