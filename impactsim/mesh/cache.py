@@ -25,7 +25,7 @@ import numpy as np
 
 from impactsim.case.schema import Body
 
-MESH_CODE_VERSION = "impactsim-mesh-1"
+MESH_CODE_VERSION = "impactsim-mesh-2"
 
 
 def cache_dir() -> Path | None:

@@ -56,7 +56,7 @@ def fix_orientation(points: np.ndarray, tets: np.ndarray) -> tuple[np.ndarray, i
 
 
 def rotation_matrix(angles: tuple[float, float, float]) -> np.ndarray:
-    """R = Rx(a) @ Ry(b) @ Rz(c) for intrinsic x-y-z Euler angles (a, b, c) [rad]: (3, 3) float64."""
+    """R = Rx(a) @ Ry(b) @ Rz(c), (3, 3) float64, for intrinsic x-y-z Euler angles [rad]."""
     a, b, c = (float(t) for t in angles)
     ca, sa, cb, sb, cc, sc = np.cos(a), np.sin(a), np.cos(b), np.sin(b), np.cos(c), np.sin(c)
     rx = np.array([[1.0, 0.0, 0.0], [0.0, ca, -sa], [0.0, sa, ca]])

@@ -6,13 +6,15 @@ target edge length (Mesh.MeshSizeMin = Mesh.MeshSizeMax = mesh_size) and returne
 
 Determinism: the 3D mesher is HXT (Mesh.Algorithm3D = 10) on one thread with a fixed random
 seed. Measured with gmsh 4.15: on one thread HXT gives bit-identical meshes run after run (and is
-about 5x faster than the Delaunay mesher: 2-3 s for a 200k-tet cylinder); on two threads it does not.
+about 5x faster than the Delaunay mesher: 2-3 s for a 200k-tet cylinder); on two threads
+it does not.
 
 A plate thinner than the mesh size still gets a valid mesh: its side faces are one segment high,
 so the mesh is one (flat) tet layer thick; the quality report shows the price. HXT's optimiser
-spends seconds on such flat tets (2.5 s for 500 tets at mesh size = 8 x thickness, where the
-Delaunay mesher takes 0.04 s), so plates thinner than half the mesh size use the Delaunay
-mesher (Mesh.Algorithm3D = 1), deterministic on one thread as well.
+spends seconds on such flat tets (2.5 s for a 500-tet box, 15 s for a 1400-tet disk at mesh
+size = 8 x thickness, where the Delaunay mesher takes 0.04 s and 0.2 s), so a primitive whose
+smallest extent is below half the mesh size is meshed with the Delaunay mesher
+(Mesh.Algorithm3D = 1), deterministic on one thread as well.
 
 gmsh is imported inside the functions: importing impactsim.mesh stays cheap, and gmsh's global
 state is confined to one session per call.
@@ -28,7 +30,7 @@ from impactsim.mesh import MeshError
 
 RANDOM_SEED = 1
 ALGORITHM_3D = 10  # HXT
-ALGORITHM_3D_THIN = 1  # Delaunay, for boxes thinner than THIN_RATIO * mesh size
+ALGORITHM_3D_THIN = 1  # Delaunay, for primitives thinner than THIN_RATIO * mesh size
 THIN_RATIO = 0.5
 # Tets of quality (gmsh's gamma) below this are optimised after meshing. gmsh's default 0.3;
 # 0.4 raised the smallest altitude (hence the stable time step) of a 200k-tet cylinder by 12 %
@@ -87,6 +89,11 @@ def _generate(gmsh, mesh_size: float) -> tuple[np.ndarray, np.ndarray]:
     return points, tets.astype(np.int32)
 
 
+def _algorithm(smallest_extent: float, mesh_size: float) -> int:
+    """The 3D mesher for a primitive: HXT, or Delaunay when it is thin (module docstring)."""
+    return ALGORITHM_3D_THIN if smallest_extent < THIN_RATIO * mesh_size else ALGORITHM_3D
+
+
 def _check_size(mesh_size: float) -> float:
     if not mesh_size > 0.0:
         raise MeshError(f"mesh_size must be > 0 for the gmsh mesher, got {mesh_size}")
@@ -99,15 +106,14 @@ def gmsh_box(size: tuple[float, float, float], mesh_size: float) -> tuple[np.nda
     lx, ly, lz = (float(v) for v in size)
     if min(lx, ly, lz) <= 0.0:
         raise MeshError(f"box size must be positive, got {size}")
-    thin = min(lx, ly, lz) < THIN_RATIO * h
-    with _session("box", ALGORITHM_3D_THIN if thin else ALGORITHM_3D) as gmsh:
+    with _session("box", _algorithm(min(lx, ly, lz), h)) as gmsh:
         gmsh.model.occ.addBox(-0.5 * lx, -0.5 * ly, -0.5 * lz, lx, ly, lz)
         return _generate(gmsh, h)
 
 
 def gmsh_cylinder(radius: float, height: float, axis, mesh_size: float
                   ) -> tuple[np.ndarray, np.ndarray]:
-    """Cylinder of `radius` and `height` [m] along `axis` (normalised here), centred at the origin."""
+    """Cylinder of `radius`, `height` [m] along `axis` (normalised here), centred at the origin."""
     h = _check_size(mesh_size)
     axis = np.asarray(axis, dtype=np.float64)
     norm = float(np.linalg.norm(axis))
@@ -116,7 +122,7 @@ def gmsh_cylinder(radius: float, height: float, axis, mesh_size: float
     if not (radius > 0.0 and height > 0.0):
         raise MeshError(f"cylinder radius and height must be positive, got {radius}, {height}")
     d = axis / norm * float(height)
-    with _session("cylinder") as gmsh:
+    with _session("cylinder", _algorithm(min(float(height), 2.0 * float(radius)), h)) as gmsh:
         gmsh.model.occ.addCylinder(*(-0.5 * d), *d, float(radius))
         return _generate(gmsh, h)
 
@@ -126,6 +132,6 @@ def gmsh_sphere(radius: float, mesh_size: float) -> tuple[np.ndarray, np.ndarray
     h = _check_size(mesh_size)
     if not radius > 0.0:
         raise MeshError(f"sphere radius must be positive, got {radius}")
-    with _session("sphere") as gmsh:
+    with _session("sphere", _algorithm(2.0 * float(radius), h)) as gmsh:
         gmsh.model.occ.addSphere(0.0, 0.0, 0.0, float(radius))
         return _generate(gmsh, h)

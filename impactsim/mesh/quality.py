@@ -29,7 +29,7 @@ EDGE_FACES = np.array([[2, 3], [1, 3], [1, 2], [0, 3], [0, 2], [0, 1]])
 
 
 def face_area_vectors(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
-    """Outward area vectors of the 4 faces of each tet, (e, 4, 3) [m^2]; face k is opposite node k."""
+    """Outward area vectors of the faces of each tet: (e, 4, 3) [m^2], face k opposite node k."""
     x = points[tets]
     a, b, c = x[:, FACES[:, 0]], x[:, FACES[:, 1]], x[:, FACES[:, 2]]
     return 0.5 * np.cross(b - a, c - a)
@@ -69,7 +69,7 @@ def _sq(v: np.ndarray) -> np.ndarray:
 
 
 def altitudes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
-    """Smallest altitude 3 V / max face area of each tet: (e,) float64 [m] (L_e of the time step)."""
+    """Smallest altitude 3 V / max face area of each tet: (e,) float64 [m] (L_e of the step)."""
     _, areas, volume = _geometry(points, tets)
     return _altitudes(areas, volume)
 

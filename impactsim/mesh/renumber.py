@@ -47,7 +47,7 @@ def remove_unused_nodes(points: np.ndarray, tets: np.ndarray) -> tuple[np.ndarra
 
 
 def morton_order(points: np.ndarray, tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(node permutation, element permutation): new node i is old node perm[i], likewise elements."""
+    """(node permutation, element permutation): new node i is old node node_perm[i], etc."""
     lo, hi = points.min(axis=0), points.max(axis=0)
     node_perm = np.argsort(morton_codes(points, lo, hi), kind="stable")
     centroids = points[tets].mean(axis=1)

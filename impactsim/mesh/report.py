@@ -28,7 +28,7 @@ _PREFIXES = [(1e-9, "n"), (1e-6, "u"), (1e-3, "m"), (1.0, ""), (1e3, "k")]
 
 
 def si(value: float, unit: str, digits: int = 4) -> str:
-    """`value` with an SI prefix chosen so the mantissa is in [1, 1000): si(2.5e-8, 's') = '25 ns'."""
+    """`value` with an SI prefix making the mantissa 1..1000: si(2.5e-8, 's') == '25 ns'."""
     if value == 0.0 or not math.isfinite(value):
         return f"{value:g} {unit}"
     scale, prefix = _PREFIXES[0]
@@ -142,9 +142,10 @@ def mesh_case(case: Case, out_dir: Path | None = None) -> str:
     path = out_dir / "mesh.vtu"
     if meshes:
         write_vtu(path, meshes)
-        lines.append(f"total: {len(meshes)} bodies, nodes {total_nodes}, elements "
-                     f"{total_elements}, mass {_mass(total_mass)}, expected stable dt "
-                     f"{si(overall_dt, 's')} (cfl {cfl:g})")
+        bodies = f"{len(meshes)} bod{'y' if len(meshes) == 1 else 'ies'}"
+        lines.append(f"total: {bodies}, nodes {total_nodes}, elements {total_elements}, "
+                     f"mass {_mass(total_mass)}, expected stable dt {si(overall_dt, 's')} "
+                     f"(cfl {cfl:g})")
         lines.append(f"wrote {path}")
     else:
         lines.append("no bodies to mesh")

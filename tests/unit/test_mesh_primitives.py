@@ -41,6 +41,16 @@ def test_plate_thinner_than_mesh_size_is_valid():
     np.testing.assert_allclose(np.unique(points[:, 2]), [-0.00025, 0.00025], atol=1e-15)
 
 
+def test_thin_disk_meshes_quickly_and_validly():
+    r, height = 0.015, 0.0005
+    points, tets = mesh_body(Body("d", "al", "cylinder", {"radius": r, "height": height,
+                                                          "axis": (0, 0, 1)}, mesh_size=0.004))
+    volumes = signed_volumes(points, tets)
+    assert volumes.min() > 0.0
+    assert volumes.sum() == pytest.approx(math.pi * r * r * height, rel=0.03)
+    np.testing.assert_allclose(np.unique(points[:, 2]), [-0.00025, 0.00025], atol=1e-15)
+
+
 def test_cylinder_volume_axis_and_placement():
     r, height = 0.01, 0.02
     axis = np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0)
