@@ -84,7 +84,8 @@ def _set(raw: dict, parts: list[str | int], value: object) -> None:
         child = spec.get(part)
         path = path.key(part)
         if child is None:
-            where = f"[{spec.name}]" if spec.name else "the top level"
+            where = (f"[[{spec.name}]]" if spec.array else f"[{spec.name}]") if spec.name \
+                else "the top level"
             raise path.error(f"unknown key '{part}' in {where}{suggest(part, spec.names)}")
         if last:
             node[part] = value

@@ -26,7 +26,8 @@ def check_names(raw: dict, table: Table, path: KeyPath) -> None:
     """Every key of `raw` must be one the spec table knows."""
     for name in raw:
         if table.get(name) is None:
-            where = f"[{table.name}]" if table.name else "the top level"
+            where = (f"[[{table.name}]]" if table.array else f"[{table.name}]") if table.name \
+                else "the top level"
             raise path.key(name).error(
                 f"unknown key '{name}' in {where}{suggest(name, table.names)}")
 
@@ -150,7 +151,7 @@ def convert(value: object, spec: Key, path: KeyPath, kind: str):
         return _choice(value, spec, path)
     if kind == "choice-list":
         return [_choice(v, spec, KeyPath(path.parts[:-1] + (f"{path.parts[-1]}[{i}]",),
-                                         path.label))
+                                         path.label), in_list=True)
                 for i, v in enumerate(_list(value, path, 0, "", None))]
     if kind == "string-list":
         items = _list(value, path, 0, "", None)
@@ -161,12 +162,13 @@ def convert(value: object, spec: Key, path: KeyPath, kind: str):
     raise AssertionError(f"unknown kind {kind}")
 
 
-def _choice(value: object, spec: Key, path: KeyPath) -> str:
+def _choice(value: object, spec: Key, path: KeyPath, in_list: bool = False) -> str:
     if not isinstance(value, str):
         raise path.error(f"expected a string (one of {', '.join(spec.choices)}), got "
                          f"{type_name(value)} {_show(value)}")
     if value not in spec.choices:
-        raise path.error(f"unknown {spec.name} '{value}'{suggest(value, spec.choices)}")
+        what = f"value '{value}' in {spec.name}" if in_list else f"{spec.name} '{value}'"
+        raise path.error(f"unknown {what}{suggest(value, spec.choices)}")
     return value
 
 

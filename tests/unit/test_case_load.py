@@ -360,7 +360,7 @@ def test_overrides_take_toml_values_and_create_tables(tmp_path):
 
 
 @pytest.mark.parametrize("override, fragment", [
-    ("body.0.mesh_sise=1", "body[0].mesh_sise: unknown key 'mesh_sise' in [body]; did you mean 'mesh_size'?"),
+    ("body.0.mesh_sise=1", "body[0].mesh_sise: unknown key 'mesh_sise' in [[body]]; did you mean 'mesh_size'?"),
     ("rn.cfl=0.5", "rn: unknown key 'rn' in the top level; did you mean 'run'?"),
     ("body.3.mesh_size=1", "no element 3: the case has 1 [[body]] tables"),
     ("body.plat.mesh_size=1", "no [[body]] named 'plat'; did you mean 'plate'?"),
@@ -385,7 +385,7 @@ def test_invalid_value_from_override_names_the_key(tmp_path):
 ERRORS = [
     # (replace this, with this (or append when old is ""), key path, fragment)
     ("mesh_size =", "mesh_sise =", 'body[0].mesh_sise (body "plate")',
-     "unknown key 'mesh_sise' in [body]; did you mean 'mesh_size'?"),
+     "unknown key 'mesh_sise' in [[body]]; did you mean 'mesh_size'?"),
     ("end_time", "end_tme", "run.end_tme", "did you mean 'end_time'?"),
     ("[[body]]", "[[bodys]]", "bodys", "did you mean 'body'?"),
     ('poisson_ratio = 0.25', 'poisson_ratio = 0.25\nstrength = { model = "johnson-cook", A = 1e8, B = 1e8, nn = 1 }',
@@ -409,7 +409,7 @@ ERRORS = [
      "did you mean 'ofhc-copper'?"),
     ('shape = "box"', 'shape = "bx"', 'body[0].shape (body "plate")', "unknown shape 'bx'; did you mean 'box'?"),
     ("", '[contact]\npasses = ["node-face", "edge-egde"]\n', "contact.passes[1]",
-     "unknown passes 'edge-egde'; did you mean 'edge-edge'?"),
+     "unknown value 'edge-egde' in passes; did you mean 'edge-edge'?"),
     ('poisson_ratio = 0.25', 'poisson_ratio = 0.25\nstrength = { model = "johnson-cok" }',
      'material[0].strength.model (material "al")', "did you mean 'johnson-cook'?"),
     ('poisson_ratio = 0.25', 'poisson_ratio = 0.25\neos = { model = "gruneisen" }',
