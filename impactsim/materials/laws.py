@@ -12,7 +12,7 @@ import numba
 from impactsim.materials import params as P
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def hugoniot_pressure(eta, rho0, c0, s):
     """Pressure on the principal Hugoniot of a linear Us-up material and its slope dp_H/deta.
 
@@ -30,7 +30,7 @@ def hugoniot_pressure(eta, rho0, c0, s):
     return k * eta / (den * den), k * (1.0 + s * eta) / (den * den * den)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def eos_linear_part(code, rho, rho0, bulk, c0, s, gamma0):
     """Pressure as p = a + b e (e specific internal energy [J/kg]) and the isentropic sound speed
     squared at that state as c2 = c2a + c2b p.
@@ -53,9 +53,9 @@ def eos_linear_part(code, rho, rho0, bulk, c0, s, gamma0):
     return bulk * (rho / rho0 - 1.0), 0.0, bulk / rho0, 0.0
 
 
-@numba.njit(cache=True, inline="always")
-def flow_stress(code, mp, eps_p, eps_rate, temperature):
-    """Yield stress [Pa] and its slope d sigma_y / d eps_p for one material row `mp`.
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def flow_stress(code, mp, k, eps_p, eps_rate, temperature):
+    """Yield stress [Pa] and its slope d sigma_y / d eps_p for material row k of table `mp`.
 
     ideal-plastic: sigma_y = Y0 (Prandtl-Reuss).
     Johnson-Cook:  sigma_y = (A + B eps_p^n)(1 + C ln(eps_rate/eps_rate0))(1 - T*^m), the rate
@@ -63,39 +63,39 @@ def flow_stress(code, mp, eps_p, eps_rate, temperature):
     elastic:       infinite (never yields).
     """
     if code == P.IDEAL_PLASTIC:
-        return mp[P.Y0], 0.0
+        return mp[k, P.Y0], 0.0
     if code == P.JOHNSON_COOK:
         rate = 1.0
-        r = eps_rate / mp[P.EPSDOT0]
+        r = eps_rate / mp[k, P.EPSDOT0]
         if r > 1.0:
-            rate = 1.0 + mp[P.JC_C] * math.log(r)
+            rate = 1.0 + mp[k, P.JC_C] * math.log(r)
         thermal = 1.0
-        t_room = mp[P.T_ROOM]
-        t_star = (temperature - t_room) / (mp[P.T_MELT] - t_room)
+        t_room = mp[k, P.T_ROOM]
+        t_star = (temperature - t_room) / (mp[k, P.T_MELT] - t_room)
         if t_star >= 1.0:
             return 0.0, 0.0
         if t_star > 0.0:
-            thermal = 1.0 - t_star ** mp[P.JC_M]
-        n = mp[P.JC_N]
-        hard = mp[P.JC_A]
+            thermal = 1.0 - t_star ** mp[k, P.JC_M]
+        n = mp[k, P.JC_N]
+        hard = mp[k, P.JC_A]
         slope = 0.0
         if eps_p > 0.0:
             epn = eps_p ** n
-            hard += mp[P.JC_B] * epn
-            slope = mp[P.JC_B] * n * epn / eps_p
+            hard += mp[k, P.JC_B] * epn
+            slope = mp[k, P.JC_B] * n * epn / eps_p
         return hard * rate * thermal, slope * rate * thermal
     return math.inf, 0.0
 
 
-@numba.njit(cache=True, inline="always")
-def radial_return(code, mp, shear, seq_trial, eps_p, eps_rate, temperature):
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def radial_return(code, mp, k, shear, seq_trial, eps_p, eps_rate, temperature):
     """Plastic strain increment of the radial return to the yield surface (ALGORITHMS.md 2).
 
     Solves seq_trial - 3 G d_eps - sigma_y(eps_p + d_eps) = 0 for d_eps >= 0 by Newton's method
     safeguarded with bisection on [0, (seq_trial - sigma_y(eps_p)) / 3G]. Returns (d_eps,
     sigma_y at the end); d_eps = 0 when the trial state is elastic.
     """
-    sy, _ = flow_stress(code, mp, eps_p, eps_rate, temperature)
+    sy, _ = flow_stress(code, mp, k, eps_p, eps_rate, temperature)
     if seq_trial <= sy:
         return 0.0, sy
     g3 = 3.0 * shear
@@ -103,7 +103,7 @@ def radial_return(code, mp, shear, seq_trial, eps_p, eps_rate, temperature):
     lo = 0.0
     d = hi
     for _ in range(30):
-        sy_d, h = flow_stress(code, mp, eps_p + d, eps_rate, temperature)
+        sy_d, h = flow_stress(code, mp, k, eps_p + d, eps_rate, temperature)
         f = seq_trial - g3 * d - sy_d
         if abs(f) <= 1e-12 * seq_trial:
             return d, sy_d
@@ -117,5 +117,5 @@ def radial_return(code, mp, shear, seq_trial, eps_p, eps_rate, temperature):
         d = dn
         if hi - lo <= 1e-15 * (1.0 + eps_p):
             break
-    sy_d, _ = flow_stress(code, mp, eps_p + d, eps_rate, temperature)
+    sy_d, _ = flow_stress(code, mp, k, eps_p + d, eps_rate, temperature)
     return d, sy_d

@@ -22,6 +22,9 @@ from impactsim.materials.laws import eos_linear_part, radial_return
 from impactsim.model import DAMAGED, ERODED, FRACTURED
 
 CHUNK = 512
+# IEEE semantics are kept (no nnan/ninf: inf marks "no limit"); numpy's error model drops the
+# zero-division checks that Python semantics would put on every division.
+FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
 # columns of the per-chunk reduction array
 OUT_DT, OUT_QWORK, OUT_INVERTED, OUT_WORST = 0, 1, 2, 3
 N_OUT = 4
@@ -31,7 +34,7 @@ def n_chunks(n_elem: int) -> int:
     return max(1, (n_elem + CHUNK - 1) // CHUNK)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
 def _tet_gradients(x0, y0, z0, x1, y1, z1, x2, y2, z2, x3, y3, z3):
     """Shape-function gradients of a linear tet and six times its volume.
 
@@ -50,7 +53,7 @@ def _tet_gradients(x0, y0, z0, x1, y1, z1, x2, y2, z2, x3, y3, z3):
     return det, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True, parallel=True, error_model="numpy", fastmath=FAST)
 def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                    energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp, dt, cq, cl,
                    elem_force, chunk_out):
@@ -132,11 +135,11 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
                 continue
             vold = vol[e]
             veos_old = vol_eos[e]  # the same array as vol for tet4
-            m = mat_params[elem_mat[e]]
+            mk = elem_mat[e]
             mass = elem_mass[e]
             rho = mass / vnew
-            rho0 = m[P.RHO0]
-            shear = m[P.G]
+            rho0 = mat_params[mk, P.RHO0]
+            shear = mat_params[mk, P.G]
             # --- deviatoric stress: Jaumann rate s' = 2G D' + W s - s W
             sxx, syy, szz = sdev[e, 0], sdev[e, 1], sdev[e, 2]
             sxy, syz, szx = sdev[e, 3], sdev[e, 4], sdev[e, 5]
@@ -158,7 +161,7 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
             rate = math.sqrt((2.0 / 3.0) * (exx * exx + eyy * eyy + ezz * ezz
                                             + 2.0 * (dxy * dxy + dyz * dyz + dzx * dzx)))
             eps_rate[e] = rate
-            code = int(m[P.STRENGTH])
+            code = int(mat_params[mk, P.STRENGTH])
             deps = 0.0
             sy = 0.0
             if st != 0:  # damaged or fractured: no deviatoric stress (ALGORITHMS.md 4.1)
@@ -166,7 +169,7 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
             elif code != P.ELASTIC:
                 j2 = 0.5 * (nxx * nxx + nyy * nyy + nzz * nzz) + nxy * nxy + nyz * nyz + nzx * nzx
                 seq = math.sqrt(3.0 * j2)
-                deps, sy = radial_return(code, m, shear, seq, eps_p[e], rate, temperature[e])
+                deps, sy = radial_return(code, mat_params, mk, shear, seq, eps_p[e], rate, temperature[e])
                 if deps > 0.0:
                     scale = sy / seq if seq > 0.0 else 0.0
                     nxx *= scale
@@ -176,7 +179,7 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
                     nyz *= scale
                     nzx *= scale
                     eps_p[e] += deps
-                    temperature[e] += m[P.TQ] * sy * deps / (rho * m[P.CV])
+                    temperature[e] += mat_params[mk, P.TQ] * sy * deps / (rho * mat_params[mk, P.CV])
             # deviatoric work over the step with the mid-step stress and volume
             wdev = 0.5 * dt * (vold + vnew) * 0.5 * (
                 (sxx + nxx) * exx + (syy + nyy) * eyy + (szz + nzz) * ezz
@@ -198,8 +201,8 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
                 veos = 0.25 * (jnode[i0] + jnode[i1] + jnode[i2] + jnode[i3]) * vol0[e]
             else:
                 veos = vnew
-            pa, pb, c2a, c2b = eos_linear_part(int(m[P.EOS]), mass / veos, rho0, m[P.K], m[P.C0],
-                                               m[P.S], m[P.GAMMA0])
+            pa, pb, c2a, c2b = eos_linear_part(int(mat_params[mk, P.EOS]), mass / veos, rho0, mat_params[mk, P.K], mat_params[mk, P.C0],
+                                               mat_params[mk, P.S], mat_params[mk, P.GAMMA0])
             pold = pressure[e]
             dv = veos - veos_old
             c2 = c2a + c2b * max(pold, 0.0)

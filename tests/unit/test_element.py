@@ -84,20 +84,20 @@ def test_rigid_rotation_gives_no_stress():
 def test_radial_return_lands_on_yield_surface():
     mat = material(strength=Strength(model="johnson-cook", A=90e6, B=292e6, n=0.31, C=0.025, m=1.09,
                                      melt_temperature=1356.0, room_temperature=293.0))
-    mp = P.material_row(mat)
+    mp = P.material_row(mat)[None, :]
     G = mat.shear_modulus
     for seq_trial, eps0 in [(5e8, 0.0), (2e9, 0.1), (1e8, 0.5)]:
-        deps, sy = radial_return(P.JOHNSON_COOK, mp, G, seq_trial, eps0, 1e3, 300.0)
-        sy_check, _ = flow_stress(P.JOHNSON_COOK, mp, eps0 + deps, 1e3, 300.0)
+        deps, sy = radial_return(P.JOHNSON_COOK, mp, 0, G, seq_trial, eps0, 1e3, 300.0)
+        sy_check, _ = flow_stress(P.JOHNSON_COOK, mp, 0, eps0 + deps, 1e3, 300.0)
         if deps > 0:
             assert seq_trial - 3 * G * deps == pytest.approx(sy_check, rel=1e-10)
             assert sy == pytest.approx(sy_check, rel=1e-12)
         else:
             assert seq_trial <= sy_check
     # ideal plasticity: exactly Y0
-    mp[P.STRENGTH] = P.IDEAL_PLASTIC
-    mp[P.Y0] = 3e8
-    deps, sy = radial_return(P.IDEAL_PLASTIC, mp, G, 9e8, 0.0, 0.0, 300.0)
+    mp[0, P.STRENGTH] = P.IDEAL_PLASTIC
+    mp[0, P.Y0] = 3e8
+    deps, sy = radial_return(P.IDEAL_PLASTIC, mp, 0, G, 9e8, 0.0, 0.0, 300.0)
     assert sy == 3e8 and deps == pytest.approx(6e8 / (3 * G))
 
 
