@@ -79,7 +79,7 @@ def active_passes(case: Case) -> list[tuple[str, str]]:
     if case.walls:
         passes.append(("velocity", "walls"))
     if has_contact(case):
-        passes += [("velocity", name) for name in case.contact.passes]
+        passes += [("velocity", f"contact.{name}") for name in case.contact.passes]
     makes_particles = any(f.loosening is not None for f in fail)
     if makes_particles:
         passes.append(("velocity", "particle-contact"))

@@ -70,7 +70,8 @@ def test_check_prints_resolved_case_and_what_would_run(tmp_path):
     # what would run
     assert "sphere: sphere r 10 mm" in out and "≈ 35,605 tetrahedra" in out
     assert "plate: box 60 mm x 60 mm x 2 mm" in out and "≈ 345,600 tetrahedra" in out  # 120 x 120 x 4 cells x 6
-    assert "velocity passes: boundary-conditions, node-face, edge-edge, particle-contact" in out
+    assert "velocity passes: boundary-conditions, contact.node-face, contact.edge-edge, "
+            "particle-contact" in out
     assert "fracture passes: spall, loosening, particles" in out
     assert "end time: 4 us" in out
     assert result.stderr == ""
@@ -90,7 +91,7 @@ def test_check_applies_overrides(tmp_path):
                           "--set", 'contact.passes=["node-face"]')
     assert result.exit_code == 0, result.output
     assert "mesh_size = 0.002" in result.stdout
-    assert "velocity passes: boundary-conditions, node-face, particle-contact" in result.stdout
+    assert "velocity passes: boundary-conditions, contact.node-face, particle-contact" in result.stdout
 
 
 def test_single_body_has_no_contact_and_no_fracture(tmp_path):
@@ -109,4 +110,4 @@ def test_single_body_has_no_contact_and_no_fracture(tmp_path):
 def test_self_contact_turns_contact_on_for_one_body(tmp_path):
     path = tmp_path / "bar.toml"
     path.write_text(ONE_ELASTIC_BAR + "[contact]\nself_contact = true\npasses = [\"node-face\"]\n")
-    assert ("velocity", "node-face") in active_passes(load_case(path))
+    assert ("velocity", "contact.node-face") in active_passes(load_case(path))
