@@ -69,7 +69,8 @@ def test_check_prints_resolved_case_and_what_would_run(tmp_path):
     assert "velocity = [\n    0.0,\n    0.0,\n    -2000.0,\n]" in out
     # what would run
     assert "sphere: sphere r 10 mm" in out and "≈ 35,605 tetrahedra" in out
-    assert "plate: box 60 mm x 60 mm x 2 mm" in out and "≈ 345,600 tetrahedra" in out  # 120 x 120 x 4 cells x 6
+    # structured: 120 x 120 x 4 cells, 6 tets each
+    assert "plate: box 60 mm x 60 mm x 2 mm" in out and "≈ 345,600 tetrahedra" in out
     assert ("velocity passes: boundary-conditions, contact.node-face, contact.edge-edge, "
             "particle-contact") in out
     assert "fracture passes: spall, loosening, particles" in out
