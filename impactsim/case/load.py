@@ -1,4 +1,5 @@
-"""Case file -> validated ``schema.Case``: read TOML, apply overrides, convert, check, fill defaults.
+"""Case file -> validated ``schema.Case``: read TOML, apply overrides, convert, check, fill in
+defaults.
 
 Every error is a ``CaseError`` whose message starts with ``<file>: <key path>: ``.
 """

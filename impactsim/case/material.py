@@ -168,8 +168,8 @@ def _strength(mat: Reader) -> Strength:
         melt_temperature=r.get("melt_temperature"),
     )
     if not s.melt_temperature > s.room_temperature:
-        raise r.error("melt_temperature", f"must be above room_temperature "
-                                          f"({s.room_temperature:g} K), got {s.melt_temperature:g} K")
+        raise r.error("melt_temperature", f"must be above room_temperature ("
+                      f"{s.room_temperature:g} K), got {s.melt_temperature:g} K")
     return s
 
 
