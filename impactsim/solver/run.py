@@ -29,7 +29,8 @@ def frame_times(case: Case) -> np.ndarray:
     if case.output.times is not None:
         t = np.array(sorted(set(float(v) for v in case.output.times if 0.0 <= v <= end)))
     else:
-        t = np.linspace(0.0, end, case.output.frames + 1)
+        n = case.output.frames
+        t = end * np.arange(n + 1) / n  # exact end points, unlike linspace
     return t
 
 
@@ -152,8 +153,10 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
             if model.step >= case.run.max_steps:
                 stopped = f"max_steps = {case.run.max_steps} reached at t = {model.time:.6g} s"
                 break
-            limit = (times[next_frame] if next_frame < len(times) else end) - model.time
-            sim.step(limit)
+            target = times[next_frame] if next_frame < len(times) else end
+            sim.step(target - model.time)
+            if abs(model.time - target) <= eps_t:
+                model.time = float(target)  # no round-off drift of frame times
             if first_step_seconds is None:
                 first_step_seconds = wallclock.perf_counter() - start
             if model.step % case.output.history_every == 0:
