@@ -17,12 +17,13 @@ def _impose_velocity_gradient(model, grad):
     model.v[:] = (model.x - model.x.mean(axis=0)) @ np.asarray(grad).T
 
 
-def test_patch_uniform_stretch_gives_exact_stress():
+@pytest.mark.parametrize("element", ["tet4", "anp"])
+def test_patch_uniform_stretch_gives_exact_stress(element):
     """A homogeneous velocity gradient gives the same, exact stress in every element, and zero net
-    force on interior nodes (the patch test)."""
+    force on interior nodes (the patch test), for both tet formulations."""
     mat = material()
     model, _ = box_model(mat, h=0.25)
-    sim = Simulation(model, [])
+    sim = Simulation(model, [], element=element)
     d = np.array([[2.0, 0.3, 0.0], [0.3, -1.0, 0.1], [0.0, 0.1, 0.5]])  # symmetric: no spin
     dt = 1e-7
     _impose_velocity_gradient(model, d)
@@ -136,3 +137,18 @@ def test_mie_gruneisen_reproduces_hugoniot_point():
     # at the reference state the sound speed is c0
     _, _, c2a, c2b = eos_linear_part(P.MIE_GRUNEISEN, rho0, rho0, 0.0, c0, s, g0)
     assert math.sqrt(c2a) == pytest.approx(c0, rel=1e-12)
+
+
+def test_mach_number_warning():
+    """ALGORITHMS.md 1: M0 > 0.75 with a linear EOS, and any M0 > 1.5, are flagged."""
+    from impactsim.solver.pipeline import mach_warnings
+    from tests.builders import box_case
+
+    mat = material(name="m")  # C0 = sqrt(K/rho) = 4.6 km/s
+    assert mach_warnings(box_case(mat, velocity=(0, 0, -1000.0))) == []  # no wall, one body
+    case = box_case(mat, velocity=(0, 0, -4000.0))
+    from impactsim.case.schema import Wall
+    case.walls = [Wall()]
+    assert "0.75" in mach_warnings(case)[0]
+    case.bodies[0].velocity = (0, 0, -8000.0)
+    assert "1.5" in mach_warnings(case)[0]
