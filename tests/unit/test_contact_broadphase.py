@@ -1,0 +1,112 @@
+"""Broad phase: the spatial hash finds exactly the overlapping boxes, grows its buffers, and is
+deterministic."""
+
+import numpy as np
+import pytest
+
+from impactsim.contact.broadphase import SpatialHash, grid_for, swept_boxes
+
+
+def random_boxes(rng, n, size=1.0, extent=10.0):
+    lo = rng.uniform(0.0, extent, size=(n, 3))
+    hi = lo + rng.uniform(0.0, size, size=(n, 3))
+    return lo, hi
+
+
+def brute(qlo, qhi, elo, ehi, qbody, ebody, same_set):
+    out = set()
+    for i in range(len(qlo)):
+        for j in range(len(elo)):
+            if same_set and j <= i or qbody[i] == ebody[j]:
+                continue
+            if np.all(qlo[i] <= ehi[j]) and np.all(elo[j] <= qhi[i]):
+                out.add((i, j))
+    return out
+
+
+def test_swept_boxes_cover_the_motion():
+    x = np.array([[0.0, 0.0, 0.0], [1.0, 2.0, 3.0], [5.0, 5.0, 5.0]])
+    v = np.array([[1.0, -1.0, 0.0], [0.0, 0.0, -10.0], [0.0, 0.0, 0.0]])
+    ent = np.array([[0, 1], [2, 2]], dtype=np.int32)
+    lo = np.empty((2, 3))
+    hi = np.empty((2, 3))
+    swept_boxes(x, v, 0.5, ent, 0.1, lo, hi)
+    np.testing.assert_allclose(lo[0], [-0.1, -0.6, -2.1])
+    np.testing.assert_allclose(hi[0], [1.1, 2.1, 3.1])
+    np.testing.assert_allclose(lo[1], [4.9, 4.9, 4.9])
+
+
+@pytest.mark.parametrize("cell", [0.3, 1.0, 4.0])
+def test_pairs_equal_brute_force(cell):
+    rng = np.random.default_rng(7)
+    qlo, qhi = random_boxes(rng, 150, size=0.8)
+    elo, ehi = random_boxes(rng, 120, size=1.5)
+    qbody = rng.integers(0, 3, 150).astype(np.int32)
+    ebody = rng.integers(0, 3, 120).astype(np.int32)
+    qent = np.arange(150, dtype=np.int32).reshape(-1, 1)
+    eent = np.arange(1000, 1120, dtype=np.int32).reshape(-1, 1)
+    origin, h = grid_for([(qlo, qhi), (elo, ehi)], cell)
+    hs = SpatialHash(entry_capacity=16, pair_capacity=16)  # forces growth
+    hs.build(elo, ehi, origin, h)
+    pairs = hs.query(qlo, qhi, qent, qbody, eent, ebody, False, False)
+    assert hs.grows >= 2
+    assert {tuple(p) for p in pairs} == brute(qlo, qhi, elo, ehi, qbody, ebody, False)
+    assert len({tuple(p) for p in pairs}) == len(pairs)  # each pair once
+    keys = pairs[:, 0] * 120 + pairs[:, 1]
+    assert np.all(np.diff(keys) > 0)  # sorted
+
+
+def test_same_set_and_self_contact_filters():
+    rng = np.random.default_rng(3)
+    lo, hi = random_boxes(rng, 100, size=2.0, extent=6.0)
+    body = np.zeros(100, np.int32)
+    body[50:] = 1
+    ent = rng.integers(0, 60, size=(100, 2)).astype(np.int32)
+    origin, h = grid_for([(lo, hi)], 1.0)
+    hs = SpatialHash()
+    hs.build(lo, hi, origin, h)
+    pairs = {tuple(p) for p in hs.query(lo, hi, ent, body, ent, body, True, False)}
+    assert pairs == brute(lo, hi, lo, hi, body, body, True)
+    # self contact: same-body pairs come back unless they share a node
+    pairs_sc = {tuple(p) for p in hs.query(lo, hi, ent, body, ent, body, True, True)}
+    extra = pairs_sc - pairs
+    assert extra and all(body[i] == body[j] and not set(ent[i]) & set(ent[j]) for i, j in extra)
+    everything = brute(lo, hi, lo, hi, body, np.full(100, 9, np.int32), True)
+    assert pairs_sc == {(i, j) for i, j in everything
+                        if body[i] != body[j] or not set(ent[i]) & set(ent[j])}
+
+
+def test_result_does_not_depend_on_cell_size_or_capacity():
+    rng = np.random.default_rng(11)
+    qlo, qhi = random_boxes(rng, 80)
+    elo, ehi = random_boxes(rng, 90)
+    qb = np.zeros(80, np.int32)
+    eb = np.ones(90, np.int32)
+    qe = np.zeros((80, 1), np.int32)
+    ee = np.zeros((90, 1), np.int32)
+    results = []
+    for cell, cap in ((0.5, 16), (2.0, 10_000), (0.5, 10_000)):
+        origin, h = grid_for([(qlo, qhi), (elo, ehi)], cell)
+        hs = SpatialHash(entry_capacity=cap, pair_capacity=cap)
+        hs.build(elo, ehi, origin, h)
+        results.append(hs.query(qlo, qhi, qe, qb, ee, eb, False, False))
+    for r in results[1:]:
+        np.testing.assert_array_equal(r, results[0])
+
+
+def test_non_finite_boxes_are_an_error():
+    lo = np.array([[0.0, 0.0, np.nan]])
+    with pytest.raises(FloatingPointError):
+        grid_for([(lo, lo + 1.0)], 1.0)
+
+
+def test_huge_extent_keeps_the_grid_within_its_key_range():
+    lo = np.array([[0.0, 0.0, 0.0], [1e6, 0.0, 0.0]])
+    hi = lo + 1e-3
+    origin, h = grid_for([(lo, hi)], 1e-3)
+    assert (1e6 + 1e-3) / h < 2**21
+    hs = SpatialHash()
+    hs.build(lo, hi, origin, h)
+    body = np.array([0, 1], np.int32)
+    ent = np.array([[0], [1]], np.int32)
+    assert len(hs.query(lo, hi, ent, body, ent, body, True, False)) == 0

@@ -1,0 +1,96 @@
+"""The independent penetration measure (history.csv max_penetration)."""
+
+import numpy as np
+import pytest
+
+from impactsim.contact.diagnostics import (PenetrationMeter, max_penetration,
+                                           point_triangle_distance)
+from impactsim.contact.surface import Surface
+from impactsim.mesh.structured import structured_box
+
+
+def rot(axis, deg):
+    a = np.radians(deg)
+    c, s = np.cos(a), np.sin(a)
+    i, j = [k for k in range(3) if k != axis]
+    r = np.eye(3)
+    r[i, i], r[i, j], r[j, i], r[j, j] = c, -s, s, c
+    return r
+
+
+def assemble(parts):
+    """parts: [(points, tets)] -> x, conn, elem_body, surface."""
+    xs, conns, bodies, off = [], [], [], 0
+    for b, (p, t) in enumerate(parts):
+        xs.append(p)
+        conns.append(t + off)
+        bodies.append(np.full(len(t), b))
+        off += len(p)
+    x = np.vstack(xs)
+    conn = np.vstack(conns).astype(np.int32)
+    eb = np.concatenate(bodies).astype(np.int32)
+    return x, conn, eb, Surface(conn, eb)
+
+
+def measure(parts, status=None):
+    x, conn, eb, s = assemble(parts)
+    if status is not None:
+        s.sync(status)
+    return PenetrationMeter().measure(x, conn, eb, status, s)
+
+
+def box(size, h, centre):
+    p, t = structured_box(size, h)
+    return p + np.asarray(centre, float), t
+
+
+def test_point_triangle_distance():
+    tri = (0, 0, 0, 1, 0, 0, 0, 1, 0)
+    assert point_triangle_distance(0.2, 0.2, 0.5, *tri) == pytest.approx(0.5)
+    assert point_triangle_distance(-1.0, 0.0, 0.0, *tri) == pytest.approx(1.0)
+    assert point_triangle_distance(1.0, 1.0, 0.0, *tri) == pytest.approx(np.sqrt(0.5))
+
+
+@pytest.mark.parametrize("delta", [1e-3, 0.05])
+def test_overlapping_boxes_report_the_overlap(delta):
+    out = measure([box((1, 1, 1), 0.5, (0, 0, 0)), box((1, 1, 1), 0.5, (0.1, 0.2, 1 - delta))])
+    assert out["nodes_inside"] > 0
+    assert out["max_penetration"] == pytest.approx(delta, rel=1e-9)
+
+
+def test_separate_and_touching_boxes_report_zero():
+    assert measure([box((1, 1, 1), 0.5, (0, 0, 0)),
+                    box((1, 1, 1), 0.5, (0, 0, 1.001))])["max_penetration"] == 0.0
+    touching = measure([box((1, 1, 1), 0.5, (0, 0, 0)), box((1, 1, 1), 0.5, (0.25, 0, 1.0))])
+    assert touching["max_penetration"] <= 1e-15
+
+
+def test_deep_penetration_is_the_distance_to_the_surface():
+    out = measure([box((4, 4, 4), 0.5, (0, 0, 0)), box((0.5, 0.5, 0.5), 0.25, (0.3, 0, 0))])
+    # the deepest boundary node of the small box is the centre of its face at x = 0.05
+    assert out["max_penetration"] == pytest.approx(2.0 - 0.05, rel=1e-12)
+
+
+def test_edges_cutting_through_faces_with_all_nodes_outside():
+    # two unit cubes (6 tets each) meeting edge to edge with perpendicular edges, crossed by
+    # delta: no node of either is inside the other, only edges cut through faces
+    delta = 0.01
+    p1, t1 = structured_box((1, 1, 1), 1.0)
+    p2, t2 = structured_box((1, 1, 1), 1.0)
+    p1 = p1 @ rot(2, 45).T
+    p2 = p2 @ rot(1, 45).T + [np.sqrt(2) - delta, 0, 0]
+    out = measure([(p1, t1), (p2, t2)])
+    assert out["nodes_inside"] == 0 and out["edge_cuts"] > 0
+    # the true depth is delta / sqrt(2); the measure is within a factor of two of it
+    assert 0.5 * delta / np.sqrt(2) <= out["max_penetration"] <= 2.0 * delta
+    p2 = p2 + [2 * delta, 0, 0]
+    assert max_penetration(*assemble([(p1, t1), (p2, t2)])[:3], None,
+                           assemble([(p1, t1), (p2, t2)])[3]) == 0.0
+
+
+def test_eroded_elements_do_not_count():
+    a = box((1, 1, 1), 0.5, (0, 0, 0))
+    b = box((1, 1, 1), 0.5, (0, 0, 0.99))
+    status = np.zeros(len(a[1]) + len(b[1]), np.int8)
+    status[:] = 3  # everything eroded
+    assert measure([a, b], status)["max_penetration"] == 0.0

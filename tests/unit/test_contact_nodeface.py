@@ -1,0 +1,201 @@
+"""Node-face pass (ALGORITHMS.md 3.1) on hand-built arrays."""
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from impactsim.contact.nodeface import node_face_correct, node_face_sweep
+from impactsim.contact.passes import ContactContext, NodeFacePass
+
+EPS = 1e-6
+
+
+def setup(p, v_p, face, v_face, masses=(1.0, 2.0, 3.0, 4.0)):
+    """Node 0 = p, nodes 1..3 = face (a, b, c) with outward normal (b - a) x (c - a)."""
+    x = np.vstack([p, face]).astype(float)
+    v = np.vstack([v_p, v_face]).astype(float)
+    return x, v, np.array(masses, float)
+
+
+def crossing_reference(x, v, tau):
+    """Earliest t in [0, tau] with the node in the face's plane and inside the triangle, its
+    barycentric weights and unit normal, from np.roots (independent of the kernel)."""
+    A = np.array([x[2] - x[1], x[3] - x[1], x[0] - x[1]]).T
+    B = tau * np.array([v[2] - v[1], v[3] - v[1], v[0] - v[1]]).T
+    ss = np.linspace(0, 1, 4)  # det(A + s B) is a cubic in s = t / tau: fit it exactly
+    coef = np.polyfit(ss, [np.linalg.det(A + s * B) for s in ss], 3)
+    for s in sorted(r.real for r in np.roots(coef) if abs(r.imag) < 1e-12):
+        r = s * tau
+        if 0 <= r <= tau:
+            y = x + r * v
+            e1, e2, q = y[2] - y[1], y[3] - y[1], y[0] - y[1]
+            wb, wc = np.linalg.lstsq(np.array([e1, e2]).T, q, rcond=None)[0]
+            w = np.array([1 - wb - wc, wb, wc])
+            if w.min() >= -1e-9:
+                n = np.cross(e1, e2)
+                return r, w, n / np.linalg.norm(n)
+    return None
+
+
+def momentum(v, m):
+    return (m[:, None] * v).sum(axis=0)
+
+
+def test_crossing_node_and_face_leave_with_equal_normal_velocity():
+    rng = np.random.default_rng(0)
+    tau = 1e-6
+    done = 0
+    for trial in range(40):
+        face = rng.normal(size=(3, 3)) * 1e-2
+        n = np.cross(face[1] - face[0], face[2] - face[0])
+        n /= np.linalg.norm(n)
+        w = rng.dirichlet([2, 2, 2])
+        p = w @ face + n * rng.uniform(1e-5, 1e-4)
+        v_face = rng.normal(size=(3, 3)) * 10.0
+        v_p = w @ v_face - n * rng.uniform(150, 300) + rng.normal(size=3) * 5
+        x, v, m = setup(p, v_p, face, v_face, masses=rng.uniform(0.5, 2.0, 4))
+        ref = crossing_reference(x, v, tau)
+        v_before = v.copy()
+        J = node_face_correct(0, 1, 2, 3, x, v, m, tau, 0.0, 0.0, EPS)
+        if ref is None:
+            assert J == 0.0 and np.array_equal(v, v_before)
+            continue
+        done += 1
+        t, w, n = ref
+        assert J > 0
+        np.testing.assert_allclose(momentum(v, m), momentum(v_before, m), rtol=0, atol=1e-13 * J)
+        rel = (v[0] - w @ v[1:]) @ n
+        assert abs(rel) <= 1e-10 * np.abs(v_before).max()
+        # the impulse is along the normal: tangential velocities untouched
+        for k in range(4):
+            dv = v[k] - v_before[k]
+            np.testing.assert_allclose(dv - (dv @ n) * n, 0.0, atol=1e-12 * np.abs(dv).max())
+        # normal impulse: node pushed out (+n), face pushed in, weights w
+        np.testing.assert_allclose(m[0] * (v[0] - v_before[0]), J * n, rtol=1e-9)
+        for i in range(3):
+            np.testing.assert_allclose(m[i + 1] * (v[i + 1] - v_before[i + 1]), -w[i] * J * n,
+                                       rtol=1e-7, atol=1e-12 * J)
+    assert done >= 20
+
+
+def test_separating_pairs_are_untouched():
+    face = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
+    tau = 1e-3
+    cases = [
+        ([0.2, 0.2, 0.05], [0, 0, +10.0]),  # above, moving away
+        ([0.2, 0.2, 0.05], [5.0, 0, 0]),  # above, sliding parallel
+        ([0.2, 0.2, -1e-9], [0, 0, +10.0]),  # a hair inside, leaving
+        ([0.2, 0.2, -0.01], [0, 0, +100.0]),  # inside (deeper than the band), leaving
+        ([0.2, 0.2, -0.01], [0, 0, -100.0]),  # inside, going deeper: not this pass's business
+        ([0.9, 0.9, 0.01], [0, 0, -100.0]),  # crosses the plane outside the triangle
+    ]
+    for p, vp in cases:
+        x, v, m = setup(p, vp, face, np.zeros((3, 3)))
+        v0 = v.copy()
+        assert node_face_correct(0, 1, 2, 3, x, v, m, tau, 0.0, 1e-6, EPS) == 0.0
+        assert np.array_equal(v, v0), p
+
+
+def test_touching_node_within_the_band_is_held():
+    face = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
+    x, v, m = setup([0.2, 0.2, -1e-9], [0, 0, -5.0], face, np.zeros((3, 3)))
+    J = node_face_correct(0, 1, 2, 3, x, v, m, 1e-3, 0.0, 1e-6, EPS)
+    assert J > 0
+    assert abs(v[0, 2] - (0.6 * v[1, 2] + 0.2 * v[2, 2] + 0.2 * v[3, 2])) < 1e-14
+    # without a band it is not seen (it starts behind the plane)
+    x, v, m = setup([0.2, 0.2, -1e-9], [0, 0, -5.0], face, np.zeros((3, 3)))
+    assert node_face_correct(0, 1, 2, 3, x, v, m, 1e-3, 0.0, 0.0, EPS) == 0.0
+
+
+def test_node_hitting_a_vertex_or_an_edge_is_caught():
+    face = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
+    for p in ([0.0, 0.0, 0.01], [0.5, 0.0, 0.01], [0.5, 0.5, 0.01]):
+        x, v, m = setup(p, [0, 0, -100.0], face, np.zeros((3, 3)))
+        assert node_face_correct(0, 1, 2, 3, x, v, m, 1e-3, 0.0, 0.0, EPS) > 0, p
+
+
+def test_degenerate_face_gives_no_nan():
+    face = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0]], float)
+    x, v, m = setup([0.5, 0.0, 0.01], [0, 0, -100.0], face, np.zeros((3, 3)))
+    assert node_face_correct(0, 1, 2, 3, x, v, m, 1e-3, 0.0, 1e-6, EPS) == 0.0
+    assert np.all(np.isfinite(v))
+
+
+@pytest.mark.parametrize("mu", [0.1, 10.0])
+def test_coulomb_friction(mu):
+    face = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
+    x, v, m = setup([0.2, 0.3, 0.01], [30.0, -10.0, -100.0], face, np.zeros((3, 3)),
+                    masses=(1.0, 2.0, 1.5, 3.0))
+    v0 = v.copy()
+    J = node_face_correct(0, 1, 2, 3, x, v, m, 1e-3, mu, 0.0, EPS)
+    np.testing.assert_allclose(momentum(v, m), momentum(v0, m), atol=1e-12)
+    dv_t = m[0] * (v[0, :2] - v0[0, :2])  # tangential impulse on the node
+    assert np.linalg.norm(dv_t) <= mu * J * (1 + 1e-12)
+    assert dv_t @ v0[0, :2] < 0  # opposes sliding
+    w = np.array([1 - 0.203 - 0.299, 0.203, 0.299])  # at the crossing, t = 1e-4
+    rel_t = v[0, :2] - w @ v[1:, :2]
+    if mu == 10.0:  # enough friction to stick
+        np.testing.assert_allclose(rel_t, 0.0, atol=1e-12)
+    else:
+        assert np.linalg.norm(rel_t) > 0
+
+
+def test_sweep_is_sequential_and_bit_identical():
+    # one node falling on two faces that share an edge: the second pair sees the first's result
+    x = np.array([[0.5, 0.5, 0.01], [0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    faces = np.array([[1, 2, 3], [1, 3, 4]], np.int32)
+    v = np.zeros((5, 3))
+    v[0, 2] = -50.0
+    m = np.array([1.0, 1.0, 1.0, 1.0, 1.0])
+    nodes = np.array([0], np.int32)
+    pairs = np.array([[0, 0], [0, 1]], np.int64)
+    results = []
+    for _ in range(2):
+        vv = v.copy()
+        applied, total = node_face_sweep(pairs, nodes, faces, x, vv, m, 1e-3, 0.0, 0.0, EPS)
+        results.append((applied, total, vv))
+    assert results[0][0] == 1  # the second face sees a node that no longer approaches
+    assert results[0][1] == results[1][1] and np.array_equal(results[0][2], results[1][2])
+    np.testing.assert_allclose(momentum(results[0][2], m), momentum(v, m), atol=1e-13)
+
+
+def model_of(x, v, conn, elem_body, mass=None):
+    nb = np.zeros(len(x), np.int32)
+    for t, b in zip(conn, elem_body):
+        nb[t] = b
+    return SimpleNamespace(x=x, v=v, conn=np.asarray(conn, np.int32),
+                           elem_body=np.asarray(elem_body, np.int32), node_body=nb,
+                           status=np.zeros(len(conn), np.int8),
+                           mass=np.ones(len(x)) if mass is None else mass, n_node=len(x),
+                           n_body=int(max(elem_body)) + 1, step=0)
+
+
+def test_point_passing_straight_through_a_thin_tet_within_one_step():
+    # body 0: a thin tet (0.1 mm thick); body 1: a tet whose apex moves through it in one step
+    thin = [[0, 0, 0], [0.01, 0, 0], [0, 0.01, 0], [0.002, 0.002, -1e-4]]
+    spike = [[0.003, 0.003, 2e-4], [0.003, 0.003, 0.01], [0.013, 0.003, 0.01],
+             [0.003, 0.013, 0.01]]
+    x = np.array(thin + spike, float)
+    conn = np.array([[0, 1, 2, 3], [4, 5, 6, 7]])
+    for t in conn:  # positive orientation
+        a = x[t[0]]
+        if np.linalg.det(np.array([x[t[1]] - a, x[t[2]] - a, x[t[3]] - a])) < 0:
+            t[[1, 2]] = t[[2, 1]]
+    v = np.zeros_like(x)
+    v[4:, 2] = -1000.0
+    dt = 1e-6  # the apex travels 1 mm: from 0.2 mm above to 0.8 mm below the thin tet
+    # the end state alone would show nothing: the apex is outside the thin tet at t + dt
+    end = x[4] + dt * v[4]
+    assert end[2] < -1e-4
+    model = model_of(x.copy(), v.copy(), conn, [0, 1])
+    p = NodeFacePass(ContactContext(model))
+    p.run(model, dt)
+    assert p.ctx.last[p.name]["pairs"] >= 1
+    # after the correction the apex ends on or above the (moved) top face of the thin tet
+    x1 = model.x + dt * model.v
+    top = [t for t in p.ctx.surface.faces if 3 not in t and 0 in t and 1 in t and 2 in t][0]
+    n = np.cross(x1[top[1]] - x1[top[0]], x1[top[2]] - x1[top[0]])
+    assert (x1[4] - x1[top[0]]) @ n / np.linalg.norm(n) >= -1e-12
+    np.testing.assert_allclose(momentum(model.v, model.mass), momentum(v, model.mass),
+                               atol=1e-12)

@@ -1,0 +1,84 @@
+"""Contact surfaces: per-body boundary faces/edges/nodes, and incremental erosion == rebuild."""
+
+import numpy as np
+
+from impactsim.contact.surface import ERODED, Surface
+from impactsim.mesh.structured import structured_box
+from impactsim.mesh.topology import boundary_edges, boundary_faces, boundary_nodes
+
+
+def two_bodies():
+    x1, t1 = structured_box((1.0, 1.0, 1.0), 0.5)
+    x2, t2 = structured_box((1.0, 2.0, 1.0), 0.5)
+    x2 = x2 + [0.0, 0.0, 1.5]
+    conn = np.vstack([t1, t2 + len(x1)]).astype(np.int32)
+    elem_body = np.repeat([0, 1], [len(t1), len(t2)]).astype(np.int32)
+    node_body = np.repeat([0, 1], [len(x1), len(x2)]).astype(np.int32)
+    return np.vstack([x1, x2]), conn, elem_body, node_body
+
+
+def same_surface(a: Surface, b: Surface):
+    for name in ("faces", "face_elem", "face_local", "face_body", "face_edges", "edges",
+                 "edge_body", "edge_mesh", "nodes", "node_body"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+    np.testing.assert_array_equal(a.edge_count, b.edge_count)
+    np.testing.assert_array_equal(a.node_count, b.node_count)
+
+
+def test_surface_of_two_bodies():
+    x, conn, eb, nb = two_bodies()
+    s = Surface(conn, eb, node_body=nb)
+    faces, elem, local = boundary_faces(conn)
+    np.testing.assert_array_equal(s.faces, faces)
+    np.testing.assert_array_equal(s.face_elem, elem)
+    np.testing.assert_array_equal(s.face_body, eb[elem])
+    np.testing.assert_array_equal(s.edges, boundary_edges(faces))
+    np.testing.assert_array_equal(s.nodes, boundary_nodes(faces))
+    np.testing.assert_array_equal(s.node_body, nb[s.nodes])
+    np.testing.assert_array_equal(s.edge_body, nb[s.edges[:, 0]])
+    # face_edges point at the face's own edges; a closed surface uses each edge twice
+    fe = np.sort(s.edges[s.face_edges].reshape(len(faces), -1), axis=1)
+    pairs = np.sort(faces[:, [0, 1, 1, 2, 2, 0]], axis=1)
+    np.testing.assert_array_equal(fe, pairs)
+    assert np.all(s.edge_count[s.edge_mesh] == 2)
+    # node_body derived from the elements when not given
+    same_surface(s, Surface(conn, eb))
+    assert s.mean_edge_length(x) > 0.4
+
+
+def test_incremental_erosion_equals_rebuild():
+    x, conn, eb, nb = two_bodies()
+    rng = np.random.default_rng(1)
+    s = Surface(conn, eb, node_body=nb)
+    status = np.zeros(len(conn), np.int8)
+    for _ in range(8):
+        batch = rng.choice(len(conn), size=7, replace=False)
+        status[batch] = ERODED
+        s.remove_elements(batch)
+        same_surface(s, Surface(conn, eb, status=status, node_body=nb))
+        faces, _, _ = boundary_faces(conn, status != ERODED)
+        np.testing.assert_array_equal(s.faces, faces)
+    # removing dead elements again changes nothing
+    v = s.version
+    assert s.remove_elements(np.flatnonzero(status == ERODED)) == 0 and s.version == v
+
+
+def test_sync_follows_status_and_rebuilds_on_revival():
+    x, conn, eb, nb = two_bodies()
+    s = Surface(conn, eb, node_body=nb)
+    status = np.zeros(len(conn), np.int8)
+    assert not s.sync(status)
+    status[[0, 5, 40]] = ERODED
+    assert s.sync(status)
+    same_surface(s, Surface(conn, eb, status=status, node_body=nb))
+    status[5] = 0
+    assert s.sync(status)
+    same_surface(s, Surface(conn, eb, status=status, node_body=nb))
+
+
+def test_everything_eroded_leaves_an_empty_surface():
+    x, conn, eb, nb = two_bodies()
+    s = Surface(conn, eb, node_body=nb)
+    s.remove_elements(np.arange(len(conn)))
+    assert s.n_faces == 0 and s.n_edges == 0 and s.n_nodes == 0
+    assert s.mean_edge_length(x) == 0.0
