@@ -12,6 +12,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from impactsim.case.body import read_body, read_wall
+from impactsim.output.fields import FRAME_FIELDS
 from impactsim.case.errors import CaseError, KeyPath, suggest
 from impactsim.case.material import library_material, library_names, read_material
 from impactsim.case.overrides import apply_overrides
@@ -168,6 +169,10 @@ def _output(r: Reader, run: Run) -> Output:
     fields = r.get("fields")
     if fields is not None:
         _unique_items(fields, r.at("fields"))
+        for i, name in enumerate(fields):
+            if name not in FRAME_FIELDS:
+                raise r.at(f"fields[{i}]").error(
+                    f"unknown field '{name}'" + suggest(name, FRAME_FIELDS))
     return Output(
         directory=r.get("directory"),
         frames=int(positive(r.get("frames"), r.at("frames"))),

@@ -42,6 +42,7 @@ def frame_fields(model: Model) -> tuple[dict, dict]:
     sigma = s.copy()
     sigma[:, :3] -= model.pressure[:, None]
     vm = np.sqrt(1.5 * (np.sum(s[:, :3] ** 2, axis=1) + 2.0 * np.sum(s[:, 3:] ** 2, axis=1)))
+    # the keys are impactsim.output.fields.FRAME_FIELDS
     point = {"velocity": model.v, "displacement": model.x - model.x0}
     cell = {"stress": voigt_to_tensor(sigma), "pressure": model.pressure, "von_mises": vm,
             "plastic_strain": model.eps_p, "temperature": model.temperature,
@@ -128,6 +129,9 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
             point = {k: v for k, v in point.items() if k in fields}
             cell = {k: v for k, v in cell.items() if k in fields}
         series.write(model.time, model.x, model.conn, point, cell, keep=model.status != ERODED)
+        for pa in passes:  # passes with their own series (particles) write with every frame
+            if hasattr(pa, "frame"):
+                pa.frame(model, model.time, out)
         t_out += wallclock.perf_counter() - t1
 
     def history_row():
@@ -202,8 +206,16 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
         "versions": {"impactsim": _version(), "numpy": np.__version__,
                      "numba": numba.__version__, "python": platform.python_version()},
     }
-    for p in passes:
-        summary.update(p.summary(model))
+    for p in passes:  # one level deep: a pass may add keys to an existing table ("bodies")
+        for key, val in p.summary(model).items():
+            if isinstance(val, dict) and isinstance(summary.get(key), dict):
+                for k2, v2 in val.items():
+                    if isinstance(v2, dict) and isinstance(summary[key].get(k2), dict):
+                        summary[key][k2].update(v2)
+                    else:
+                        summary[key][k2] = v2
+            else:
+                summary[key] = val
     write_summary(out / "summary.json", summary)
     if progress:
         bar.log(_timing_table(timings, wall))

@@ -89,3 +89,16 @@ velocity = [0, 0, "-2e5 m/s"]
     assert summary["stopped"]
     frames = read_collection(out / "series.pvd")
     assert frames[-1][0] == summary["time"] > 0.0  # the last frame is the state at the stop
+
+
+def test_unknown_output_field_is_named(tmp_path):
+    result, _ = _run(tmp_path, BAR + 'fields = ["velocity", "von_mise"]\n')
+    assert result.exit_code == 2
+    assert "output.fields[1]" in result.output and "von_mises" in result.output
+
+
+def test_selected_fields_only(tmp_path):
+    result, out = _run(tmp_path, BAR + 'fields = ["velocity", "pressure"]\n')
+    assert result.exit_code == 0, result.output
+    mesh = meshio.read(read_collection(out / "series.pvd")[-1][1])
+    assert set(mesh.cell_data) == {"pressure"} and set(mesh.point_data) == {"velocity"}
