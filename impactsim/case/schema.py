@@ -124,7 +124,7 @@ class Run:
     q_linear: float = 0.06  # artificial viscosity C_l
     max_steps: int = 10_000_000
     dt_collapse: float = 1.0e-3  # stop when dt < dt_collapse * initial dt
-    threads: int = 0  # numba threads; 0 = all
+    threads: int = 0  # numba threads; 0 = automatic (1 below 50k elements, else all)
 
 
 @dataclass

@@ -135,7 +135,7 @@ RUN = Table("run", "Time integration and run control.", (
     Key("max_steps", "int", "Stop after this many steps (>= 1).", _d(schema.Run, "max_steps")),
     Key("dt_collapse", "number", "Stop when the time step falls below this fraction of the "
         "initial one (a collapsing element), in (0, 1).", _d(schema.Run, "dt_collapse")),
-    Key("threads", "int", "Numba threads; 0 = all cores.", _d(schema.Run, "threads")),
+    Key("threads", "int", "Numba threads; 0 = automatic: one thread below 50 000 elements, all cores above.", _d(schema.Run, "threads")),
 ))
 
 STRENGTH = Table("strength", "Deviatoric strength model. Keys other than `model` apply to one "

@@ -65,6 +65,20 @@ def body_summary(model: Model) -> dict:
     return out
 
 
+SMALL_MESH = 50_000  # elements; below this one thread beats two (launch and wait costs)
+
+
+def thread_count(requested: int, n_elem: int) -> int:
+    """Numba threads for a run: the case's run.threads, or when 0 one thread for small meshes
+    (a parallel launch per kernel costs more than it gains there, above all on a busy machine)
+    and every thread otherwise."""
+    import numba
+
+    if requested > 0:
+        return min(requested, numba.config.NUMBA_NUM_THREADS)
+    return 1 if n_elem < SMALL_MESH else numba.config.NUMBA_NUM_THREADS
+
+
 def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
              meshes: list | None = None) -> dict:
     """Run `case`, writing series.pvd + frames, history.csv, summary.json and case.resolved.toml
@@ -82,8 +96,6 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
     out = Path(out_dir) if out_dir is not None else (
         case.output.directory or Path("out") / case.run.name)
     out.mkdir(parents=True, exist_ok=True)
-    if case.run.threads > 0:
-        numba.set_num_threads(min(case.run.threads, numba.config.NUMBA_NUM_THREADS))
     bar = Progress(case.run.end_time, enabled=progress)
     timings: dict[str, float] = {}
 
@@ -98,6 +110,7 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
         model = build_model(case, meshes)
     except ValueError as err:
         raise SimulationError(f"{case.run.name}: {err}") from err
+    numba.set_num_threads(thread_count(case.run.threads, model.n_elem))
     passes = build_passes(case, model)
     bar.log(f"{case.run.name}: {model.n_node} nodes, {model.n_elem} elements, "
             f"{model.n_body} bodies; passes: " + (", ".join(p.name for p in passes) or "none"))
