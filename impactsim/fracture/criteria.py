@@ -1,0 +1,145 @@
+"""Per-element fracture criteria (ALGORITHMS.md 4.1 and 4.2): one kernel over all elements.
+
+Per live element e, after the element update of the step:
+
+1. Spall [D19 after Fomin et al.]: an intact element whose largest principal stress of
+   sigma = s - p I exceeds the material's spall strength becomes DAMAGED (the element kernel
+   then keeps only bulk compression: zero deviator, p >= 0).
+2. Loosening: a damaged element with chi = 1 - V0/V > chi* becomes FRACTURED (zero pressure).
+3. Johnson-Cook damage (materials with erosion = "jc-damage"): D += d eps_p / eps_f with
+   eps_f = (D1 + D2 exp(D3 s*)) (1 + D4 ln max(eps_dot*, 1)) (1 + D5 T*), s* = -p / sigma_eq the
+   stress triaxiality (capped at 1.5 as usual, where the fit is unreliable), T* the homologous
+   temperature of the strength model.
+4. What leaves the mesh this step (``action``):
+   PARTICLE  a FRACTURED element with a face on the body surface (4.1: one or several particles),
+             unless the material's erosion criterion is "fractured" (then it erodes);
+   ERODE     the material's erosion criterion holds (plastic strain, JC damage D >= value,
+             maximum principal strain, or the fractured state) in an element on the surface
+             (``surface_only``, as [R20] does) or anywhere;
+   GUARD     distortion guard (materials with failure data only): the element would invert (volume below GUARD_FRACTION of V0)
+             within about two steps at the current velocities. It is eroded like ERODE; without
+             it, a fractured cell (no pressure) crushed between its neighbours stops the run.
+Only one layer leaves per step: an element exposed by this step's deletions is judged next step
+(a disturbance spreads one cell per step, as in the contact passes).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+
+from impactsim.fracture.principal import max_principal, max_principal_stretch
+from impactsim.materials import params as P
+from impactsim.model import DAMAGED, ERODED, FRACTURED, INTACT
+
+NONE, PARTICLE, ERODE, GUARD = 0, 1, 2, 3
+GUARD_FRACTION = 0.01  # [-] predicted V / V0 below which the distortion guard removes a cell
+TRIAXIALITY_CAP = 1.5
+
+
+@numba.njit(cache=True, inline="always")
+def _volume6(x, v, h, i0, i1, i2, i3):
+    """Six times the volume of the tet at positions x + h v."""
+    ax = x[i1, 0] + h * v[i1, 0] - x[i0, 0] - h * v[i0, 0]
+    ay = x[i1, 1] + h * v[i1, 1] - x[i0, 1] - h * v[i0, 1]
+    az = x[i1, 2] + h * v[i1, 2] - x[i0, 2] - h * v[i0, 2]
+    bx = x[i2, 0] + h * v[i2, 0] - x[i0, 0] - h * v[i0, 0]
+    by = x[i2, 1] + h * v[i2, 1] - x[i0, 1] - h * v[i0, 1]
+    bz = x[i2, 2] + h * v[i2, 2] - x[i0, 2] - h * v[i0, 2]
+    cx = x[i3, 0] + h * v[i3, 0] - x[i0, 0] - h * v[i0, 0]
+    cy = x[i3, 1] + h * v[i3, 1] - x[i0, 1] - h * v[i0, 1]
+    cz = x[i3, 2] + h * v[i3, 2] - x[i0, 2] - h * v[i0, 2]
+    return ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
+
+
+@numba.njit(cache=True, inline="always")
+def jc_fracture_strain(mat_params, mk, pressure, seq, rate, temperature):
+    """Johnson-Cook (1985) fracture strain eps_f at triaxiality -p/seq, rate and temperature."""
+    tri = -pressure / seq if seq > 0.0 else TRIAXIALITY_CAP
+    if tri > TRIAXIALITY_CAP:
+        tri = TRIAXIALITY_CAP
+    d1 = mat_params[mk, P.JC_D1]
+    d2 = mat_params[mk, P.JC_D1 + 1]
+    d3 = mat_params[mk, P.JC_D1 + 2]
+    d4 = mat_params[mk, P.JC_D1 + 3]
+    d5 = mat_params[mk, P.JC_D1 + 4]
+    ref = mat_params[mk, P.EPSDOT0]
+    rstar = rate / ref if ref > 0.0 else 1.0
+    fr = 1.0 + d4 * math.log(rstar) if rstar > 1.0 else 1.0
+    tr, tm = mat_params[mk, P.T_ROOM], mat_params[mk, P.T_MELT]
+    ts = (temperature - tr) / (tm - tr) if tm > tr else 0.0
+    ts = min(max(ts, 0.0), 1.0)
+    ef = (d1 + d2 * math.exp(d3 * tri)) * fr * (1.0 + d5 * ts)
+    return max(ef, 1e-9)
+
+
+@numba.njit(cache=True, parallel=True)
+def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p,
+                      eps_p_prev, damage, eps_rate, temperature, mat_params, face_flag,
+                      surface_only, dt, action):
+    """Apply spall and loosening to ``status`` and decide ``action (e,) int8`` (module docstring).
+
+    face_flag (4e,) bool boundary faces (impactsim.contact.surface.Surface.face_flag).
+    eps_p_prev (e,) plastic strain at the previous call (updated here). Returns
+    (newly damaged, newly fractured, elements with an action).
+    """
+    n_elem = conn.shape[0]
+    n_dam = 0
+    n_frac = 0
+    n_act = 0
+    for e in numba.prange(n_elem):
+        action[e] = NONE
+        st = status[e]
+        if st == ERODED:
+            continue
+        mk = elem_mat[e]
+        p = pressure[e]
+        sxx, syy, szz = sdev[e, 0], sdev[e, 1], sdev[e, 2]
+        sxy, syz, szx = sdev[e, 3], sdev[e, 4], sdev[e, 5]
+        if st == INTACT:
+            s1 = max_principal(sxx - p, syy - p, szz - p, sxy, syz, szx)
+            if s1 > mat_params[mk, P.SPALL]:
+                st = DAMAGED
+                n_dam += 1
+        if st == DAMAGED and 1.0 - vol0[e] / vol[e] > mat_params[mk, P.CHI_STAR]:
+            st = FRACTURED
+            n_frac += 1
+        status[e] = st
+        code = int(mat_params[mk, P.EROSION])
+        deps = eps_p[e] - eps_p_prev[e]
+        eps_p_prev[e] = eps_p[e]
+        if code == 2 and deps > 0.0:
+            seq = math.sqrt(1.5 * (sxx * sxx + syy * syy + szz * szz)
+                            + 3.0 * (sxy * sxy + syz * syz + szx * szx))
+            damage[e] += deps / jc_fracture_strain(mat_params, mk, p, seq, eps_rate[e],
+                                                   temperature[e])
+        on_surface = (face_flag[4 * e] or face_flag[4 * e + 1] or face_flag[4 * e + 2]
+                      or face_flag[4 * e + 3])
+        act = NONE
+        if st == FRACTURED and on_surface and code != 4:
+            act = PARTICLE
+        elif code != 0 and (on_surface or not surface_only):
+            val = mat_params[mk, P.EROSION_VALUE]
+            i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
+            if code == 1:
+                hit = eps_p[e] >= val
+            elif code == 2:
+                hit = damage[e] >= val
+            elif code == 3:
+                hit = max_principal_stretch(x, x0, i0, i1, i2, i3) - 1.0 >= val
+            else:
+                hit = st == FRACTURED
+            if hit:
+                act = ERODE
+        if act == NONE and (code != 0 or mat_params[mk, P.SPALL] < math.inf
+                            or mat_params[mk, P.CHI_STAR] < math.inf):
+            i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
+            lim = 6.0 * GUARD_FRACTION * vol0[e]
+            if (_volume6(x, v, 1.1 * dt, i0, i1, i2, i3) < lim
+                    or _volume6(x, v, 2.2 * dt, i0, i1, i2, i3) < lim):
+                act = GUARD
+        action[e] = act
+        if act != NONE:
+            n_act += 1
+    return n_dam, n_frac, n_act

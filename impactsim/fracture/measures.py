@@ -1,0 +1,160 @@
+"""Result measures of a fracture run, for summary.json: per body the residual velocity (the
+mass-weighted mean velocity of its largest remaining fragment) and, for a plate, the hole size.
+
+Fragments: connected components of a body's live elements through shared faces
+(impactsim.mesh.topology.face_adjacency). Plates: a body whose initial nodes have a thickness
+(extent along the smallest principal axis of their spread) below a quarter of the next extent.
+Hole: the plate's live elements, at their current positions, are projected onto its initial
+mid-plane and rasterised on a grid of cell size h/2 (h the mean initial edge length); uncovered
+cells not connected to the grid border are holes. The largest hole is reported by its area, the
+diameter of the circle of that area, and its extent along the plate's two in-plane axes.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from impactsim.mesh.topology import face_adjacency
+from impactsim.model import ERODED
+
+MAX_CELLS = 1200  # raster cells per axis at most
+
+
+def fragments(conn, active):
+    """Component label per element (-1 where inactive) and the number of components."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    adj = face_adjacency(conn, active)
+    ne = conn.shape[0]
+    e, k = np.nonzero(adj >= 0)
+    g = coo_matrix((np.ones(e.size), (e, adj[e, k])), shape=(ne, ne))
+    n, lab = connected_components(g, directed=False)
+    lab = np.where(active, lab, -1)
+    used = np.unique(lab[lab >= 0])
+    remap = np.full(n, -1)
+    remap[used] = np.arange(used.size)
+    return np.where(lab >= 0, remap[np.maximum(lab, 0)], -1), int(used.size)
+
+
+@numba.njit(cache=True)
+def _raster(pu, pv, conn, live, u0, v0, cell, nu, nv, covered):
+    """Mark grid cells whose centres lie in the projection of a live tet (the union of the
+    triangles of any three of its four projected corners)."""
+    for e in range(conn.shape[0]):
+        if not live[e]:
+            continue
+        lo_u = 1e300
+        hi_u = -1e300
+        lo_v = 1e300
+        hi_v = -1e300
+        for k in range(4):
+            i = conn[e, k]
+            lo_u = min(lo_u, pu[i])
+            hi_u = max(hi_u, pu[i])
+            lo_v = min(lo_v, pv[i])
+            hi_v = max(hi_v, pv[i])
+        i0 = max(int(math.floor((lo_u - u0) / cell)), 0)
+        i1 = min(int(math.floor((hi_u - u0) / cell)), nu - 1)
+        j0 = max(int(math.floor((lo_v - v0) / cell)), 0)
+        j1 = min(int(math.floor((hi_v - v0) / cell)), nv - 1)
+        for a in range(i0, i1 + 1):
+            cu = u0 + (a + 0.5) * cell
+            for b in range(j0, j1 + 1):
+                if covered[a, b]:
+                    continue
+                cv = v0 + (b + 0.5) * cell
+                for t in range(4):
+                    ia = conn[e, (t + 1) % 4]
+                    ib = conn[e, (t + 2) % 4]
+                    ic = conn[e, (t + 3) % 4]
+                    d = (pu[ib] - pu[ia]) * (pv[ic] - pv[ia]) - (pv[ib] - pv[ia]) * (pu[ic] - pu[ia])
+                    if d == 0.0:
+                        continue
+                    l1 = ((cu - pu[ia]) * (pv[ic] - pv[ia]) - (cv - pv[ia]) * (pu[ic] - pu[ia])) / d
+                    l2 = ((pu[ib] - pu[ia]) * (cv - pv[ia]) - (pv[ib] - pv[ia]) * (cu - pu[ia])) / d
+                    if l1 >= 0.0 and l2 >= 0.0 and l1 + l2 <= 1.0:
+                        covered[a, b] = True
+                        break
+
+
+def plate_axes(x0):
+    """(normal, in-plane axis 1, in-plane axis 2, centre) if the node cloud is a plate, else None."""
+    c = x0.mean(axis=0)
+    _, _, vt = np.linalg.svd(x0 - c, full_matrices=False)
+    ext = np.ptp((x0 - c) @ vt.T, axis=0)  # extents along the principal axes, largest first
+    if ext[2] >= 0.25 * ext[1]:
+        return None
+    return vt[2], vt[0], vt[1], c
+
+
+def hole_size(x, x0, conn, live, h):
+    """Largest hole of a plate (module docstring), or None if the body is not a plate."""
+    from scipy import ndimage
+
+    ax = plate_axes(x0)
+    if ax is None:
+        return None
+    _, a1, a2, c = ax
+    u0s, v0s = (x0 - c) @ a1, (x0 - c) @ a2
+    cell = max(0.5 * h, max(np.ptp(u0s), np.ptp(v0s)) / MAX_CELLS)
+    margin = 2.0 * cell
+    u0, v0 = u0s.min() - margin, v0s.min() - margin
+    nu = int(math.ceil((u0s.max() + margin - u0) / cell))
+    nv = int(math.ceil((v0s.max() + margin - v0) / cell))
+    pu, pv = (x - c) @ a1, (x - c) @ a2
+    covered = np.zeros((nu, nv), dtype=bool)
+    _raster(pu, pv, conn, live, u0, v0, cell, nu, nv, covered)
+    lab, n = ndimage.label(~covered)
+    border = np.unique(np.concatenate([lab[0], lab[-1], lab[:, 0], lab[:, -1]]))
+    sizes = np.bincount(lab.ravel(), minlength=n + 1)
+    sizes[0] = 0
+    sizes[border] = 0
+    if sizes.max() == 0:
+        return {"area": 0.0, "diameter_equivalent": 0.0, "extent": [0.0, 0.0], "axes":
+                [a1.tolist(), a2.tolist()]}
+    k = int(np.argmax(sizes))
+    ii, jj = np.nonzero(lab == k)
+    area = float(sizes[k]) * cell * cell
+    return {"area": area, "diameter_equivalent": math.sqrt(4.0 * area / math.pi),
+            "extent": [float((ii.max() - ii.min() + 1) * cell),
+                       float((jj.max() - jj.min() + 1) * cell)],
+            "axes": [a1.tolist(), a2.tolist()]}
+
+
+def body_measures(model, node_live=None) -> dict:
+    """Per body: residual velocity, mass and fragments; hole size for plates (docstring)."""
+    out = {}
+    live_all = model.status != ERODED
+    for b, name in enumerate(model.body_names):
+        es = slice(model.elem_start[b], model.elem_start[b + 1])
+        ns = slice(model.node_start[b], model.node_start[b + 1])
+        off = model.node_start[b]
+        conn = model.conn[es] - off
+        live = live_all[es]
+        x, x0 = model.x[ns], model.x0[ns]
+        m, v = model.mass[ns], model.v[ns]
+        info = {"remaining_elements": int(live.sum())}
+        if live.any():
+            lab, nfrag = fragments(conn, live)
+            counts = np.bincount(lab[lab >= 0], minlength=nfrag)
+            big = int(np.argmax(counts))
+            nodes = np.unique(conn[lab == big])
+            mm = m[nodes]
+            vel = (mm @ v[nodes]) / mm.sum() if mm.sum() > 0 else np.zeros(3)
+            info.update(fragments=nfrag, residual_velocity=vel.tolist(),
+                        residual_speed=float(np.linalg.norm(vel)),
+                        largest_fragment_mass=float(mm.sum()))
+        else:
+            info.update(fragments=0, residual_velocity=[0.0, 0.0, 0.0], residual_speed=0.0,
+                        largest_fragment_mass=0.0)
+        e01 = x0[conn[:, 1]] - x0[conn[:, 0]]
+        h = float(np.sqrt((e01 * e01).sum(axis=1)).mean()) if conn.shape[0] else 0.0
+        hole = hole_size(x, x0, conn, live, h) if conn.shape[0] else None
+        if hole is not None:
+            info["hole"] = hole
+        out[name] = info
+    return out

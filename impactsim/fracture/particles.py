@@ -1,0 +1,251 @@
+"""Discrete particles from fully fractured cells (ALGORITHMS.md 4.1) and their contacts.
+
+``Particles`` owns the arrays (capacity grows by half when needed; rows [0, n) are live):
+  x (cap,3) float64 [m] centres; v (cap,3) float64 [m/s]; m (cap,) float64 [kg];
+  radius (cap,) float64 [m]; energy (cap,) float64 [J] internal energy carried (not specific);
+  body (cap,) int32 body the particle came from.
+Particles fly ballistically between contacts.
+
+Particle-face contact (the node-face algebra of ALGORITHMS.md 3.1 with the particle's radius):
+a particle p and a boundary face (a, b, c) with outward unit normal n, the particle's centre
+projected inside the triangle at the end of the step (barycentric weights w_i >= -eps, positions
+x + tau U*). With the gap g = (x_p - x_a).n - r at the start of the step and the relative normal
+velocity u = (U*_p - sum w_i U*_i).n, the gap must not close within the step:
+u >= -g / tau (or u >= 0 for a particle already overlapping, g < 0). When violated, the normal
+impulse J = du / (1/m_p + sum w_i^2 / m_i) with du the missing relative velocity is applied:
+U_p += J n / m_p, U_i -= w_i J n / m_i (compressive only; momentum conserved). Pairs are
+corrected one after the other in sorted order (Gauss-Seidel, as 3.2 asks).
+
+Particle-particle contact (optional): the same with two spheres, n along the line of centres and
+g = |x_j - x_i| - r_i - r_j.
+
+Energy: the impulse does the work J . (U_before + U_after) / 2 on each node, with U_before the
+node's velocity at the previous half step, U* - dtv F / m, exactly as the wall constraint
+(impactsim.solver.constraints); for particles (no force) U_before is the velocity before the
+impulse. The (negative) work is kinetic energy dissipated in the inelastic impact.
+
+Rigid walls of the case stop particles the same way (``particle_walls``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+
+class Particles:
+    """Growable particle arrays (see the module docstring)."""
+
+    def __init__(self, capacity: int = 256):
+        self.n = 0
+        self.grows = 0
+        self._alloc(max(int(capacity), 16))
+
+    def _alloc(self, cap: int) -> None:
+        old = None if not hasattr(self, "x") else (self.x, self.v, self.m, self.radius,
+                                                      self.energy, self.body)
+        self.x = np.zeros((cap, 3))
+        self.v = np.zeros((cap, 3))
+        self.m = np.zeros(cap)
+        self.radius = np.zeros(cap)
+        self.energy = np.zeros(cap)
+        self.body = np.zeros(cap, dtype=np.int32)
+        self.ids = np.arange(cap, dtype=np.int64).reshape(-1, 1)
+        self.no_body = np.full(cap, -1, dtype=np.int32)
+        if old is not None:
+            n = self.n
+            for new, o in zip((self.x, self.v, self.m, self.radius, self.energy, self.body), old):
+                new[:n] = o[:n]
+
+    @property
+    def capacity(self) -> int:
+        return self.m.shape[0]
+
+    def reserve(self, extra: int) -> None:
+        """Make room for `extra` more particles (grows by at least half the capacity)."""
+        need = self.n + int(extra)
+        if need > self.capacity:
+            self.grows += 1
+            self._alloc(max(need, int(1.5 * self.capacity)))
+
+    def kinetic_energy(self) -> float:
+        n = self.n
+        return 0.5 * float(self.m[:n] @ np.einsum("ij,ij->i", self.v[:n], self.v[:n]))
+
+    def internal_energy(self) -> float:
+        return float(self.energy[:self.n].sum())
+
+    def mass(self) -> float:
+        return float(self.m[:self.n].sum())
+
+    def momentum(self) -> np.ndarray:
+        return self.m[:self.n] @ self.v[:self.n] if self.n else np.zeros(3)
+
+
+@numba.njit(cache=True)
+def particle_face_sweep(pairs, px, pv, pm, pr, faces, x, v, mass, force, dtv, tau, eps_bary):
+    """Gauss-Seidel particle-face corrections over sorted ``pairs (k,2)`` (particle, face row).
+    Returns (pairs corrected, work of the impulses on nodes and particles [J])."""
+    applied = 0
+    work = 0.0
+    for k in range(pairs.shape[0]):
+        p = pairs[k, 0]
+        f = pairs[k, 1]
+        ia, ib, ic = faces[f, 0], faces[f, 1], faces[f, 2]
+        # geometry at the end of the step (predicted positions)
+        ax = x[ia, 0] + tau * v[ia, 0]
+        ay = x[ia, 1] + tau * v[ia, 1]
+        az = x[ia, 2] + tau * v[ia, 2]
+        e1x = x[ib, 0] + tau * v[ib, 0] - ax
+        e1y = x[ib, 1] + tau * v[ib, 1] - ay
+        e1z = x[ib, 2] + tau * v[ib, 2] - az
+        e2x = x[ic, 0] + tau * v[ic, 0] - ax
+        e2y = x[ic, 1] + tau * v[ic, 1] - ay
+        e2z = x[ic, 2] + tau * v[ic, 2] - az
+        nx = e1y * e2z - e1z * e2y
+        ny = e1z * e2x - e1x * e2z
+        nz = e1x * e2y - e1y * e2x
+        nn = nx * nx + ny * ny + nz * nz
+        if not nn > 0.0:
+            continue
+        rx = px[p, 0] + tau * pv[p, 0] - ax
+        ry = px[p, 1] + tau * pv[p, 1] - ay
+        rz = px[p, 2] + tau * pv[p, 2] - az
+        wb = ((ry * e2z - rz * e2y) * nx + (rz * e2x - rx * e2z) * ny
+              + (rx * e2y - ry * e2x) * nz) / nn
+        wc = ((e1y * rz - e1z * ry) * nx + (e1z * rx - e1x * rz) * ny
+              + (e1x * ry - e1y * rx) * nz) / nn
+        wa = 1.0 - wb - wc
+        if wa < -eps_bary or wb < -eps_bary or wc < -eps_bary:
+            continue
+        inv = 1.0 / math.sqrt(nn)
+        nx *= inv
+        ny *= inv
+        nz *= inv
+        rad = pr[p]
+        d_end = rx * nx + ry * ny + rz * nz
+        if d_end < -rad:
+            continue  # beyond the face's plane: the particle is on the other side
+        # gap at the start of the step along the same normal
+        d0 = ((px[p, 0] - x[ia, 0]) * nx + (px[p, 1] - x[ia, 1]) * ny
+              + (px[p, 2] - x[ia, 2]) * nz)
+        g0 = d0 - rad
+        ux = pv[p, 0] - (wa * v[ia, 0] + wb * v[ib, 0] + wc * v[ic, 0])
+        uy = pv[p, 1] - (wa * v[ia, 1] + wb * v[ib, 1] + wc * v[ic, 1])
+        uz = pv[p, 2] - (wa * v[ia, 2] + wb * v[ib, 2] + wc * v[ic, 2])
+        un = ux * nx + uy * ny + uz * nz
+        umin = -g0 / tau if g0 > 0.0 else 0.0
+        if un >= umin:
+            continue
+        ma, mb, mc = mass[ia], mass[ib], mass[ic]
+        den = 1.0 / pm[p]
+        if ma > 0.0:
+            den += wa * wa / ma
+        if mb > 0.0:
+            den += wb * wb / mb
+        if mc > 0.0:
+            den += wc * wc / mc
+        jn = (umin - un) / den
+        # particle
+        a = jn / pm[p]
+        for d, nd in ((0, nx), (1, ny), (2, nz)):
+            before = pv[p, d]
+            pv[p, d] = before + a * nd
+            work += pm[p] * a * nd * 0.5 * (before + pv[p, d])
+        # face nodes
+        for i, w in ((ia, wa), (ib, wb), (ic, wc)):
+            mi = mass[i]
+            if mi <= 0.0:
+                continue
+            b = -w * jn / mi
+            for d, nd in ((0, nx), (1, ny), (2, nz)):
+                old = v[i, d] - dtv * force[i, d] / mi
+                v[i, d] += b * nd
+                work += mi * b * nd * 0.5 * (old + v[i, d])
+        applied += 1
+    return applied, work
+
+
+@numba.njit(cache=True)
+def particle_particle_sweep(pairs, px, pv, pm, pr, tau):
+    """Gauss-Seidel sphere-sphere corrections over sorted ``pairs (k,2)`` (i < j).
+    Returns (pairs corrected, change of the particles' kinetic energy [J])."""
+    applied = 0
+    dke = 0.0
+    for k in range(pairs.shape[0]):
+        i = pairs[k, 0]
+        j = pairs[k, 1]
+        dx = px[j, 0] - px[i, 0]
+        dy = px[j, 1] - px[i, 1]
+        dz = px[j, 2] - px[i, 2]
+        dist = math.sqrt(dx * dx + dy * dy + dz * dz)
+        if not dist > 0.0:
+            continue
+        nx, ny, nz = dx / dist, dy / dist, dz / dist
+        g0 = dist - pr[i] - pr[j]
+        un = ((pv[j, 0] - pv[i, 0]) * nx + (pv[j, 1] - pv[i, 1]) * ny
+              + (pv[j, 2] - pv[i, 2]) * nz)
+        umin = -g0 / tau if g0 > 0.0 else 0.0
+        if un >= umin:
+            continue
+        mi, mj = pm[i], pm[j]
+        jn = (umin - un) / (1.0 / mi + 1.0 / mj)
+        ke0 = 0.5 * (mi * (pv[i, 0] ** 2 + pv[i, 1] ** 2 + pv[i, 2] ** 2)
+                     + mj * (pv[j, 0] ** 2 + pv[j, 1] ** 2 + pv[j, 2] ** 2))
+        pv[i, 0] -= jn * nx / mi
+        pv[i, 1] -= jn * ny / mi
+        pv[i, 2] -= jn * nz / mi
+        pv[j, 0] += jn * nx / mj
+        pv[j, 1] += jn * ny / mj
+        pv[j, 2] += jn * nz / mj
+        ke1 = 0.5 * (mi * (pv[i, 0] ** 2 + pv[i, 1] ** 2 + pv[i, 2] ** 2)
+                     + mj * (pv[j, 0] ** 2 + pv[j, 1] ** 2 + pv[j, 2] ** 2))
+        dke += ke1 - ke0
+        applied += 1
+    return applied, dke
+
+
+@numba.njit(cache=True)
+def particle_boxes(px, pv, pr, n, tau, pad, lo, hi):
+    """Boxes of the particles' spheres swept over the step, padded. Writes lo, hi (n, 3)."""
+    for p in range(n):
+        for d in range(3):
+            a = px[p, d]
+            b = a + tau * pv[p, d]
+            r = pr[p] + pad
+            lo[p, d] = min(a, b) - r
+            hi[p, d] = max(a, b) + r
+
+
+@numba.njit(cache=True)
+def move_particles(px, pv, n, tau):
+    for p in range(n):
+        px[p, 0] += tau * pv[p, 0]
+        px[p, 1] += tau * pv[p, 1]
+        px[p, 2] += tau * pv[p, 2]
+
+
+@numba.njit(cache=True)
+def particle_walls(px, pv, pm, pr, n, walls, tau):
+    """Rigid planar walls (n_wall, 7: point, unit normal, friction) for particles: the sphere
+    must not cross the wall within the step (u >= -g / tau, or u >= 0 when overlapping), the
+    normal velocity is raised to that bound; frictionless. Returns the work done [J] (<= 0)."""
+    work = 0.0
+    for w in range(walls.shape[0]):
+        nx, ny, nz = walls[w, 3], walls[w, 4], walls[w, 5]
+        for p in range(n):
+            g = ((px[p, 0] - walls[w, 0]) * nx + (px[p, 1] - walls[w, 1]) * ny
+                 + (px[p, 2] - walls[w, 2]) * nz) - pr[p]
+            un = pv[p, 0] * nx + pv[p, 1] * ny + pv[p, 2] * nz
+            umin = -g / tau if g > 0.0 else 0.0
+            if un >= umin:
+                continue
+            ke0 = pv[p, 0] ** 2 + pv[p, 1] ** 2 + pv[p, 2] ** 2
+            du = umin - un
+            pv[p, 0] += du * nx
+            pv[p, 1] += du * ny
+            pv[p, 2] += du * nz
+            work += 0.5 * pm[p] * (pv[p, 0] ** 2 + pv[p, 1] ** 2 + pv[p, 2] ** 2 - ke0)
+    return work
