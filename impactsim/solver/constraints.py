@@ -24,6 +24,8 @@ def apply_prescribed(v, mass, force, dtv, nodes, mask, velocity):
     work = 0.0
     for k in range(nodes.shape[0]):
         i = nodes[k]
+        if mass[i] <= 0.0:  # a node orphaned by erosion carries no mass (ALGORITHMS.md 4.2)
+            continue
         for d in range(3):
             if mask[k, d]:
                 vn = velocity[k, d]
@@ -52,6 +54,8 @@ def apply_walls(x, v, mass, force, dtv, walls, dt):
         nx, ny, nz = walls[w, 3], walls[w, 4], walls[w, 5]
         mu = walls[w, 6]
         for i in range(x.shape[0]):
+            if mass[i] <= 0.0:  # orphaned by erosion: no mass, nothing to hold
+                continue
             d_now = (x[i, 0] - px) * nx + (x[i, 1] - py) * ny + (x[i, 2] - pz) * nz
             vn = v[i, 0] * nx + v[i, 1] * ny + v[i, 2] * nz
             # the node must end on or in front of the wall: d_now + dt vn >= 0
