@@ -52,6 +52,9 @@ class Simulation:
         self.jnode = np.ones(nn)
         self.vol_now = np.zeros(ne)
         self.vol_eos = model.vol.copy() if self.use_anp else model.vol
+        for p in passes:  # passes that need the integrator's buffers (fracture: elem_force)
+            if hasattr(p, "attach"):
+                p.attach(self)
         self.timings: dict[str, float] = {"element": 0.0, "nodes": 0.0}
         for p in passes:
             self.timings[p.name] = 0.0
