@@ -1,0 +1,163 @@
+"""Fracture kernels against hand calculations and invariants (ALGORITHMS.md 4.1-4.2)."""
+
+import numpy as np
+import pytest
+
+from impactsim.case.schema import Failure, Fracture
+from impactsim.fracture import make_fracture_passes
+from impactsim.fracture.principal import max_principal, max_principal_stretch
+from impactsim.fracture.removal import remove_elements
+from impactsim.model import DAMAGED, ERODED, FRACTURED, INTACT
+from impactsim.solver.loop import Simulation
+from impactsim.solver.nodal import move
+from tests.builders import box_model, material
+
+
+def test_max_principal_matches_numpy():
+    rng = np.random.default_rng(1)
+    for _ in range(200):
+        a = rng.normal(size=(3, 3)) * 10.0 ** rng.integers(-3, 9)
+        a = a + a.T
+        got = max_principal(a[0, 0], a[1, 1], a[2, 2], a[0, 1], a[1, 2], a[2, 0])
+        assert got == pytest.approx(np.linalg.eigvalsh(a)[-1], rel=1e-9, abs=1e-9 * abs(a).max())
+    assert max_principal(-3.0, -3.0, -3.0, 0.0, 0.0, 0.0) == pytest.approx(-3.0)
+
+
+def test_max_principal_stretch_matches_numpy():
+    rng = np.random.default_rng(2)
+    x0 = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    for _ in range(50):
+        f = np.eye(3) + 0.3 * rng.normal(size=(3, 3))
+        x = x0 @ f.T
+        got = max_principal_stretch(x, x0, 0, 1, 2, 3)
+        assert got == pytest.approx(np.sqrt(np.linalg.eigvalsh(f.T @ f)[-1]), rel=1e-9)
+
+
+def _one_step(model, grad, status, dt=1e-8):
+    model.status[:] = status
+    sim = Simulation(model, [])
+    model.v[:] = (model.x - model.x.mean(axis=0)) @ np.asarray(grad).T
+    move(model.x, model.v, dt)
+    sim._update_elements(dt)
+
+
+def test_damaged_element_carries_no_tension():
+    """Stretched: an intact cell goes into tension, a damaged cell has p >= 0 and no deviator."""
+    grad = np.diag([3e3, 1e3, -5e2])
+    model, _ = box_model(material(), h=0.5)
+    _one_step(model, grad, INTACT)
+    assert model.pressure.min() < -1e6  # the control: intact cells do carry tension
+    model, _ = box_model(material(), h=0.5)
+    _one_step(model, grad, DAMAGED)
+    assert np.all(model.pressure >= 0.0)
+    assert np.all(model.sdev == 0.0)
+
+
+def test_damaged_element_keeps_bulk_compression_fractured_none():
+    grad = -1e3 * np.eye(3)
+    model, _ = box_model(material(), h=0.5)
+    _one_step(model, grad, DAMAGED)
+    assert model.pressure.min() > 1e6
+    model, _ = box_model(material(), h=0.5)
+    _one_step(model, grad, FRACTURED)
+    assert np.all(model.pressure == 0.0)
+    assert np.all(model.sdev == 0.0)
+
+
+def _fracture_model(failure, **frac):
+    mat = material(name="m", failure=failure)
+    model, case = box_model(mat, h=0.5)
+    case.fracture = Fracture(**frac)
+    passes = make_fracture_passes(case, model)
+    return model, passes
+
+
+def test_spall_then_loosening_thresholds():
+    """sigma_1 > sigma* marks DAMAGED (only intact cells); chi = 1 - V0/V > chi* FRACTURED."""
+    model, passes = _fracture_model(Failure(spall_strength=1e9, loosening=0.03))
+    frac = passes[-1]
+    n = model.n_elem
+    model.pressure[:] = 0.0
+    model.sdev[:] = 0.0
+    model.sdev[0, 3] = 1.1e9  # pure shear 1.1 GPa: sigma_1 = 1.1 GPa > 1 GPa
+    model.sdev[1, 3] = 0.9e9
+    model.pressure[2] = -1.2e9  # hydrostatic tension 1.2 GPa
+    frac.run(model, 1e-9)
+    assert model.status[0] == DAMAGED and model.status[2] == DAMAGED
+    assert model.status[1] == INTACT and np.all(model.status[3:] == INTACT)
+    # loosening: chi just below and above 0.03
+    model.vol[0] = model.vol0[0] / (1 - 0.029)
+    model.vol[2] = model.vol0[2] / (1 - 0.031)
+    frac.run(model, 1e-9)
+    assert model.status[0] == DAMAGED and model.status[2] in (FRACTURED, ERODED)
+    assert n == model.n_elem
+
+
+def _random_removal(n_per, seed):
+    model, _ = box_model(material(), h=0.25)
+    rng = np.random.default_rng(seed)
+    model.v[:] = rng.normal(size=model.v.shape) * 100.0
+    model.energy[:] = rng.uniform(0, 1e4, model.n_elem)
+    m0 = model.mass.sum()
+    p0 = model.mass @ model.v
+    ke0 = 0.5 * np.sum(model.mass[:, None] * model.v ** 2)
+    ie0 = np.sum(model.elem_mass * model.energy)
+    node_live = np.bincount(model.conn.ravel(), minlength=model.n_node).astype(np.int32)
+    cap = model.n_elem * n_per
+    px, pv = np.zeros((cap, 3)), np.zeros((cap, 3))
+    pm, pr, pe = np.zeros(cap), np.zeros(cap), np.zeros(cap)
+    pb = np.zeros(cap, np.int32)
+    ids = rng.permutation(model.n_elem)[: int(0.8 * model.n_elem)].astype(np.int64)
+    conv = rng.random(ids.size) < 0.4
+    n_p, e_out, n_er, n_conv = remove_elements(ids, conv, model.conn, model.status,
+                                               model.elem_mass, model.energy, model.elem_body,
+                                               model.x, model.v, model.mass, node_live, n_per,
+                                               px, pv, pm, pr, pe, pb, 0)
+    return dict(model=model, n_p=n_p, e_out=e_out, n_er=n_er, n_conv=n_conv, m0=m0, p0=p0,
+                ke0=ke0, ie0=ie0, pm=pm, pv=pv, pe=pe, pr=pr, node_live=node_live, ids=ids)
+
+
+@pytest.mark.parametrize("n_per", [1, 4, 6])
+def test_removal_conserves_mass_momentum_energy(n_per):
+    r = _random_removal(n_per, seed=n_per)
+    m, n = r["model"], r["n_p"]
+    assert r["n_er"] + r["n_conv"] == r["ids"].size
+    assert n == r["n_conv"] * n_per
+    mass = m.mass.sum() + r["pm"][:n].sum()
+    assert mass == pytest.approx(r["m0"], rel=1e-14)
+    mom = m.mass @ m.v + r["pm"][:n] @ r["pv"][:n]
+    assert np.allclose(mom, r["p0"], rtol=0, atol=1e-12 * np.abs(r["p0"]).max() * 1e3)
+    live = m.status != ERODED
+    ke = 0.5 * np.sum(m.mass[:, None] * m.v ** 2) + 0.5 * np.sum(r["pm"][:n, None]
+                                                                 * r["pv"][:n] ** 2)
+    ie = np.sum(m.elem_mass[live] * m.energy[live]) + r["pe"][:n].sum()
+    total0 = r["ke0"] + r["ie0"]
+    assert ke + ie + r["e_out"] == pytest.approx(total0, rel=1e-12)
+    assert r["e_out"] >= 0.0
+    # orphaned nodes carry nothing; nodes of live elements keep at least their live share
+    orphan = r["node_live"] == 0
+    assert np.all(m.mass[orphan] == 0.0)
+    assert np.all(m.mass >= 0.0)
+    share = np.zeros(m.n_node)
+    np.add.at(share, m.conn[live].ravel(), np.repeat(m.elem_mass[live] / 4, 4))
+    assert np.all(m.mass[~orphan] >= share[~orphan] * (1 - 1e-12))
+    assert np.all(r["pr"][:n] > 0.0)
+
+
+def test_particle_sits_in_its_cell_with_the_inscribed_radius():
+    model, _ = box_model(material(), h=0.5)
+    node_live = np.bincount(model.conn.ravel(), minlength=model.n_node).astype(np.int32)
+    px, pv = np.zeros((4, 3)), np.zeros((4, 3))
+    pm, pr, pe, pb = np.zeros(4), np.zeros(4), np.zeros(4), np.zeros(4, np.int32)
+    model.v[:] = (1.0, 2.0, 3.0)
+    e = 0
+    pts = model.x[model.conn[e]]
+    remove_elements(np.array([e]), np.array([True]), model.conn, model.status, model.elem_mass,
+                    model.energy, model.elem_body, model.x, model.v, model.mass, node_live, 1,
+                    px, pv, pm, pr, pe, pb, 0)
+    assert np.allclose(px[0], pts.mean(axis=0))
+    assert np.allclose(pv[0], (1.0, 2.0, 3.0))
+    areas = sum(0.5 * np.linalg.norm(np.cross(pts[b] - pts[a], pts[c] - pts[a]))
+                for a, b, c in [(1, 2, 3), (0, 3, 2), (0, 1, 3), (0, 2, 1)])
+    assert pr[0] == pytest.approx(3 * model.vol0[e] / areas)
+    assert pm[0] == pytest.approx(model.elem_mass[e])
