@@ -144,6 +144,9 @@ def what_would_run(case: Case) -> list[str]:
               f"# end time: {format_quantity(run.end_time, 'time')} "
               f"(at most {run.max_steps:,} steps)"]
     lines += [f"# warning: {w}" for w in warnings(case)]
+    from impactsim.case.estimate import estimate_lines
+
+    lines += estimate_lines(case)
     return lines
 
 
