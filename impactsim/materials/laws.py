@@ -54,36 +54,47 @@ def eos_linear_part(code, rho, rho0, bulk, c0, s, gamma0):
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
+def jc_rate_thermal(mp, k, eps_rate, temperature):
+    """The Johnson-Cook factor (1 + C ln(eps_rate/eps_rate0))(1 - T*^m) of material row k.
+
+    The rate term is floored at 1 (no softening below the reference rate), T* is clamped to
+    [0, 1]. Neither depends on eps_p, so a radial return computes this once (one log, one pow).
+    """
+    rate = 1.0
+    r = eps_rate / mp[k, P.EPSDOT0]
+    if r > 1.0:
+        rate = 1.0 + mp[k, P.JC_C] * math.log(r)
+    t_room = mp[k, P.T_ROOM]
+    t_star = (temperature - t_room) / (mp[k, P.T_MELT] - t_room)
+    if t_star >= 1.0:
+        return 0.0
+    if t_star > 0.0:
+        return rate * (1.0 - t_star ** mp[k, P.JC_M])
+    return rate
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def flow_stress(code, mp, k, eps_p, eps_rate, temperature):
     """Yield stress [Pa] and its slope d sigma_y / d eps_p for material row k of table `mp`.
 
     ideal-plastic: sigma_y = Y0 (Prandtl-Reuss).
     Johnson-Cook:  sigma_y = (A + B eps_p^n)(1 + C ln(eps_rate/eps_rate0))(1 - T*^m), the rate
-                   term floored at 1 (no softening below the reference rate), T* clamped to [0, 1].
+                   term floored at 1 (no softening below the reference rate), T* clamped to [0, 1]
+                   (`jc_rate_thermal`).
     elastic:       infinite (never yields).
     """
     if code == P.IDEAL_PLASTIC:
         return mp[k, P.Y0], 0.0
     if code == P.JOHNSON_COOK:
-        rate = 1.0
-        r = eps_rate / mp[k, P.EPSDOT0]
-        if r > 1.0:
-            rate = 1.0 + mp[k, P.JC_C] * math.log(r)
-        thermal = 1.0
-        t_room = mp[k, P.T_ROOM]
-        t_star = (temperature - t_room) / (mp[k, P.T_MELT] - t_room)
-        if t_star >= 1.0:
-            return 0.0, 0.0
-        if t_star > 0.0:
-            thermal = 1.0 - t_star ** mp[k, P.JC_M]
-        n = mp[k, P.JC_N]
+        rt = jc_rate_thermal(mp, k, eps_rate, temperature)
         hard = mp[k, P.JC_A]
         slope = 0.0
         if eps_p > 0.0:
+            n = mp[k, P.JC_N]
             epn = eps_p ** n
             hard += mp[k, P.JC_B] * epn
             slope = mp[k, P.JC_B] * n * epn / eps_p
-        return hard * rate * thermal, slope * rate * thermal
+        return hard * rt, slope * rt
     return math.inf, 0.0
 
 
@@ -91,31 +102,54 @@ def flow_stress(code, mp, k, eps_p, eps_rate, temperature):
 def radial_return(code, mp, k, shear, seq_trial, eps_p, eps_rate, temperature):
     """Plastic strain increment of the radial return to the yield surface (ALGORITHMS.md 2).
 
-    Solves seq_trial - 3 G d_eps - sigma_y(eps_p + d_eps) = 0 for d_eps >= 0 by Newton's method
-    safeguarded with bisection on [0, (seq_trial - sigma_y(eps_p)) / 3G]. Returns (d_eps,
-    sigma_y at the end); d_eps = 0 when the trial state is elastic.
+    Solves seq_trial - 3 G d_eps - sigma_y(eps_p + d_eps) = 0 for d_eps >= 0. Returns (d_eps,
+    sigma_y at the end); d_eps = 0 when the trial state is elastic (seq_trial <= sigma_y(eps_p)).
+    ideal-plastic: d_eps = (seq_trial - Y0) / 3G in closed form.
+    Johnson-Cook: the rate and thermal factors are constant during the return (eps_rate and T
+    are the step's), so they are evaluated once and Newton's method runs on the hardening term
+    alone, (A + B (eps_p + d)^n) rt: one pow per iteration. It starts from the linearised
+    return d = (seq_trial - sigma_y) / (3G + h) (h the hardening slope at eps_p, or from the
+    upper bound (seq_trial - sigma_y) / 3G when eps_p = 0 where h is infinite), is safeguarded
+    with bisection on [0, (seq_trial - sigma_y(eps_p)) / 3G], and stops at |residual| <=
+    1e-12 seq_trial.
     """
-    sy, _ = flow_stress(code, mp, k, eps_p, eps_rate, temperature)
+    if code == P.IDEAL_PLASTIC:
+        y0 = mp[k, P.Y0]
+        if seq_trial <= y0:
+            return 0.0, y0
+        return (seq_trial - y0) / (3.0 * shear), y0
+    if code != P.JOHNSON_COOK:
+        return 0.0, math.inf
+    rt = jc_rate_thermal(mp, k, eps_rate, temperature)
+    a = mp[k, P.JC_A] * rt
+    b = mp[k, P.JC_B] * rt
+    n = mp[k, P.JC_N]
+    epn = eps_p ** n if eps_p > 0.0 else 0.0
+    sy = a + b * epn
     if seq_trial <= sy:
         return 0.0, sy
     g3 = 3.0 * shear
     hi = (seq_trial - sy) / g3
     lo = 0.0
     d = hi
+    if eps_p > 0.0:
+        d = (seq_trial - sy) / (g3 + b * n * epn / eps_p)
+    tol = 1e-12 * seq_trial
     for _ in range(30):
-        sy_d, h = flow_stress(code, mp, k, eps_p + d, eps_rate, temperature)
-        f = seq_trial - g3 * d - sy_d
-        if abs(f) <= 1e-12 * seq_trial:
-            return d, sy_d
+        ep = eps_p + d
+        pw = ep ** n
+        sy = a + b * pw
+        f = seq_trial - g3 * d - sy
+        if abs(f) <= tol:
+            return d, sy
         if f > 0.0:
             lo = d
         else:
             hi = d
-        dn = d + f / (g3 + h)
+        dn = d + f / (g3 + b * n * pw / ep)
         if dn <= lo or dn >= hi:
             dn = 0.5 * (lo + hi)
         d = dn
         if hi - lo <= 1e-15 * (1.0 + eps_p):
             break
-    sy_d, _ = flow_stress(code, mp, k, eps_p + d, eps_rate, temperature)
-    return d, sy_d
+    return d, a + b * (eps_p + d) ** n
