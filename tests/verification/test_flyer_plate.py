@@ -1,0 +1,214 @@
+"""Flyer-plate impacts in uniaxial strain: Hugoniot states of Mie-Grüneisen materials.
+
+Columns of hydrodynamic material (Mie-Grüneisen EOS with a linear U_s-u_p Hugoniot, a yield
+stress of 1 MPa so the deviator is negligible next to pressures of 10-20 GPa), every node held
+in x and y (uniaxial strain). The Rankine-Hugoniot jump conditions across a steady shock
+(e.g. Meyers, Dynamic Behavior of Materials, 1994, sec. 4.2; Forbes, Shock Wave Compression of
+Condensed Matter, 2012, ch. 3) with the particle velocity jump u_p give
+
+    U_s = c0 + s u_p,   p = rho0 U_s u_p,   rho = rho0 U_s / (U_s - u_p),   e - e0 = u_p^2 / 2.
+
+Symmetric impact: two identical plates closing at V meet at rest in their centre-of-mass frame;
+each takes u_p = V/2. A plate hitting a rigid wall at v = V/2 is the same problem (the wall is
+the plane of symmetry), so it is run that way: u_p = v, p = rho0 (c0 + s v) v.
+
+Asymmetric impact (copper flyer onto an aluminium target, two bodies, node-face contact):
+impedance matching (Meyers sec. 4.4): the interface velocity u solves
+p_Cu(V - u) = p_Al(u) with p_X(u_p) = rho0_X (c0_X + s_X u_p) u_p; both shocks carry that
+pressure. Solved with scipy.optimize.brentq. The target is meshed at half the flyer's size, 2 x 2
+cells across: with matching meshes every flyer node lands exactly on a target node, the
+degenerate case of node-face contact (a node on the corner of the faces it hits).
+
+Shock fronts are where the particle velocity crosses the middle of its jump; speeds come from
+front positions at two times (start-up cancels); plateau values are medians over the shocked
+elements away from the front and the interface (node-face contact of the two columns leaves a
+disturbed band a few cells wide at the interface, which is not what is tested here).
+"""
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+from impactsim.case import load_case_text
+from impactsim.case.schema import Constraint, NodeSelector
+from impactsim.mesh import mesh_body
+from impactsim.solver.build import build_model
+from impactsim.solver.loop import Simulation
+from impactsim.solver.pipeline import build_passes
+
+H = 0.5e-3  # [m] mesh size; columns are one cell across
+CU = {"rho": 8930.0, "c0": 3940.0, "s": 1.489}  # ofhc-copper of the library
+AL = {"rho": 2785.0, "c0": 5328.0, "s": 1.338}  # al-2024-t3 of the library
+
+
+def _material(name, library):
+    return f"""
+[[material]]
+name = "{name}"
+library = "{library}"
+strength = {{ model = "ideal-plastic", yield_stress = "1 MPa" }}
+failure = "none"
+"""
+
+
+def _body(name, material, z_lo, length, velocity, h=H):
+    return f"""
+[[body]]
+name = "{name}"
+material = "{material}"
+shape = "box"
+size = [{H}, {H}, {length}]
+position = [0, 0, {z_lo + length / 2}]
+mesh_size = {h}
+mesher = "structured"
+velocity = [0, 0, {velocity}]
+"""
+
+
+def _confine(case):
+    for body in case.bodies:  # uniaxial strain: x and y held, z free
+        body.constraints = [Constraint(NodeSelector("all"), (0.0, 0.0, None))]
+    return case
+
+
+def _simulate(case, times):
+    model = build_model(case, [mesh_body(b, use_cache=False) for b in case.bodies])
+    sim = Simulation(model, build_passes(case, model), cfl=0.5)
+    shots = []
+    for t in times:
+        while model.time < t:
+            sim.step(t - model.time)
+        shots.append(_profile(model))
+    return model, shots
+
+
+def _profile(model):
+    """Mean vz per z level (sorted by initial z) and element centroids, pressure, energy, rho."""
+    z0 = np.round(model.x0[:, 2], 9)
+    levels = np.unique(z0)
+    z = np.array([model.x[z0 == lv, 2].mean() for lv in levels])
+    vz = np.array([model.v[z0 == lv, 2].mean() for lv in levels])
+    zc = model.x[model.conn, 2].mean(axis=1)
+    rho = model.elem_mass / model.vol
+    return {"time": model.time, "z": z, "vz": vz, "zc": zc, "p": model.pressure.copy(),
+            "e": model.energy.copy(), "rho": rho, "body": model.elem_body.copy(),
+            "z_levels": levels}
+
+
+def _front(z, vz, level):
+    """z of the first crossing of `level` by vz, walking from index 0 (where vz >= level) up."""
+    i = np.nonzero(vz < level)[0]
+    i = i[i > 0][0]
+    return z[i - 1] + (level - vz[i - 1]) / (vz[i] - vz[i - 1]) * (z[i] - z[i - 1])
+
+
+def _hugoniot(m, up):
+    us = m["c0"] + m["s"] * up
+    return us, m["rho"] * us * up
+
+
+# --- symmetric: a copper plate on a rigid wall ------------------------------------------------
+V_WALL = 500.0  # [m/s] wall impact = symmetric impact at 1 km/s
+LENGTH = 0.03
+
+
+@pytest.fixture(scope="module")
+def symmetric():
+    case = _confine(load_case_text(
+        "[run]\nend_time = 1.0\n" + _material("cu", "ofhc-copper")
+        + _body("flyer", "cu", 1e-7, LENGTH, -V_WALL) + "[[wall]]\n"))
+    us, _ = _hugoniot(CU, V_WALL)
+    # the shock leaves the wall at us - v: snapshots with it at 8 mm and 18 mm
+    return _simulate(case, [0.008 / (us - V_WALL), 0.018 / (us - V_WALL)])
+
+
+def test_symmetric_impact_shock_speed(symmetric):
+    _, (a, b) = symmetric
+    us, _ = _hugoniot(CU, V_WALL)
+    fa = _front(a["z"], a["vz"], -0.5 * V_WALL)
+    fb = _front(b["z"], b["vz"], -0.5 * V_WALL)
+    # in the lab frame the front leaves the wall at us - v (material ahead moves at -v)
+    assert (fb - fa) / (b["time"] - a["time"]) == pytest.approx(us - V_WALL, rel=0.03)
+
+
+def test_symmetric_impact_hugoniot_state(symmetric):
+    _, (_, b) = symmetric
+    us, p = _hugoniot(CU, V_WALL)
+    front = _front(b["z"], b["vz"], -0.5 * V_WALL)
+    shocked = (b["zc"] > 5 * H) & (b["zc"] < front - 5 * H)
+    assert shocked.sum() > 50
+    assert np.median(b["p"][shocked]) == pytest.approx(p, rel=0.03)
+    assert np.median(b["rho"][shocked]) == pytest.approx(CU["rho"] * us / (us - V_WALL),
+                                                         rel=0.01)
+    # Rankine-Hugoniot energy jump: e = u_p^2 / 2 per unit mass
+    assert np.median(b["e"][shocked]) == pytest.approx(0.5 * V_WALL**2, rel=0.05)
+    behind = np.abs(b["vz"][(b["z"] > 5 * H) & (b["z"] < front - 5 * H)])
+    assert np.median(behind) < 0.02 * V_WALL  # the shocked copper is at rest
+
+
+# --- asymmetric: copper onto aluminium, node-face contact ------------------------------------
+V_FLYER = 800.0  # [m/s]
+L_FLYER, L_TARGET = 0.02, 0.03
+
+
+def _interface_velocity():
+    return brentq(lambda u: _hugoniot(CU, V_FLYER - u)[1] - _hugoniot(AL, u)[1], 0.0, V_FLYER)
+
+
+@pytest.fixture(scope="module")
+def asymmetric():
+    text = ("[run]\nend_time = 1.0\n[contact]\npasses = [\"node-face\"]\n"
+            + _material("cu", "ofhc-copper") + _material("al", "al-2024-t3")
+            + _body("target", "al", 0.0, L_TARGET, 0.0, h=H / 2)
+            + _body("flyer", "cu", L_TARGET + 1e-7, L_FLYER, -V_FLYER))
+    case = _confine(load_case_text(text))
+    u = _interface_velocity()
+    us_al, _ = _hugoniot(AL, u)
+    # the target shock (moving down from the interface at us_al) at 8 mm and 18 mm
+    return _simulate(case, [0.008 / us_al, 0.018 / us_al])
+
+
+def test_impedance_match_pressure_on_both_sides(asymmetric):
+    model, (_, b) = asymmetric
+    u = _interface_velocity()
+    _, p = _hugoniot(AL, u)
+    assert p == pytest.approx(_hugoniot(CU, V_FLYER - u)[1], rel=1e-9)
+    us_al, _ = _hugoniot(AL, u)
+    us_cu, _ = _hugoniot(CU, V_FLYER - u)
+    interface = L_TARGET - u * b["time"]
+    target_front = interface - us_al * b["time"]
+    # the shocked region of each body, away from the fronts and the interface
+    al = (b["body"] == 0) & (b["zc"] > target_front + 5 * H) & (b["zc"] < interface - 5 * H)
+    cu_front = interface + (us_cu - (V_FLYER - u)) * b["time"]  # copper shock, lab frame
+    cu = (b["body"] == 1) & (b["zc"] > interface + 3 * H) & (b["zc"] < cu_front - 3 * H)
+    assert al.sum() > 50 and cu.sum() > 10
+    assert np.median(b["p"][al]) == pytest.approx(p, rel=0.04)
+    assert np.median(b["p"][cu]) == pytest.approx(p, rel=0.06)  # a short, noisier plateau
+
+
+@pytest.mark.xfail(strict=True, reason="two-body node-face contact: the target's particle "
+                   "velocity behind the shock is 507 m/s against 556 from impedance matching "
+                   "(pressure and shock speed agree); the band at the interface is disturbed")
+def test_impedance_match_particle_velocity_and_energy(asymmetric):
+    model, (_, b) = asymmetric
+    u = _interface_velocity()
+    us_al, _ = _hugoniot(AL, u)
+    interface = L_TARGET - u * b["time"]
+    target_front = interface - us_al * b["time"]
+    zl = b["z"]
+    moving = (zl > target_front + 5 * H) & (zl < interface - 5 * H)
+    assert np.median(b["vz"][moving]) == pytest.approx(-u, rel=0.03)
+    al = (b["body"] == 0) & (b["zc"] > target_front + 5 * H) & (b["zc"] < interface - 5 * H)
+    assert np.median(b["e"][al]) == pytest.approx(0.5 * u**2, rel=0.06)
+
+
+def test_impedance_match_target_shock_speed(asymmetric):
+    model, (a, b) = asymmetric
+    u = _interface_velocity()
+    us_al, _ = _hugoniot(AL, u)
+    target = [(s["z"][s["z_levels"] <= L_TARGET + 1e-9],
+               s["vz"][s["z_levels"] <= L_TARGET + 1e-9]) for s in (a, b)]
+    # walk up the target from its free end: vz falls from 0 to -u across the shock
+    fa = _front(*target[0], -0.5 * u)
+    fb = _front(*target[1], -0.5 * u)
+    assert (fa - fb) / (b["time"] - a["time"]) == pytest.approx(us_al, rel=0.03)
