@@ -6,7 +6,7 @@ BIN := $(VENV)/bin
 CASES := elastic-bar-wall taylor-bar two-cubes two-cylinders elastic-bars hertz-spheres
 SWEEP ?= cases/sweeps/mesh-size.toml
 
-.PHONY: setup test hard bench cases demo accuracy clean
+.PHONY: setup test hard bench cases demo clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
