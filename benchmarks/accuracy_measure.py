@@ -1,0 +1,156 @@
+"""What `make accuracy` measures in a finished run (benchmarks/accuracy.py).
+
+Each function takes the loaded case, the run's output folder and its summary dict, and returns
+name -> Quantity. A quantity with ``exact`` set has an analytic value (its error is relative, or
+absolute when the exact value is 0); ``theory`` is a value of a simpler theory shown next to the
+converged result but not used as the reference (the 1-D bar theory of a 3-D bar).
+
+Analytic values (1-D elastic waves, e.g. Graff, Wave Motion in Elastic Solids, 1975, sec. 2.2):
+a bar of length L and wave speed c hitting a rigid wall at v presses on it with rho c v for 2L/c
+and then leaves at v; two identical bars, one at rest, press on each other with rho c v / 2 for
+2L/c, after which the striker is at rest. c = sqrt(E/rho) for a slender bar free at its sides,
+c = sqrt((K + 4G/3)/rho) in uniaxial strain (the sides held).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+
+@dataclass
+class Quantity:
+    value: float
+    exact: float | None = None  # analytic value: the reference of the error
+    theory: float | None = None  # a simpler theory's value, for comparison only
+    unit: str = ""  # unit of value as shown in the report
+    scale: float = 1.0  # value in the report = value * scale
+
+
+def read_history(out: Path) -> np.ndarray:
+    return np.genfromtxt(Path(out) / "history.csv", delimiter=",", names=True)
+
+
+def _wave_speed(case, uniaxial: bool) -> tuple[float, float]:
+    mat = case.materials[case.bodies[0].material]
+    G, K, rho = mat.shear_modulus, mat.bulk_modulus, mat.density
+    modulus = K + 4.0 * G / 3.0 if uniaxial else 9.0 * K * G / (3.0 * K + G)
+    return rho, float(np.sqrt(modulus / rho))
+
+
+def _contact_interval(time: np.ndarray, on: np.ndarray) -> tuple[float, float]:
+    t_on = time[on]
+    return (float(t_on[0]), float(t_on[-1])) if t_on.size else (0.0, 0.0)
+
+
+def bar_on_wall(case, out: Path, summary: dict, uniaxial: bool) -> dict[str, Quantity]:
+    """Elastic bar on a rigid wall: contact stress plateau (median wall force over the contact
+    / cross-section), contact duration (first to last step with a wall force), rebound speed
+    (mean velocity at the end) and the L1 distance of the wall-force pulse from the analytic
+    square pulse, relative to the pulse's impulse. Uniaxial strain: all analytic; a free bar:
+    the 1-D theory is shown but the reference is the finest run."""
+    body = case.bodies[0]
+    lx, ly, length = body.dimensions["size"]
+    area = lx * ly
+    v = abs(body.velocity[2])
+    rho, c = _wave_speed(case, uniaxial)
+    h = read_history(out)
+    t, force = h["time"], h["wall_force"]
+    on = force > 0
+    t0, t1 = _contact_interval(t, on)
+    stress, duration = rho * c * v, 2.0 * length / c
+    gap = body.position[2] - 0.5 * length
+    start = gap / v  # the bar reaches the wall
+    exact_force = np.where((t >= start) & (t < start + duration), stress * area, 0.0)
+    dt = np.diff(t, append=t[-1])
+    l1 = float(np.sum(np.abs(force - exact_force) * dt) / (stress * area * duration))
+    rebound = float(summary["bodies"][body.name]["mean_velocity"][2])
+
+    def q(value, exact, unit, scale):
+        return Quantity(value, exact if uniaxial else None, None if uniaxial else exact,
+                        unit, scale)
+
+    out_q = {"stress": q(float(np.median(force[on])) / area if on.any() else 0.0, stress,
+                         "MPa", 1e-6),
+             "duration": q(t1 - t0, duration, "us", 1e6),
+             "rebound": q(rebound, v, "m/s", 1.0)}
+    if uniaxial:
+        out_q["pulse_L1"] = Quantity(l1, 0.0, None, "", 1.0)
+    return out_q
+
+
+def bar_column(case, out, summary):
+    return bar_on_wall(case, out, summary, uniaxial=True)
+
+
+def bar_free(case, out, summary):
+    return bar_on_wall(case, out, summary, uniaxial=False)
+
+
+def last_frame(out: Path):
+    import meshio
+
+    frames = sorted(Path(out).glob("frame_*.vtu"))
+    return meshio.read(frames[-1])
+
+
+def taylor_bar(case, out: Path, summary: dict) -> dict[str, Quantity]:
+    """Final length (highest minus lowest node along the rod's axis) and foot diameter (twice the
+    largest distance of a node from the axis) of the deformed rod in the last frame."""
+    body = case.bodies[0]
+    axis = np.asarray(body.dimensions.get("axis", (0.0, 0.0, 1.0)), dtype=float)
+    axis /= np.linalg.norm(axis)
+    x = np.asarray(last_frame(out).points, dtype=float)
+    along = x @ axis
+    radial = x - np.outer(along, axis)
+    centre = np.asarray(body.position, dtype=float)
+    centre = centre - (centre @ axis) * axis
+    r = np.linalg.norm(radial - centre, axis=1)
+    return {"length": Quantity(float(along.max() - along.min()), unit="mm", scale=1e3),
+            "foot_diameter": Quantity(float(2.0 * r.max()), unit="mm", scale=1e3)}
+
+
+def two_bars(case, out: Path, summary: dict, uniaxial: bool) -> dict[str, Quantity]:
+    """Two identical bars end-on, the striker last: the largest penetration over the run
+    (exact: none), the interface stress plateau (median contact force over the steps in contact
+    / cross-section; a step's contact force is its contact impulse / dt), the contact duration
+    and the striker's final speed (1-D: at rest). Uniaxial strain: stress, duration and final
+    speed are analytic; free bars: against the finest run, the 1-D theory shown."""
+    striker = case.bodies[-1]
+    lx, ly, length = striker.dimensions["size"]
+    v = abs(striker.velocity[2])
+    rho, c = _wave_speed(case, uniaxial)
+    h = read_history(out)
+    t = h["time"]
+    on = h["contact_pairs"] > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        force = np.where(h["dt"] > 0, h["contact_impulse"] / h["dt"], 0.0)
+    t0, t1 = _contact_interval(t, on)
+    stress = float(np.median(force[on])) / (lx * ly) if on.any() else 0.0
+    final = abs(float(summary["bodies"][striker.name]["mean_velocity"][2]))
+
+    def q(value, exact, unit, scale):
+        return Quantity(value, exact if uniaxial else None, None if uniaxial else exact,
+                        unit, scale)
+
+    out_q = {"penetration": Quantity(float(np.nanmax(h["max_penetration"])), 0.0, None, "um",
+                                     1e6),
+             "stress": q(stress, 0.5 * rho * c * v, "MPa", 1e-6),
+             "duration": q(t1 - t0, 2.0 * length / c, "us", 1e6)}
+    if uniaxial:  # free bars keep vibrating: their final speed has no clean reference
+        out_q["striker_speed"] = Quantity(final, 0.0, None, "m/s", 1.0)
+    return out_q
+
+
+def two_bars_free(case, out, summary):
+    return two_bars(case, out, summary, uniaxial=False)
+
+
+def two_bars_column(case, out, summary):
+    return two_bars(case, out, summary, uniaxial=True)
+
+
+MEASURES = {"bar_column": bar_column, "bar_free": bar_free, "taylor_bar": taylor_bar,
+            "two_bars_free": two_bars_free, "two_bars_column": two_bars_column}

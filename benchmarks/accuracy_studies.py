@@ -1,0 +1,158 @@
+"""The studies of `make accuracy` (benchmarks/accuracy.py): which case, which overrides, which
+levels, what is measured.
+
+A study runs one or more series (element formulations, contact pass lists) over levels ordered
+from the coarsest (cheapest) to the finest; each run is the study's case loaded with the study's,
+the series' and the level's `--set` overrides (impactsim.case.load_case(path, overrides=...)).
+``x`` is the level's mesh size [m] or Courant number; orders are fitted against it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# every run: one numba thread (two runs share the two cores), frames only at the start and end
+COMMON = ["run.threads=1", "output.frames=1"]
+# the bar held at its sides: uniaxial strain, so the 1-D wave solution is exact for the 3-D model
+COLUMN = ['body.0.constraint=[{nodes = "all", velocity = [0, 0, "free"]}]']
+TWO_COLUMNS = [k.replace("body.0", f"body.{i}") for i in (0, 1) for k in COLUMN]
+TETS = {"tet4": ['run.element="tet4"'], "anp": ['run.element="anp"']}
+PASSES = {"node-face": ['contact.passes=["node-face"]'],
+          "node-face + edge-edge": ['contact.passes=["node-face", "edge-edge"]']}
+
+
+@dataclass
+class Level:
+    x: float  # mesh size [m] or Courant number
+    overrides: list[str]
+    label: str
+
+
+@dataclass
+class Study:
+    key: str
+    title: str
+    case: Path
+    measure: str  # a key of accuracy_measure.MEASURES
+    about: str  # markdown paragraph: the problem, the reference, what to read in the results
+    series: dict[str, list[str]]  # name -> overrides
+    levels: list[Level]  # coarse to fine
+    overrides: list[str] = field(default_factory=list)
+    x_name: str = "h"  # "h" (mesh size, reported in mm) or "CFL"
+    vs_finest: bool = False  # errors also against the finest run where an exact value exists
+
+
+def _mm(h: float) -> str:
+    return f"{h * 1e3:.4g} mm"
+
+
+def mesh_levels(sizes_m: list[float], keys: list[str], column: float | None = None) -> list[Level]:
+    """Levels setting the mesh size `keys` (body.N.mesh_size) to each size; with `column` the
+    body is also made one cell wide (size [h, h, column])."""
+    out = []
+    for h in sizes_m:
+        ov = [f"{k}={h!r}" for k in keys]
+        if column is not None:
+            ov.append(f"body.0.size=[{h!r}, {h!r}, {column!r}]")
+        out.append(Level(h, ov, _mm(h)))
+    return out
+
+
+def cfl_levels(cfls: list[float]) -> list[Level]:
+    return [Level(c, [f"run.cfl={c!r}"], f"CFL {c:g}") for c in cfls]
+
+
+BAR = ROOT / "cases" / "elastic-bar-wall.toml"
+TAYLOR = ROOT / "cases" / "taylor-bar.toml"
+TWO_BARS = ROOT / "benchmarks" / "accuracy_two_bars.toml"
+SQ2 = math.sqrt(2.0)
+
+
+def studies() -> list[Study]:
+    column_h = [5e-3 / 2 ** k for k in range(5)]  # 5 mm ... 0.3125 mm, 20 to 320 cells long
+    bar_h = [10e-3 / n for n in (2, 3, 4, 6, 8)]  # 5 ... 1.25 mm: 2 to 8 cells across
+    taylor_h = [1.6e-3 / SQ2 ** k for k in range(5)]  # 1.6 ... 0.4 mm
+    taylor_cfl_h = taylor_h[1]
+    cfls = [0.9, 0.6, 0.45, 0.3, 0.15]
+    return [
+        Study(
+            "bar-column", "Elastic bar on a rigid wall, uniaxial strain (analytic)", BAR,
+            "bar_column",
+            "The bundled `cases/elastic-bar-wall.toml` (steel, 100 mm long, 20 m/s) with every "
+            "node held in x and y and the bar one cell wide: uniaxial strain, where the 1-D "
+            "wave solution is exact for the 3-D model. Analytic: contact stress rho c_L v, "
+            "duration 2L/c_L, rebound at v, c_L = sqrt((K + 4G/3)/rho). `pulse_L1` is the L1 "
+            "distance of the wall-force history from the analytic square pulse relative to its "
+            "impulse. The stress plateau (median over the contact) is converged at every level: "
+            "what is left is the linear theory's neglect of finite strain, of order v/c_L.",
+            TETS, mesh_levels(column_h, ["body.0.mesh_size"], column=0.1),
+            COMMON + COLUMN),
+        Study(
+            "bar-free", "Elastic bar on a rigid wall, free sides (3-D)", BAR, "bar_free",
+            "The bundled `cases/elastic-bar-wall.toml` as it is (10 x 10 x 100 mm, 2 to 8 cells "
+            "across). A bar free at its sides is not the 1-D bar: lateral inertia (Pochhammer-"
+            "Chree dispersion) moves the converged stress plateau and duration about 1 % from "
+            "rho c v and 2L/c (column '1-D theory' of the orders table: the finest run's "
+            "deviation from it). The errors are therefore against the finest run.",
+            TETS, mesh_levels(bar_h, ["body.0.mesh_size"]), COMMON),
+        Study(
+            "bar-cfl", "Elastic column: Courant number", BAR, "bar_column",
+            "The uniaxial-strain column of the first study at h = 1.25 mm, tet4, with Courant "
+            "numbers from 0.9 to 0.15. 'vs exact' is the total error; 'vs finest' is the "
+            "time-discretisation error alone (against the run at CFL 0.15), whose order is "
+            "fitted against the CFL number (the time step is proportional to it).",
+            {"tet4": TETS["tet4"]}, cfl_levels(cfls),
+            COMMON + COLUMN + [f"body.0.mesh_size={1.25e-3!r}",
+                               f"body.0.size=[{1.25e-3!r}, {1.25e-3!r}, 0.1]"],
+            x_name="CFL", vs_finest=True),
+        Study(
+            "taylor-mesh", "Taylor bar: mesh size and element formulation", TAYLOR,
+            "taylor_bar",
+            "The bundled `cases/taylor-bar.toml` (OFHC copper, Johnson-Cook, 190 m/s, 80 us) at "
+            "five gmsh mesh sizes from 1.6 to 0.4 mm, with the constant-strain tet (`tet4`) and "
+            "the averaged nodal-pressure tet (`anp`). Final length and foot diameter against the "
+            "finest run of the same formulation. The measured final length of Johnson & Cook "
+            "(1983) is about 16.2 mm.",
+            TETS, mesh_levels(taylor_h, ["body.0.mesh_size"]),
+            COMMON + ["output.history_every=100"]),
+        Study(
+            "taylor-cfl", "Taylor bar: Courant number", TAYLOR, "taylor_bar",
+            f"The Taylor bar at h = {taylor_cfl_h * 1e3:.3g} mm, tet4, with Courant numbers from "
+            "0.9 to 0.15: the time-discretisation error against the run at CFL 0.15.",
+            {"tet4": TETS["tet4"]}, cfl_levels(cfls),
+            COMMON + ["output.history_every=100", f"body.0.mesh_size={taylor_cfl_h!r}"],
+            x_name="CFL"),
+        Study(
+            "contact-passes", "Contact passes: node-face alone or with edge-edge", TWO_BARS,
+            "two_bars_free",
+            "`benchmarks/accuracy_two_bars.toml`: two identical steel bars 10 x 10 x 25 mm, one "
+            "at 20 m/s, the target meshed with one cell more across than the striker so that "
+            "the meshes do not match at the interface (h below is the striker's). The exact "
+            "solution has no penetration: `penetration` is the largest over the run "
+            "(history.csv max_penetration), in um. Interface stress (contact impulse / dt over "
+            "the cross-section, median over the contact) and contact duration are against the "
+            "finest run of the same pass list; the 1-D theory (rho c v / 2, 2L/c) is shown for "
+            "comparison (a 25 mm bar free at its sides is far from the slender 1-D bar).",
+            PASSES, _two_bar_levels([2, 3, 4, 6, 8]), COMMON),
+        Study(
+            "contact-column", "Contact passes, uniaxial strain (analytic)", TWO_BARS,
+            "two_bars_column",
+            "The two bars of the previous study with every node held in x and y (uniaxial "
+            "strain), where the 1-D solution is exact: interface stress rho c_L v / 2, contact "
+            "for 2L/c_L, then the striker at rest (`striker_speed`, its final mean speed in m/s, "
+            "is the error of the momentum handed over).",
+            PASSES, _two_bar_levels([2, 3, 4, 6, 8]), COMMON + TWO_COLUMNS),
+    ]
+
+
+def _two_bar_levels(cells: list[int]) -> list[Level]:
+    out = []
+    for n in cells:
+        hs, ht = 10e-3 / n, 10e-3 / (n + 1)
+        out.append(Level(hs, [f"body.striker.mesh_size={hs!r}", f"body.target.mesh_size={ht!r}"],
+                         f"{n}/{n + 1} cells across"))
+    return out
