@@ -6,7 +6,7 @@ BIN := $(VENV)/bin
 CASES := elastic-bar-wall taylor-bar two-cubes two-cylinders elastic-bars hertz-spheres
 SWEEP ?= cases/sweeps/mesh-size.toml
 
-.PHONY: setup test hard bench cases demo clean
+.PHONY: setup test hard bench accuracy sweep cases demo clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -25,6 +25,14 @@ hard: setup
 
 bench: setup
 	$(BIN)/python benchmarks/run.py
+
+# accuracy against cost: runs the studies, writes docs/accuracy.md and docs/accuracy/*.png
+accuracy: setup
+	$(BIN)/python benchmarks/accuracy.py
+
+# the variants of a sweep file (docs/user-guide.md, Sweeps): make sweep SWEEP=cases/sweeps/x.toml
+sweep: setup
+	$(BIN)/python benchmarks/accuracy_sweep.py $(SWEEP)
 
 # run the bundled scenes (outputs in out/<case>/)
 cases: setup
