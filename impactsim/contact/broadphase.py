@@ -173,6 +173,105 @@ def query_pairs(qlo, qhi, qent, qbody, elo, ehi, eent, ebody, same_set, self_con
     return n
 
 
+@numba.njit(cache=True)
+def body_bounds(x, v, tau, nodes, node_body, pad, blo, bhi):
+    """Bounding box (n_body, 3) of each body's ``nodes`` swept over [x, x + tau v], padded; an
+    empty body gets +inf / -inf. Returns False when a coordinate is not finite (a NaN or
+    infinite position or velocity must not pass unnoticed)."""
+    for b in range(blo.shape[0]):
+        for d in range(3):
+            blo[b, d] = np.inf
+            bhi[b, d] = -np.inf
+    for k in range(nodes.shape[0]):
+        i = nodes[k]
+        b = node_body[k]
+        for d in range(3):
+            p0 = x[i, d]
+            p1 = p0 + tau * v[i, d]
+            if not (math.isfinite(p0) and math.isfinite(p1)):
+                return False
+            lo = min(p0, p1) - pad
+            hi = max(p0, p1) + pad
+            if lo < blo[b, d]:
+                blo[b, d] = lo
+            if hi > bhi[b, d]:
+                bhi[b, d] = hi
+    return True
+
+
+@numba.njit(cache=True)
+def select_boxes(x, v, tau, ent, pad, body, blo, bhi, keep_all, skip, sel, lo, hi):
+    """Swept, padded boxes of the rows of ``ent`` that can meet another body: rows whose box
+    meets the bounding box (blo, bhi) of a body other than their own (all rows with
+    ``keep_all``, for self-contact); rows with skip[i] != 0 are left out (``skip`` may be empty).
+    Writes their indices (increasing) to sel and their boxes to lo, hi; returns how many."""
+    n = 0
+    n_body = blo.shape[0]
+    use_skip = skip.shape[0] > 0
+    for i in range(ent.shape[0]):
+        if use_skip and skip[i] != 0:
+            continue
+        x0 = np.inf
+        y0 = np.inf
+        z0 = np.inf
+        x1 = -np.inf
+        y1 = -np.inf
+        z1 = -np.inf
+        for j in range(ent.shape[1]):
+            k = ent[i, j]
+            px = x[k, 0]
+            py = x[k, 1]
+            pz = x[k, 2]
+            qx = px + tau * v[k, 0]
+            qy = py + tau * v[k, 1]
+            qz = pz + tau * v[k, 2]
+            x0 = min(x0, px, qx)
+            y0 = min(y0, py, qy)
+            z0 = min(z0, pz, qz)
+            x1 = max(x1, px, qx)
+            y1 = max(y1, py, qy)
+            z1 = max(z1, pz, qz)
+        x0 -= pad
+        y0 -= pad
+        z0 -= pad
+        x1 += pad
+        y1 += pad
+        z1 += pad
+        keep = keep_all
+        if not keep:
+            for b in range(n_body):
+                if (b != body[i] and x0 <= bhi[b, 0] and blo[b, 0] <= x1 and y0 <= bhi[b, 1]
+                        and blo[b, 1] <= y1 and z0 <= bhi[b, 2] and blo[b, 2] <= z1):
+                    keep = True
+                    break
+        if keep:
+            sel[n] = i
+            lo[n, 0] = x0
+            lo[n, 1] = y0
+            lo[n, 2] = z0
+            hi[n, 0] = x1
+            hi[n, 1] = y1
+            hi[n, 2] = z1
+            n += 1
+    return n
+
+
+@numba.njit(cache=True)
+def mean_length(x, edges):
+    """Mean length [m] of the segments ``edges (g, 2)`` (0 for none)."""
+    if edges.shape[0] == 0:
+        return 0.0
+    total = 0.0
+    for g in range(edges.shape[0]):
+        a = edges[g, 0]
+        b = edges[g, 1]
+        dx = x[b, 0] - x[a, 0]
+        dy = x[b, 1] - x[a, 1]
+        dz = x[b, 2] - x[a, 2]
+        total += math.sqrt(dx * dx + dy * dy + dz * dz)
+    return total / edges.shape[0]
+
+
 class SpatialHash:
     """Host side of the hash grid: owns the growable buffers (entries and pairs)."""
 
@@ -230,8 +329,13 @@ def grid_for(boxes, h):
     his = [hi.max(axis=0) for lo, hi in boxes if hi.shape[0]]
     if not los:
         return np.zeros(3), max(float(h), 1.0)
-    lo = np.min(los, axis=0)
-    hi = np.max(his, axis=0)
+    return grid_from_bounds(np.min(los, axis=0), np.max(his, axis=0), h)
+
+
+def grid_from_bounds(lo, hi, h):
+    """``grid_for`` from the overall lowest and highest corners (3,) of the boxes."""
+    lo = np.asarray(lo, dtype=np.float64)
+    hi = np.asarray(hi, dtype=np.float64)
     if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
         raise FloatingPointError("non-finite position or velocity in the contact broad phase")
     extent = float((hi - lo).max())

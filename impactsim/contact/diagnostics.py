@@ -4,11 +4,11 @@ Two measures at the current positions, from the mesh alone (conn, status, the bo
 
 - a boundary node of body A inside an alive tet of body B != A: its depth is its distance to the
   boundary surface of B (nearest boundary face of B, searched shell by shell in a hash grid);
-- an edge of A's surface crossing a face of B's surface (an edge can cut through a body while
-  both its ends stay outside, the case the edge-edge pass exists for [D19]): its depth is the
-  smallest of the two endpoint distances to the face's plane and the crossing point's distance to
-  the triangle's border (a touching edge gives 0, an edge sliced through a corner of B about the
-  depth of the cut).
+- an edge of A's surface cutting through B (an edge can cut through a body while both its ends
+  stay outside, the case the edge-edge pass exists for [D19]): the crossings of the edge with
+  B's faces, ordered along it, give the pieces of the edge inside B; a piece's depth is the
+  largest distance to B's surface of three points on it (``edge_cut_depths``: a touching or
+  grazing edge gives about 0, an edge sliced through a corner of B about the depth of the cut).
 
 Both use the spatial hash of the broad phase (no quadratic search). Self-penetration of one body
 is not measured.
@@ -21,9 +21,10 @@ import math
 import numba
 import numpy as np
 
+from impactsim.contact.broadphase import (_AXIS_CELLS, SpatialHash, _bucket, _cell, _key,
+                                          body_bounds, grid_from_bounds, select_boxes,
+                                          swept_boxes)
 from impactsim.contact.cubic import det3
-from impactsim.contact.broadphase import (SpatialHash, _bucket, _cell, _key, _AXIS_CELLS,
-                                          grid_for, swept_boxes)
 
 
 @numba.njit(cache=True)
@@ -118,23 +119,21 @@ def nearest_face_distance(px, py, pz, body, faces, face_body, x, origin, inv_h, 
 
 
 @numba.njit(cache=True)
-def node_in_tet_depths(pairs, nodes, tets, tet_body, x, faces, face_body, origin, inv_h, h,
-                       tbits, bucket_start, keys, ents, kmax):
-    """For candidate (boundary node, tet of another body) pairs: nodes inside the tet (all
-    barycentric coordinates >= 0) get their depth below that body's surface. Returns
-    (max depth [m], number of node-in-tet pairs)."""
-    deepest = 0.0
+def nodes_in_tets(pairs, nodes, tets, x, inside):
+    """For candidate (boundary node, tet of another body) pairs: inside[k] = 1 when the node lies
+    in the tet (all barycentric coordinates >= 0). Returns the number of such pairs."""
     count = 0
     for k in range(pairs.shape[0]):
+        inside[k] = 0
         p = nodes[pairs[k, 0]]
         t = pairs[k, 1]
         i0 = tets[t, 0]
-        ax = x[i0, 0]
-        ay = x[i0, 1]
-        az = x[i0, 2]
         i1 = tets[t, 1]
         i2 = tets[t, 2]
         i3 = tets[t, 3]
+        ax = x[i0, 0]
+        ay = x[i0, 1]
+        az = x[i0, 2]
         # columns c_j = x_j - x_0; Cramer's rule for r = l1 c1 + l2 c2 + l3 c3
         c1x = x[i1, 0] - ax
         c1y = x[i1, 1] - ay
@@ -156,74 +155,176 @@ def node_in_tet_depths(pairs, nodes, tets, tet_body, x, faces, face_body, origin
         l3 = det3(c1x, c1y, c1z, c2x, c2y, c2z, rx, ry, rz) / det
         if l1 < 0.0 or l2 < 0.0 or l3 < 0.0 or l1 + l2 + l3 > 1.0:
             continue
+        inside[k] = 1
         count += 1
-        d = nearest_face_distance(x[p, 0], x[p, 1], x[p, 2], tet_body[t], faces, face_body, x,
-                                  origin, inv_h, h, tbits, bucket_start, keys, ents, kmax)
-        if d < np.inf and d > deepest:
-            deepest = d
-    return deepest, count
+    return count
 
 
 @numba.njit(cache=True)
-def edge_face_cut_depths(pairs, edges, faces, x):
-    """For candidate (boundary edge of A, boundary face of B) pairs: edges crossing the triangle.
-    Depth = min(endpoint distances to the face's plane, crossing point's distance to the
-    triangle's border). Returns (max depth [m], number of crossings)."""
+def inside_node_depths(pairs, inside, nodes, tet_body, x, faces, face_body, origin, inv_h, h,
+                       tbits, bucket_start, keys, ents, kmax):
+    """Depth [m] of the deepest node flagged by ``nodes_in_tets``: its distance to the boundary
+    surface of the tet's body (nearest face, searched in the face hash)."""
+    deepest = 0.0
+    for k in range(pairs.shape[0]):
+        if not inside[k]:
+            continue
+        p = nodes[pairs[k, 0]]
+        d = nearest_face_distance(x[p, 0], x[p, 1], x[p, 2], tet_body[pairs[k, 1]], faces,
+                                  face_body, x, origin, inv_h, h, tbits, bucket_start, keys,
+                                  ents, kmax)
+        if d < np.inf and d > deepest:
+            deepest = d
+    return deepest
+
+
+@numba.njit(cache=True)
+def _crossing(p, q, a, b, c, x):
+    """Parameter t in [0, 1] along p -> q where the segment crosses triangle (a, b, c), and +1
+    when it enters the body behind the face (outward normal (b - a) x (c - a)), -1 when it
+    leaves; (-1.0, 0) when it does not cross the triangle."""
+    e1x = x[b, 0] - x[a, 0]
+    e1y = x[b, 1] - x[a, 1]
+    e1z = x[b, 2] - x[a, 2]
+    e2x = x[c, 0] - x[a, 0]
+    e2y = x[c, 1] - x[a, 1]
+    e2z = x[c, 2] - x[a, 2]
+    nx = e1y * e2z - e1z * e2y
+    ny = e1z * e2x - e1x * e2z
+    nz = e1x * e2y - e1y * e2x
+    nn = nx * nx + ny * ny + nz * nz
+    if not nn > 0.0:
+        return -1.0, 0
+    sp = _dot(x[p, 0] - x[a, 0], x[p, 1] - x[a, 1], x[p, 2] - x[a, 2], nx, ny, nz)
+    sq = _dot(x[q, 0] - x[a, 0], x[q, 1] - x[a, 1], x[q, 2] - x[a, 2], nx, ny, nz)
+    if (sp >= 0.0 and sq >= 0.0) or (sp <= 0.0 and sq <= 0.0):
+        return -1.0, 0
+    t = sp / (sp - sq)
+    rx = x[p, 0] + t * (x[q, 0] - x[p, 0]) - x[a, 0]
+    ry = x[p, 1] + t * (x[q, 1] - x[p, 1]) - x[a, 1]
+    rz = x[p, 2] + t * (x[q, 2] - x[p, 2]) - x[a, 2]
+    wb = _dot(ry * e2z - rz * e2y, rz * e2x - rx * e2z, rx * e2y - ry * e2x, nx, ny, nz) / nn
+    wc = _dot(e1y * rz - e1z * ry, e1z * rx - e1x * rz, e1x * ry - e1y * rx, nx, ny, nz) / nn
+    if wb < 0.0 or wc < 0.0 or wb + wc > 1.0:
+        return -1.0, 0
+    return t, (1 if sp > 0.0 else -1)
+
+
+@numba.njit(cache=True)
+def crossing_pairs(pairs, edges, faces, x, keep):
+    """keep[k] = 1 for the (edge, face) pairs whose edge crosses the triangle; returns how many."""
+    n = 0
+    for k in range(pairs.shape[0]):
+        f = pairs[k, 1]
+        t, sgn = _crossing(edges[pairs[k, 0], 0], edges[pairs[k, 0], 1], faces[f, 0],
+                           faces[f, 1], faces[f, 2], x)
+        keep[k] = 1 if sgn != 0 else 0
+        n += keep[k]
+    return n
+
+
+@numba.njit(cache=True)
+def _segment_depth(p, q, t0, t1, body, faces, face_body, x, origin, inv_h, h, tbits,
+                   bucket_start, keys, ents, kmax):
+    """Largest distance to the surface of ``body`` among points at 1/4, 1/2, 3/4 of the piece
+    [t0, t1] of segment p -> q (a piece that lies inside that body)."""
+    best = 0.0
+    for j in range(1, 4):
+        t = t0 + 0.25 * j * (t1 - t0)
+        d = nearest_face_distance(x[p, 0] + t * (x[q, 0] - x[p, 0]),
+                                  x[p, 1] + t * (x[q, 1] - x[p, 1]),
+                                  x[p, 2] + t * (x[q, 2] - x[p, 2]), body, faces, face_body, x,
+                                  origin, inv_h, h, tbits, bucket_start, keys, ents, kmax)
+        if d < np.inf and d > best:
+            best = d
+    return best
+
+
+@numba.njit(cache=True)
+def edge_cut_depths(pairs, edges, faces, face_body, x, origin, inv_h, h, tbits, bucket_start,
+                    keys, ents, kmax, ts, signs):
+    """Edges of A cutting through the surface of another body B.
+
+    ``pairs (k, 2)`` (edge, face) candidates sorted by edge. For each edge and body the crossings
+    with B's faces are ordered along the edge; between an entering and the next leaving crossing
+    (or an end of the edge) the edge is inside B, and the depth of that piece is the largest
+    distance to B's surface of three points on it. A touching or grazing edge gives about 0, an
+    edge sliced through a corner of B about the depth of the cut. ``ts``, ``signs``: scratch
+    arrays (their length caps the crossings kept per edge). Returns (max depth [m], crossings)."""
     deepest = 0.0
     count = 0
-    for k in range(pairs.shape[0]):
-        p = edges[pairs[k, 0], 0]
-        q = edges[pairs[k, 0], 1]
-        a = faces[pairs[k, 1], 0]
-        b = faces[pairs[k, 1], 1]
-        c = faces[pairs[k, 1], 2]
-        e1x = x[b, 0] - x[a, 0]
-        e1y = x[b, 1] - x[a, 1]
-        e1z = x[b, 2] - x[a, 2]
-        e2x = x[c, 0] - x[a, 0]
-        e2y = x[c, 1] - x[a, 1]
-        e2z = x[c, 2] - x[a, 2]
-        nx = e1y * e2z - e1z * e2y
-        ny = e1z * e2x - e1x * e2z
-        nz = e1x * e2y - e1y * e2x
-        nl = math.sqrt(nx * nx + ny * ny + nz * nz)
-        if not nl > 0.0:
-            continue
-        sp = _dot(x[p, 0] - x[a, 0], x[p, 1] - x[a, 1], x[p, 2] - x[a, 2], nx, ny, nz) / nl
-        sq = _dot(x[q, 0] - x[a, 0], x[q, 1] - x[a, 1], x[q, 2] - x[a, 2], nx, ny, nz) / nl
-        if (sp > 0.0 and sq > 0.0) or (sp < 0.0 and sq < 0.0) or sp == sq:
-            continue
-        s = sp / (sp - sq)
-        X = x[p, 0] + s * (x[q, 0] - x[p, 0])
-        Y = x[p, 1] + s * (x[q, 1] - x[p, 1])
-        Z = x[p, 2] + s * (x[q, 2] - x[p, 2])
-        rx = X - x[a, 0]
-        ry = Y - x[a, 1]
-        rz = Z - x[a, 2]
-        nn = nl * nl
-        wb = _dot(ry * e2z - rz * e2y, rz * e2x - rx * e2z, rx * e2y - ry * e2x, nx, ny, nz) / nn
-        wc = _dot(e1y * rz - e1z * ry, e1z * rx - e1x * rz, e1x * ry - e1y * rx, nx, ny, nz) / nn
-        if wb < 0.0 or wc < 0.0 or wb + wc > 1.0:
-            continue
-        count += 1
-        d = min(abs(sp), abs(sq))
-        d = min(d, point_segment_distance(X, Y, Z, x[a, 0], x[a, 1], x[a, 2],
-                                          x[b, 0], x[b, 1], x[b, 2]))
-        d = min(d, point_segment_distance(X, Y, Z, x[b, 0], x[b, 1], x[b, 2],
-                                          x[c, 0], x[c, 1], x[c, 2]))
-        d = min(d, point_segment_distance(X, Y, Z, x[c, 0], x[c, 1], x[c, 2],
-                                          x[a, 0], x[a, 1], x[a, 2]))
-        if d > deepest:
-            deepest = d
+    k = 0
+    cap = ts.shape[0]
+    while k < pairs.shape[0]:
+        g = pairs[k, 0]
+        k_end = k
+        while k_end < pairs.shape[0] and pairs[k_end, 0] == g:
+            k_end += 1
+        p = edges[g, 0]
+        q = edges[g, 1]
+        # bodies met by this edge, one at a time
+        for k_body in range(k, k_end):
+            body = face_body[pairs[k_body, 1]]
+            first = True
+            for j in range(k, k_body):
+                if face_body[pairs[j, 1]] == body:
+                    first = False
+                    break
+            if not first:
+                continue
+            n = 0
+            for j in range(k, k_end):
+                f = pairs[j, 1]
+                if face_body[f] != body:
+                    continue
+                t, sgn = _crossing(p, q, faces[f, 0], faces[f, 1], faces[f, 2], x)
+                if sgn == 0 or n >= cap:
+                    continue
+                count += 1
+                # insertion into the sorted list
+                i = n
+                while i > 0 and ts[i - 1] > t:
+                    ts[i] = ts[i - 1]
+                    signs[i] = signs[i - 1]
+                    i -= 1
+                ts[i] = t
+                signs[i] = sgn
+                n += 1
+            if n == 0:
+                continue
+            inside = signs[0] < 0  # the first crossing leaves B: the edge starts inside
+            start = 0.0
+            for i in range(n):
+                if signs[i] > 0 and not inside:
+                    inside = True
+                    start = ts[i]
+                elif signs[i] < 0 and inside:
+                    inside = False
+                    d = _segment_depth(p, q, start, ts[i], body, faces, face_body, x, origin,
+                                       inv_h, h, tbits, bucket_start, keys, ents, kmax)
+                    if d > deepest:
+                        deepest = d
+            if inside:
+                d = _segment_depth(p, q, start, 1.0, body, faces, face_body, x, origin, inv_h,
+                                   h, tbits, bucket_start, keys, ents, kmax)
+                if d > deepest:
+                    deepest = d
+        k = k_end
     return deepest, count
 
 
 class PenetrationMeter:
-    """Measures penetration between bodies (see the module docstring); owns its hash buffers."""
+    """Measures penetration between bodies (see the module docstring); owns its buffers.
+
+    Only entities whose box meets another body's box take part (the rest cannot touch), so on a
+    history row the cost follows the size of the contact zone."""
 
     def __init__(self):
-        self.face_hash = SpatialHash()
+        self.depth_hash = SpatialHash()
+        self.cut_hash = SpatialHash()
         self.tet_hash = SpatialHash()
+        self._ts = np.empty(256)
+        self._signs = np.empty(256, np.int64)
 
     def measure(self, x, conn, elem_body, status, surface) -> dict:
         """{"max_penetration" [m], "node_depth" [m], "edge_depth" [m], "nodes_inside",
@@ -233,56 +334,81 @@ class PenetrationMeter:
         if surface.n_faces == 0:
             return out
         x = np.ascontiguousarray(x, dtype=np.float64)
-        zero_v = x  # tau = 0: static boxes, the velocity argument is not read
+        n_body = int(max(surface.node_body.max(), np.max(elem_body)) + 1)
+        blo = np.empty((n_body, 3))
+        bhi = np.empty((n_body, 3))
+        if not body_bounds(x, x, 0.0, surface.nodes, surface.node_body, 0.0, blo, bhi):
+            raise FloatingPointError("non-finite position in the penetration measure")
         nodes2 = surface.nodes.reshape(-1, 1)
-        nlo = np.empty((surface.n_nodes, 3))
-        nhi = np.empty((surface.n_nodes, 3))
-        swept_boxes(x, zero_v, 0.0, nodes2, 0.0, nlo, nhi)
-        flo = np.empty((surface.n_faces, 3))
-        fhi = np.empty((surface.n_faces, 3))
-        swept_boxes(x, zero_v, 0.0, surface.faces, 0.0, flo, fhi)
-        # alive tets of a body whose box meets the surface nodes' box of another body
-        alive = np.flatnonzero(np.asarray(status) != 3) if status is not None else \
-            np.arange(conn.shape[0])
-        tets = np.ascontiguousarray(conn[alive], dtype=np.int32)
-        tet_body = np.ascontiguousarray(elem_body[alive], dtype=np.int32)
-        tlo = np.empty((tets.shape[0], 3))
-        thi = np.empty((tets.shape[0], 3))
-        swept_boxes(x, zero_v, 0.0, tets, 0.0, tlo, thi)
-        bodies = np.unique(surface.node_body)
-        keep = np.zeros(tets.shape[0], dtype=bool)
-        for b in bodies:
-            sel = surface.node_body == b
-            blo = nlo[sel].min(axis=0)
-            bhi = nhi[sel].max(axis=0)
-            keep |= (tet_body != b) & np.all(tlo <= bhi, axis=1) & np.all(thi >= blo, axis=1)
-        tets, tet_body, tlo, thi = tets[keep], tet_body[keep], tlo[keep], thi[keep]
+        qsel, qlo, qhi = _select(x, nodes2, surface.node_body, blo, bhi)
+        if qsel.shape[0] == 0:
+            return out
+        live = blo[:, 0] <= bhi[:, 0]
         h = surface.mean_edge_length(x)
-        origin, h = grid_for([(nlo, nhi), (flo, fhi), (tlo, thi)], h)
-        self.face_hash.build(flo, fhi, origin, h)
-        kmax = int(np.ceil(float((fhi.max(axis=0) - origin).max()) / h)) + 1
-        if tets.shape[0]:
-            self.tet_hash.build(np.ascontiguousarray(tlo), np.ascontiguousarray(thi), origin, h)
-            pairs = self.tet_hash.query(nlo, nhi, nodes2, surface.node_body, tets, tet_body,
-                                        False, False)
-            fh = self.face_hash
-            depth, count = node_in_tet_depths(pairs, surface.nodes, tets, tet_body, x,
-                                              surface.faces, surface.face_body, fh.origin,
-                                              fh.inv_h, fh.h, fh.tbits, fh.bucket_start, fh.keys,
-                                              fh.ents, kmax)
-            out["node_depth"] = float(depth)
-            out["nodes_inside"] = int(count)
-        if surface.n_edges:
-            elo = np.empty((surface.n_edges, 3))
-            ehi = np.empty((surface.n_edges, 3))
-            swept_boxes(x, zero_v, 0.0, surface.edges, 0.0, elo, ehi)
-            pairs = self.face_hash.query(elo, ehi, surface.edges, surface.edge_body,
-                                         surface.faces, surface.face_body, False, False)
-            depth, count = edge_face_cut_depths(pairs, surface.edges, surface.faces, x)
-            out["edge_depth"] = float(depth)
-            out["edge_cuts"] = int(count)
+        origin, h = grid_from_bounds(blo[live].min(axis=0), bhi[live].max(axis=0), h)
+        # boundary nodes inside tets of another body
+        skip = (np.asarray(status) == 3).view(np.uint8) if status is not None else _NO_SKIP
+        tsel, tlo, thi = _select(x, conn, elem_body, blo, bhi, skip)
+        count, pairs, inside, nodes_q = 0, None, None, surface.nodes[qsel]
+        if tsel.shape[0]:
+            tets = np.ascontiguousarray(conn[tsel], dtype=np.int32)
+            tet_body = np.ascontiguousarray(elem_body[tsel], dtype=np.int32)
+            self.tet_hash.build(tlo, thi, origin, h)
+            pairs = self.tet_hash.query(qlo, qhi, nodes2[qsel], surface.node_body[qsel], tets,
+                                        tet_body, False, False)
+            inside = np.zeros(pairs.shape[0], np.uint8)
+            count = nodes_in_tets(pairs, nodes_q, tets, x, inside)
+        # boundary edges cutting through boundary faces of another body
+        cut_pairs = np.zeros((0, 2), np.int64)
+        fsel, flo, fhi = _select(x, surface.faces, surface.face_body, blo, bhi)
+        esel, elo, ehi = _select(x, surface.edges, surface.edge_body, blo, bhi)
+        if fsel.shape[0] and esel.shape[0]:
+            self.cut_hash.build(flo, fhi, origin, h)
+            cut_pairs = self.cut_hash.query(elo, ehi, surface.edges[esel],
+                                            surface.edge_body[esel], surface.faces[fsel],
+                                            surface.face_body[fsel], False, False)
+            cut_pairs[:, 0] = esel[cut_pairs[:, 0]]
+            cut_pairs[:, 1] = fsel[cut_pairs[:, 1]]
+            keep = np.empty(cut_pairs.shape[0], np.uint8)
+            if crossing_pairs(cut_pairs, surface.edges, surface.faces, x, keep):
+                cut_pairs = cut_pairs[keep.view(bool)]
+            else:
+                cut_pairs = cut_pairs[:0]
+        if count or cut_pairs.shape[0]:
+            # depths below the other body's surface: nearest boundary face, from a hash of all
+            alo = np.empty((surface.n_faces, 3))
+            ahi = np.empty((surface.n_faces, 3))
+            swept_boxes(x, x, 0.0, surface.faces, 0.0, alo, ahi)
+            fh = self.depth_hash
+            fh.build(alo, ahi, origin, h)
+            kmax = int(np.ceil(float((ahi.max(axis=0) - origin).max()) / h)) + 1
+            grid = (fh.origin, fh.inv_h, fh.h, fh.tbits, fh.bucket_start, fh.keys, fh.ents, kmax)
+            if count:
+                out["node_depth"] = float(inside_node_depths(
+                    pairs, inside, nodes_q, tet_body, x, surface.faces, surface.face_body,
+                    *grid))
+                out["nodes_inside"] = int(count)
+            if cut_pairs.shape[0]:
+                depth, n_cut = edge_cut_depths(cut_pairs, surface.edges, surface.faces,
+                                               surface.face_body, x, *grid, self._ts,
+                                               self._signs)
+                out["edge_depth"] = float(depth)
+                out["edge_cuts"] = int(n_cut)
         out["max_penetration"] = max(out["node_depth"], out["edge_depth"])
         return out
+
+
+_NO_SKIP = np.zeros(0, np.uint8)
+
+
+def _select(x, ent, body, blo, bhi, skip=_NO_SKIP):
+    """Rows of ent whose (static) box meets another body's box, with their boxes."""
+    n = ent.shape[0]
+    sel = np.empty(n, np.int64)
+    lo = np.empty((n, 3))
+    hi = np.empty((n, 3))
+    k = select_boxes(x, x, 0.0, ent, 0.0, body, blo, bhi, False, skip, sel, lo, hi)
+    return sel[:k], lo[:k], hi[:k]
 
 
 def max_penetration(x, conn, elem_body, status, surface) -> float:

@@ -21,9 +21,12 @@ material points d and c (parameters alpha, beta) at t = 0: n points from d towar
 Departure from the paper, for persistent contact (as in the node-face pass): edges that start the
 step within ``band`` of each other, with the closest points inside both segments, count as
 touching at t = 0. Their order "before the crossing" is then not reliable (they may have crossed
-by round-off), so n is oriented by the bodies' outward normals at the edges instead (the sum of
-the unit normals of the boundary faces at each edge): n . (nu_1 - nu_2) > 0. The same holds for a
-root whose material points d, c start at most ``band`` apart.
+by round-off or by the second-order drift of turning edges), so n is oriented by the bodies'
+outward normals at the edges instead (the sum of the unit normals of the boundary faces at each
+edge): n . (nu_1 - nu_2) > 0; the same holds for a root whose material points d, c start at most
+``band`` apart. Touching edges are held so that their gap g = (c - d) . n along that n is
+non-negative at the end of the step: the numerator of N_c gets the extra term -g / tau (a
+compressive impulse that restores a small overlap, never a pull).
 Parallel edges (|(b-a) x (f-e)| <= 1e-6 |b-a| |f-e|) have no crossing point; they are skipped
 (the node-face pass covers them).
 """
@@ -38,6 +41,7 @@ from impactsim.contact.cubic import cubic_coefficients, cubic_roots_in
 
 PARALLEL_SIN = 1e-6  # edges closer to parallel than this (sine of the angle) are skipped
 SEGMENT_EPS = 1e-9  # tolerance of 0 <= alpha, beta <= 1
+NU_RELIABLE = 0.2  # nu orients n only when |n . nu| >= this * |nu|
 
 
 @numba.njit(cache=True)
@@ -62,9 +66,12 @@ def line_parameters(ax, ay, az, d1x, d1y, d1z, ex, ey, ez, d2x, d2y, d2z):
 def _edge_edge_at(t, force_nu, band, ia, ib, ie, jf, x, v, mass, tau, mu, nu_x, nu_y, nu_z):
     """Crossing of edges [ia, ib] (body 1) and [ie, jf] (body 2) at time t (ALGORITHMS.md 3.2).
 
-    n is oriented by the material points d, c at t = 0 (d -> c), unless ``force_nu`` or they
-    are at most ``band`` apart along n: then by nu = nu_1 - nu_2 (outward normals).
-    Returns -1 when not a valid crossing, 0 when valid but not approaching, else tau N_c [N s]."""
+    n is oriented by the material points d, c at t = 0 (d -> c), unless ``force_nu`` (edges
+    touching at t = 0) or they are at most ``band`` apart along n: then by nu = nu_1 - nu_2
+    (outward normals), if nu is not nearly perpendicular to n. Touching edges (``force_nu``) keep
+    or regain their gap g = (c - d) . n by the end of the step: N_c uses the approach speed minus
+    g / tau. Returns -1 when not a valid crossing, 0 when valid but needing no impulse, else
+    tau N_c [N s]."""
     ax = x[ia, 0] + t * v[ia, 0]
     ay = x[ia, 1] + t * v[ia, 1]
     az = x[ia, 2] + t * v[ia, 2]
@@ -96,14 +103,21 @@ def _edge_edge_at(t, force_nu, band, ia, ib, ie, jf, x, v, mass, tau, mu, nu_x, 
     s = ((1.0 - be) * x[ie, 0] + be * x[jf, 0] - (1.0 - al) * x[ia, 0] - al * x[ib, 0]) * nx \
         + ((1.0 - be) * x[ie, 1] + be * x[jf, 1] - (1.0 - al) * x[ia, 1] - al * x[ib, 1]) * ny \
         + ((1.0 - be) * x[ie, 2] + be * x[jf, 2] - (1.0 - al) * x[ia, 2] - al * x[ib, 2]) * nz
+    o = s
     if force_nu or abs(s) <= band:
-        s = nx * nu_x + ny * nu_y + nz * nu_z
-    if s == 0.0:
+        o = nx * nu_x + ny * nu_y + nz * nu_z
+        if abs(o) < NU_RELIABLE * math.sqrt(nu_x * nu_x + nu_y * nu_y + nu_z * nu_z):
+            if force_nu:
+                return -1.0
+            o = s
+    if o == 0.0:
         return -1.0
-    if s < 0.0:
+    if o < 0.0:
         nx = -nx
         ny = -ny
         nz = -nz
+        s = -s
+    gap = s if force_nu else 0.0
     una = v[ia, 0] * nx + v[ia, 1] * ny + v[ia, 2] * nz
     unb = v[ib, 0] * nx + v[ib, 1] * ny + v[ib, 2] * nz
     une = v[ie, 0] * nx + v[ie, 1] * ny + v[ie, 2] * nz
@@ -113,8 +127,8 @@ def _edge_edge_at(t, force_nu, band, ia, ib, ie, jf, x, v, mass, tau, mu, nu_x, 
     me = mass[ie]
     mf = mass[jf]
     S = ((1.0 - be) ** 2 / me + be * be / mf + (1.0 - al) ** 2 / ma + al * al / mb)
-    # [D19 eq. 11]
-    Nc = ((1.0 - al) * una + al * unb - (1.0 - be) * une - be * unf) / (tau * S)
+    # [D19 eq. 11] (with the gap term for touching edges, see the docstring)
+    Nc = ((1.0 - al) * una + al * unb - (1.0 - be) * une - be * unf - gap / tau) / (tau * S)
     if not Nc > 0.0:
         return 0.0
     J = tau * Nc
@@ -224,13 +238,16 @@ def edge_normals(x, faces, face_edges, out):
 
 
 @numba.njit(cache=True)
-def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band):
+def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band, active):
     """Gauss-Seidel sweep over candidate edge pairs (ALGORITHMS.md 3.2): sequentially, in the
     given (sorted) order, each pair seeing the velocities already corrected. ``pairs (k, 2)``
     rows of indices into ``edges`` (body 1 edge, body 2 edge); ``normals (g, 3)`` from
-    ``edge_normals``. Returns (pairs corrected, sum of normal impulses [N s])."""
+    ``edge_normals``; ``active (k,)`` uint8 set to 1 for every pair that got an impulse. Returns
+    (pairs corrected in this sweep, sum of normal impulses [N s], largest velocity change of a
+    corrected node [m/s])."""
     applied = 0
     total = 0.0
+    jump = 0.0
     for k in range(pairs.shape[0]):
         g1 = pairs[k, 0]
         g2 = pairs[k, 1]
@@ -241,4 +258,12 @@ def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band):
         if J > 0.0:
             applied += 1
             total += J
-    return applied, total
+            active[k] = 1
+            for j in range(2):
+                m1 = mass[edges[g1, j]]
+                m2 = mass[edges[g2, j]]
+                if J / m1 > jump:
+                    jump = J / m1
+                if J / m2 > jump:
+                    jump = J / m2
+    return applied, total, jump

@@ -17,10 +17,12 @@ one that stops sliding and at most mu times the normal impulse, with the same we
 conserved).
 
 Departure from the paper, for persistent contact: after a correction the node ends the step on
-the face's plane up to round-off and second-order terms, so at the next step it may start a hair
-behind the plane, where the cubic has no sign change. A node that starts at most ``band`` behind
-the plane and inside the triangle counts as touching at t = 0 (and is corrected only if it still
-approaches). Deeper nodes are left alone (the penetration diagnostic reports them).
+the face's plane only up to round-off and second-order terms (the face turns and slides during
+the step), so at the next step it may start a little behind the plane, where the cubic has no
+sign change. A node that starts at depth g <= ``band`` behind the plane, inside the triangle,
+counts as touching at t = 0; it is held so that it is back on the plane at the end of the step
+(relative normal velocity at least g / tau, away from the face: still a compressive impulse,
+never a pull). Deeper nodes are left alone (the penetration diagnostic reports them).
 """
 
 from __future__ import annotations
@@ -33,11 +35,13 @@ from impactsim.contact.cubic import cubic_coefficients, cubic_roots_in
 
 
 @numba.njit(cache=True)
-def _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary):
+def _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary, vmin):
     """Contact of node p with face (ia, ib, ic) at time t of the step (ALGORITHMS.md 3.1).
 
-    Returns -1 when the node is not inside the triangle at t (or the face is degenerate), 0 when
-    it is inside but not approaching, else the normal impulse J [N s] it applied to v."""
+    The node's normal velocity relative to the face point must be at least ``vmin`` (0 at a
+    crossing: equal normal velocities). Returns -1 when the node is not inside the triangle at t
+    (or the face is degenerate), 0 when it is inside but needs no impulse, else the normal
+    impulse J [N s] it applied to v."""
     ax = x[ia, 0] + t * v[ia, 0]
     ay = x[ia, 1] + t * v[ia, 1]
     az = x[ia, 2] + t * v[ia, 2]
@@ -77,14 +81,14 @@ def _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary):
     vry = v[p, 1] - (wa * v[ia, 1] + wb * v[ib, 1] + wc * v[ic, 1])
     vrz = v[p, 2] - (wa * v[ia, 2] + wb * v[ib, 2] + wc * v[ic, 2])
     vn = vrx * nx + vry * ny + vrz * nz
-    if not vn < 0.0:
+    if not vn < vmin:
         return 0.0
     mp = mass[p]
     ma = mass[ia]
     mb = mass[ib]
     mc = mass[ic]
     minv = 1.0 / mp + wa * wa / ma + wb * wb / mb + wc * wc / mc
-    J = -vn / minv
+    J = (vmin - vn) / minv
     for d in range(3):
         nd = nx if d == 0 else (ny if d == 1 else nz)
         v[p, d] += J / mp * nd
@@ -142,26 +146,28 @@ def node_face_correct(p, ia, ib, ic, x, v, mass, tau, mu, band, eps_bary):
     if dist0 < -band:
         return 0.0
     if dist0 < 0.0:
-        J = _node_face_at(0.0, p, ia, ib, ic, x, v, mass, mu, eps_bary)
+        J = _node_face_at(0.0, p, ia, ib, ic, x, v, mass, mu, eps_bary, -dist0 / tau)
         if J > 0.0:
             return J
     n, r0, r1, r2 = cubic_roots_in(a, b, c, d, tau)
     for k in range(n):
         t = r0 if k == 0 else (r1 if k == 1 else r2)
-        J = _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary)
+        J = _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary, 0.0)
         if J > 0.0:
             return J
     return 0.0
 
 
 @numba.njit(cache=True)
-def node_face_sweep(pairs, nodes, faces, x, v, mass, tau, mu, band, eps_bary):
+def node_face_sweep(pairs, nodes, faces, x, v, mass, tau, mu, band, eps_bary, active):
     """Gauss-Seidel sweep over candidate pairs (ALGORITHMS.md 3.1 with the sequential rule of
     3.2): pair after pair in the given (sorted) order, each seeing the velocities corrected by the
-    previous ones. ``pairs (k, 2)`` rows (index into nodes, index into faces). Returns
-    (pairs corrected, sum of normal impulses [N s])."""
+    previous ones. ``pairs (k, 2)`` rows (index into nodes, index into faces); ``active (k,)``
+    uint8 is set to 1 for every pair that got an impulse. Returns (pairs corrected in this sweep,
+    sum of normal impulses [N s], largest velocity change of a corrected node J / m_node [m/s])."""
     applied = 0
     total = 0.0
+    jump = 0.0
     for k in range(pairs.shape[0]):
         p = nodes[pairs[k, 0]]
         f = pairs[k, 1]
@@ -170,4 +176,7 @@ def node_face_sweep(pairs, nodes, faces, x, v, mass, tau, mu, band, eps_bary):
         if J > 0.0:
             applied += 1
             total += J
-    return applied, total
+            active[k] = 1
+            if J / mass[p] > jump:
+                jump = J / mass[p]
+    return applied, total, jump

@@ -6,12 +6,20 @@
 Each pass sees model.x = x^n and model.v = U* and corrects model.v in place, pair after pair in
 sorted order (Gauss-Seidel); positions move only after all passes of the step.
 
+One run of a pass: the broad phase (swept boxes of this step, only entities near another body
+unless self-contact, spatial hash) gives the candidate pairs once; then Gauss-Seidel sweeps over
+them. The first sweep is the algorithm of [D19]. A correction can push an earlier pair of the
+same sweep back into contact, so further sweeps over the same candidates follow while the
+previous one still changed velocities (at most ``max_sweeps``, until the largest velocity change
+falls below SWEEP_TOL of the first sweep's); they only ever apply the same corrections.
+
 The passes share a ``ContactContext``: one ``Surface`` (kept in step with erosion through
-``model.status``), the hash buffers, the per-step statistics and the penetration meter. The first
-pass of the list reports the history columns of all contact passes:
+``model.status``), the per-step statistics, the energy bookkeeping and the penetration meter.
+The first pass of the list reports the history columns of all contact passes:
 ``max_penetration`` [m] (measured independently, ``diagnostics``), ``contact_pairs`` (pairs
-corrected in the step, all passes) and ``contact_impulse`` [N s] (sum of the normal impulses of
-the step, all passes).
+that got an impulse in the step, all passes) and ``contact_impulse`` [N s] (sum of the normal
+impulses of the step, all passes). The last pass books the work of all contact impulses of the
+step into ``model.energy_terms["contact_dissipated"]``.
 """
 
 from __future__ import annotations
@@ -21,40 +29,43 @@ import difflib
 
 import numpy as np
 
-from impactsim.contact.broadphase import SpatialHash, grid_for, swept_boxes
+from impactsim.contact.broadphase import (SpatialHash, body_bounds, grid_from_bounds,
+                                          select_boxes)
 from impactsim.contact.diagnostics import PenetrationMeter
 from impactsim.contact.edgeedge import edge_edge_sweep, edge_normals
+from impactsim.contact.energy import impulse_work
 from impactsim.contact.nodeface import node_face_sweep
 from impactsim.contact.surface import Surface
 from impactsim.solver.passes import Pass
 
-BAND = 1e-3  # touching band, a fraction of the mean surface edge length (nodeface, edgeedge)
+BAND = 0.01  # touching band, a fraction of the mean surface edge length h (nodeface, edgeedge)
+BOX_PAD = 0.05  # padding of the swept boxes, a fraction of h (covers the band and the changes of
+#                 velocity by the corrections of the step)
 EPS_BARY = 1e-6  # tolerance of the inside-the-triangle test at the crossing
-PAD = 2.0  # box padding, in bands: boxes reach the nodes that start inside the band
+MAX_SWEEPS = 16  # Gauss-Seidel sweeps per pass and step, at most
+SWEEP_TOL = 1e-8  # sweeps stop when the largest velocity change is below this share of the first
 
 
 class ContactContext:
-    """What the contact passes of one run share (see the module docstring).
-
-    ``max_sweeps``: Gauss-Seidel sweeps per pass and step. One sweep is the algorithm of [D19];
-    further sweeps (with a fresh broad phase on the corrected velocities) run only while the
-    previous sweep corrected something, for pairs that a later correction pushed into contact.
-    """
+    """What the contact passes of one run share (see the module docstring)."""
 
     def __init__(self, model, friction: float = 0.0, self_contact: bool = False,
-                 band: float = BAND, eps_bary: float = EPS_BARY, max_sweeps: int = 1):
+                 band: float = BAND, eps_bary: float = EPS_BARY, max_sweeps: int = MAX_SWEEPS):
         self.surface = Surface.from_model(model)
         self._conn_shape = model.conn.shape
+        self.n_body = int(model.n_body)
         self.friction = float(friction)
         self.self_contact = bool(self_contact)
         self.band_rel = float(band)
         self.eps_bary = float(eps_bary)
         self.max_sweeps = max(int(max_sweeps), 1)
         self.meter = PenetrationMeter()
-        self.last = {}  # pass name -> {"pairs", "impulse", "candidates"} of its last run
+        self.passes: list[ContactPass] = []
+        self.last = {}  # pass name -> statistics of its last run
         self._h_key = None
         self._h = 0.0
         self._buf = {}
+        self._v_star = None
 
     def prepare(self, model) -> float:
         """Follow erosion (status) and return the current mean surface edge length h [m]."""
@@ -68,24 +79,77 @@ class ContactContext:
             self._h_key = key
         return self._h
 
-    def buffer(self, name: str, rows: int) -> np.ndarray:
-        """A reusable (rows, 3) float64 scratch array."""
+    def buffer(self, name: str, shape, dtype=np.float64) -> np.ndarray:
+        """A reusable scratch array (contents undefined), reallocated only when it must grow."""
         b = self._buf.get(name)
-        if b is None or b.shape[0] != rows:
-            b = np.empty((rows, 3))
+        rows = shape[0] if isinstance(shape, tuple) else shape
+        if b is None or b.shape[0] < rows or b.dtype != np.dtype(dtype):
+            full = (max(rows, 16),) + (tuple(shape[1:]) if isinstance(shape, tuple) else ())
+            b = np.empty(full, dtype=dtype)
             self._buf[name] = b
-        return b
+        return b[:rows]
 
-    def boxes(self, name, x, v, tau, ent, pad):
-        lo = self.buffer(name + ".lo", ent.shape[0])
-        hi = self.buffer(name + ".hi", ent.shape[0])
-        swept_boxes(x, v, tau, ent, pad, lo, hi)
-        return lo, hi
+    def bounds(self, model, dt, pad):
+        """Per-body bounding boxes (n_body, 3) of the surface nodes swept over the step."""
+        s = self.surface
+        blo = self.buffer("blo", (self.n_body, 3))
+        bhi = self.buffer("bhi", (self.n_body, 3))
+        if not body_bounds(model.x, model.v, dt, s.nodes, s.node_body, pad, blo, bhi):
+            raise FloatingPointError("non-finite position or velocity in the contact broad phase")
+        return blo, bhi
+
+    def select(self, name, model, dt, ent, pad, body, blo, bhi):
+        """(rows, lo, hi): the rows of ``ent`` that can meet another body (all of them with
+        self-contact) and their swept boxes."""
+        n = ent.shape[0]
+        sel = self.buffer(name + ".sel", n, np.int64)
+        lo = self.buffer(name + ".lo", (n, 3))
+        hi = self.buffer(name + ".hi", (n, 3))
+        k = select_boxes(model.x, model.v, dt, ent, pad, body, blo, bhi, self.self_contact,
+                         _NO_SKIP, sel, lo, hi)
+        return sel[:k], lo[:k], hi[:k]
+
+    def grid(self, blo, bhi, h):
+        live = blo[:, 0] <= bhi[:, 0]
+        return grid_from_bounds(blo[live].min(axis=0), bhi[live].max(axis=0), h)
+
+    # --- energy of the contact impulses of one step ------------------------------------------
+    def begin_step(self, model) -> None:
+        if not _books_energy(model):
+            return
+        nodes = self.surface.nodes
+        self._v_star = self.buffer("v_star", (nodes.shape[0], 3))
+        np.take(model.v, nodes, axis=0, out=self._v_star)
+
+    def end_step(self, model) -> None:
+        if self._v_star is None or not _books_energy(model):
+            return
+        work = impulse_work(self.surface.nodes, self._v_star, model.v, model.mass, model.force,
+                            float(model.dtv))
+        model.energy_terms["contact_dissipated"] = (
+            model.energy_terms.get("contact_dissipated", 0.0) - work)
+        self._v_star = None
+
+
+def _books_energy(model) -> bool:
+    return (hasattr(model, "dtv") and hasattr(model, "force")
+            and isinstance(getattr(model, "energy_terms", None), dict))
+
+
+_NO_SKIP = np.zeros(0, np.uint8)
+_NO_PAIRS = np.zeros((0, 2), dtype=np.int64)
+
+
+def _lift(pairs, qsel, esel):
+    """Pairs of selected rows -> pairs of full rows (order is kept: the maps are increasing)."""
+    if pairs.shape[0]:
+        pairs[:, 0] = qsel[pairs[:, 0]]
+        pairs[:, 1] = esel[pairs[:, 1]]
+    return pairs
 
 
 class ContactPass(Pass):
     stage = "velocity"
-    key = ""
 
     def __init__(self, ctx: ContactContext):
         self.ctx = ctx
@@ -96,28 +160,46 @@ class ContactPass(Pass):
         self.max_penetration_seen = 0.0
 
     def run(self, model, dt: float) -> None:
-        h = self.ctx.prepare(model)
-        pairs_total = 0
-        impulse_total = 0.0
-        candidates = 0
-        for sweep in range(self.ctx.max_sweeps):
-            n_cand, applied, impulse = self._sweep(model, dt, h)
-            candidates += n_cand
-            pairs_total += applied
-            impulse_total += impulse
-            self.totals["sweeps"] += 1
-            if applied == 0:
-                break
-        self.ctx.last[self.name] = {"pairs": pairs_total, "impulse": impulse_total,
-                                    "candidates": candidates}
-        self.totals["pairs"] += pairs_total
-        self.totals["impulse"] += impulse_total
-        self.totals["candidates"] += candidates
-        self.totals["steps_in_contact"] += int(pairs_total > 0)
+        ctx = self.ctx
+        h = ctx.prepare(model)
+        if ctx.passes and self is ctx.passes[0]:
+            ctx.begin_step(model)
+        pairs = self._candidates(model, dt, h)
+        active = ctx.buffer(self.name + ".active", pairs.shape[0], np.uint8)
+        active[:] = 0
+        impulse = 0.0
+        first = 0.0
+        sweeps = 0
+        if pairs.shape[0]:
+            for sweep in range(ctx.max_sweeps):
+                applied, imp, jump = self._sweep(model, dt, h, pairs, active)
+                impulse += imp
+                sweeps += 1
+                if applied == 0:
+                    break
+                if sweep == 0:
+                    first = jump
+                elif jump <= SWEEP_TOL * first:
+                    break
+        n_active = int(active.sum())
+        ctx.last[self.name] = {"pairs": n_active, "impulse": impulse,
+                               "candidates": int(pairs.shape[0]), "sweeps": sweeps}
+        t = self.totals
+        t["pairs"] += n_active
+        t["impulse"] += impulse
+        t["candidates"] += int(pairs.shape[0])
+        t["sweeps"] += sweeps
+        t["steps_in_contact"] += int(n_active > 0)
+        if ctx.passes and self is ctx.passes[-1]:
+            ctx.end_step(model)
 
     @abc.abstractmethod
-    def _sweep(self, model, dt, h):
-        """One broad phase and one Gauss-Seidel sweep: (candidates, pairs corrected, impulse)."""
+    def _candidates(self, model, dt, h) -> np.ndarray:
+        """Broad phase: sorted candidate pairs (k, 2) int64 of this step."""
+
+    @abc.abstractmethod
+    def _sweep(self, model, dt, h, pairs, active):
+        """One Gauss-Seidel sweep: (pairs corrected, impulse [N s], largest velocity change)."""
 
     def history(self, model) -> dict[str, float]:
         if not self.reports_history:
@@ -132,12 +214,10 @@ class ContactPass(Pass):
                 "contact_impulse": float(sum(s["impulse"] for s in ctx.last.values()))}
 
     def summary(self, model) -> dict:
-        out = {"candidate_pairs": int(self.totals["candidates"]),
-               "corrections": int(self.totals["pairs"]),
-               "impulse": float(self.totals["impulse"]),
-               "sweeps": int(self.totals["sweeps"]),
-               "steps_in_contact": int(self.totals["steps_in_contact"]),
-               "hash_grows": int(self.hash.grows)}
+        t = self.totals
+        out = {"candidate_pairs": int(t["candidates"]), "corrected_pairs": int(t["pairs"]),
+               "impulse": float(t["impulse"]), "sweeps": int(t["sweeps"]),
+               "steps_in_contact": int(t["steps_in_contact"]), "hash_grows": int(self.hash.grows)}
         if self.reports_history:
             out["max_penetration_seen"] = float(self.max_penetration_seen)
             out["surface"] = {"faces": self.ctx.surface.n_faces,
@@ -152,25 +232,30 @@ class NodeFacePass(ContactPass):
     self-contact)."""
 
     name = "contact.node-face"
-    key = "node-face"
 
-    def _sweep(self, model, dt, h):
+    def _candidates(self, model, dt, h):
         ctx = self.ctx
         s = ctx.surface
         if s.n_faces == 0:
-            return 0, 0, 0.0
-        x, v = model.x, model.v
-        band = ctx.band_rel * h
+            return _NO_PAIRS
+        pad = BOX_PAD * h
         nodes2 = s.nodes.reshape(-1, 1)
-        nlo, nhi = ctx.boxes("nf.node", x, v, dt, nodes2, PAD * band)
-        flo, fhi = ctx.boxes("nf.face", x, v, dt, s.faces, PAD * band)
-        origin, cell = grid_for([(nlo, nhi), (flo, fhi)], h)
-        self.hash.build(flo, fhi, origin, cell)
-        pairs = self.hash.query(nlo, nhi, nodes2, s.node_body, s.faces, s.face_body, False,
-                                ctx.self_contact)
-        applied, impulse = node_face_sweep(pairs, s.nodes, s.faces, x, v, model.mass, dt,
-                                           ctx.friction, band, ctx.eps_bary)
-        return pairs.shape[0], int(applied), float(impulse)
+        blo, bhi = ctx.bounds(model, dt, pad)
+        qsel, qlo, qhi = ctx.select("nf.node", model, dt, nodes2, pad, s.node_body, blo, bhi)
+        esel, elo, ehi = ctx.select("nf.face", model, dt, s.faces, pad, s.face_body, blo, bhi)
+        if qsel.shape[0] == 0 or esel.shape[0] == 0:
+            return _NO_PAIRS
+        origin, cell = ctx.grid(blo, bhi, h)
+        self.hash.build(elo, ehi, origin, cell)
+        pairs = self.hash.query(qlo, qhi, nodes2[qsel], s.node_body[qsel], s.faces[esel],
+                                s.face_body[esel], False, ctx.self_contact)
+        return _lift(pairs, qsel, esel)
+
+    def _sweep(self, model, dt, h, pairs, active):
+        ctx = self.ctx
+        s = ctx.surface
+        return node_face_sweep(pairs, s.nodes, s.faces, model.x, model.v, model.mass, dt,
+                               ctx.friction, ctx.band_rel * h, ctx.eps_bary, active)
 
 
 class EdgeEdgePass(ContactPass):
@@ -178,27 +263,32 @@ class EdgeEdgePass(ContactPass):
     bodies (or of one body without a shared node, with self-contact)."""
 
     name = "contact.edge-edge"
-    key = "edge-edge"
 
-    def _sweep(self, model, dt, h):
+    def _candidates(self, model, dt, h):
         ctx = self.ctx
         s = ctx.surface
         if s.n_edges == 0:
-            return 0, 0, 0.0
-        x, v = model.x, model.v
-        band = ctx.band_rel * h
-        elo, ehi = ctx.boxes("ee.edge", x, v, dt, s.edges, PAD * band)
-        origin, cell = grid_for([(elo, ehi)], h)
-        self.hash.build(elo, ehi, origin, cell)
-        pairs = self.hash.query(elo, ehi, s.edges, s.edge_body, s.edges, s.edge_body, True,
-                                ctx.self_contact)
-        if pairs.shape[0] == 0:
-            return 0, 0, 0.0
-        normals = ctx.buffer("ee.normals", s.n_edges)
-        edge_normals(x, s.faces, s.face_edges, normals)
-        applied, impulse = edge_edge_sweep(pairs, s.edges, normals, x, v, model.mass, dt,
-                                           ctx.friction, band)
-        return pairs.shape[0], int(applied), float(impulse)
+            return _NO_PAIRS
+        pad = BOX_PAD * h
+        blo, bhi = ctx.bounds(model, dt, pad)
+        sel, lo, hi = ctx.select("ee.edge", model, dt, s.edges, pad, s.edge_body, blo, bhi)
+        if sel.shape[0] < 2:
+            return _NO_PAIRS
+        origin, cell = ctx.grid(blo, bhi, h)
+        self.hash.build(lo, hi, origin, cell)
+        ent, body = s.edges[sel], s.edge_body[sel]
+        pairs = self.hash.query(lo, hi, ent, body, ent, body, True, ctx.self_contact)
+        if pairs.shape[0]:
+            # outward normals at the edges, for touching pairs (edgeedge module docstring)
+            self.normals = ctx.buffer("ee.normals", (s.n_edges, 3))
+            edge_normals(model.x, s.faces, s.face_edges, self.normals)
+        return _lift(pairs, sel, sel)
+
+    def _sweep(self, model, dt, h, pairs, active):
+        ctx = self.ctx
+        s = ctx.surface
+        return edge_edge_sweep(pairs, s.edges, self.normals, model.x, model.v, model.mass, dt,
+                               ctx.friction, ctx.band_rel * h, active)
 
 
 PASSES = {"node-face": NodeFacePass, "edge-edge": EdgeEdgePass}
@@ -221,5 +311,6 @@ def make_contact_passes(case, model) -> list[Pass]:
         return []
     ctx = ContactContext(model, friction=c.friction, self_contact=c.self_contact)
     passes = [PASSES[name](ctx) for name in names]
+    ctx.passes = passes
     passes[0].reports_history = True
     return passes

@@ -26,6 +26,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from impactsim.contact.broadphase import mean_length
 from impactsim.mesh.topology import FACE_EDGES, LOCAL_FACES, face_adjacency, unique_edges
 
 ERODED = 3  # impactsim.model.ERODED (kept literal so this module stays free of the model)
@@ -169,7 +170,4 @@ class Surface:
 
     def mean_edge_length(self, x) -> float:
         """Mean length [m] of the boundary edges at positions x (0 when there are none)."""
-        if self.n_edges == 0:
-            return 0.0
-        d = x[self.edges[:, 1]] - x[self.edges[:, 0]]
-        return float(np.sqrt((d * d).sum(axis=1)).mean())
+        return float(mean_length(x, self.edges))

@@ -155,16 +155,19 @@ def test_sweep_is_gauss_seidel_and_bit_identical():
     out = []
     for _ in range(2):
         vv = v.copy()
-        out.append((edge_edge_sweep(pairs, edges, normals, x, vv, m, TAU, 0.0, 0.0), vv))
+        active = np.zeros(2, np.uint8)
+        out.append((edge_edge_sweep(pairs, edges, normals, x, vv, m, TAU, 0.0, 0.0, active), vv))
     assert out[0][0] == out[1][0] and np.array_equal(out[0][1], out[1][1])
-    applied, total = out[0][0]
+    applied, total, jump = out[0][0]
     assert applied == 2  # the second pair sees the first correction, and still approaches
+    assert np.all(active == 1) and jump > 0
     np.testing.assert_allclose(momentum(out[0][1], m), momentum(v, m), atol=1e-12)
     # Jacobi (both from U*) would differ from the sequential result
     vj = v.copy()
     for k in range(2):
         vk = v.copy()
-        edge_edge_sweep(pairs[k:k + 1], edges, normals, x, vk, m, TAU, 0.0, 0.0)
+        edge_edge_sweep(pairs[k:k + 1], edges, normals, x, vk, m, TAU, 0.0, 0.0,
+                        np.zeros(1, np.uint8))
         vj += vk - v
     assert not np.allclose(vj, out[0][1])
 

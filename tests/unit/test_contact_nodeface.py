@@ -102,7 +102,11 @@ def test_touching_node_within_the_band_is_held():
     x, v, m = setup([0.2, 0.2, -1e-9], [0, 0, -5.0], face, np.zeros((3, 3)))
     J = node_face_correct(0, 1, 2, 3, x, v, m, 1e-3, 0.0, 1e-6, EPS)
     assert J > 0
-    assert abs(v[0, 2] - (0.6 * v[1, 2] + 0.2 * v[2, 2] + 0.2 * v[3, 2])) < 1e-14
+    # held so that it is back on the face's plane at the end of the step (depth / tau apart)
+    rel = v[0, 2] - (0.6 * v[1, 2] + 0.2 * v[2, 2] + 0.2 * v[3, 2])
+    assert rel == pytest.approx(1e-9 / 1e-3, rel=1e-6)
+    y = x + 1e-3 * v
+    assert y[0, 2] - (0.6 * y[1, 2] + 0.2 * y[2, 2] + 0.2 * y[3, 2]) == pytest.approx(0, abs=1e-15)
     # without a band it is not seen (it starts behind the plane)
     x, v, m = setup([0.2, 0.2, -1e-9], [0, 0, -5.0], face, np.zeros((3, 3)))
     assert node_face_correct(0, 1, 2, 3, x, v, m, 1e-3, 0.0, 0.0, EPS) == 0.0
@@ -153,8 +157,11 @@ def test_sweep_is_sequential_and_bit_identical():
     results = []
     for _ in range(2):
         vv = v.copy()
-        applied, total = node_face_sweep(pairs, nodes, faces, x, vv, m, 1e-3, 0.0, 0.0, EPS)
+        active = np.zeros(2, np.uint8)
+        applied, total, jump = node_face_sweep(pairs, nodes, faces, x, vv, m, 1e-3, 0.0, 0.0,
+                                               EPS, active)
         results.append((applied, total, vv))
+        assert list(active) == [1, 0] and jump == pytest.approx(total / m[0])
     assert results[0][0] == 1  # the second face sees a node that no longer approaches
     assert results[0][1] == results[1][1] and np.array_equal(results[0][2], results[1][2])
     np.testing.assert_allclose(momentum(results[0][2], m), momentum(v, m), atol=1e-13)
