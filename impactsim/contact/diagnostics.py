@@ -224,17 +224,36 @@ def crossing_pairs(pairs, edges, faces, x, keep):
 
 
 @numba.njit(cache=True)
-def _segment_depth(p, q, t0, t1, body, faces, face_body, x, origin, inv_h, h, tbits,
-                   bucket_start, keys, ents, kmax):
+def _tri_distance(px, py, pz, f, faces, x):
+    a = faces[f, 0]
+    b = faces[f, 1]
+    c = faces[f, 2]
+    return point_triangle_distance(px, py, pz, x[a, 0], x[a, 1], x[a, 2], x[b, 0], x[b, 1],
+                                   x[b, 2], x[c, 0], x[c, 1], x[c, 2])
+
+
+@numba.njit(cache=True)
+def _segment_depth(p, q, t0, t1, fa, fb, deepest, body, faces, face_body, x, origin, inv_h, h,
+                   tbits, bucket_start, keys, ents, kmax):
     """Largest distance to the surface of ``body`` among points at 1/4, 1/2, 3/4 of the piece
-    [t0, t1] of segment p -> q (a piece that lies inside that body)."""
-    best = 0.0
+    [t0, t1] of segment p -> q (a piece inside that body, entered through face fa and left
+    through face fb, -1 for none), or ``deepest`` if none is deeper. The distance to the
+    triangles fa, fb bounds the depth from above and spares the search when it cannot win."""
+    best = deepest
     for j in range(1, 4):
         t = t0 + 0.25 * j * (t1 - t0)
-        d = nearest_face_distance(x[p, 0] + t * (x[q, 0] - x[p, 0]),
-                                  x[p, 1] + t * (x[q, 1] - x[p, 1]),
-                                  x[p, 2] + t * (x[q, 2] - x[p, 2]), body, faces, face_body, x,
-                                  origin, inv_h, h, tbits, bucket_start, keys, ents, kmax)
+        px = x[p, 0] + t * (x[q, 0] - x[p, 0])
+        py = x[p, 1] + t * (x[q, 1] - x[p, 1])
+        pz = x[p, 2] + t * (x[q, 2] - x[p, 2])
+        bound = np.inf
+        if fa >= 0:
+            bound = _tri_distance(px, py, pz, fa, faces, x)
+        if fb >= 0:
+            bound = min(bound, _tri_distance(px, py, pz, fb, faces, x))
+        if bound <= best:
+            continue
+        d = nearest_face_distance(px, py, pz, body, faces, face_body, x, origin, inv_h, h, tbits,
+                                  bucket_start, keys, ents, kmax)
         if d < np.inf and d > best:
             best = d
     return best
@@ -242,15 +261,16 @@ def _segment_depth(p, q, t0, t1, body, faces, face_body, x, origin, inv_h, h, tb
 
 @numba.njit(cache=True)
 def edge_cut_depths(pairs, edges, faces, face_body, x, origin, inv_h, h, tbits, bucket_start,
-                    keys, ents, kmax, ts, signs):
+                    keys, ents, kmax, ts, signs, fs):
     """Edges of A cutting through the surface of another body B.
 
     ``pairs (k, 2)`` (edge, face) candidates sorted by edge. For each edge and body the crossings
     with B's faces are ordered along the edge; between an entering and the next leaving crossing
     (or an end of the edge) the edge is inside B, and the depth of that piece is the largest
     distance to B's surface of three points on it. A touching or grazing edge gives about 0, an
-    edge sliced through a corner of B about the depth of the cut. ``ts``, ``signs``: scratch
-    arrays (their length caps the crossings kept per edge). Returns (max depth [m], crossings)."""
+    edge sliced through a corner of B about the depth of the cut. ``ts``, ``signs``, ``fs``:
+    scratch arrays (their length caps the crossings kept per edge). Returns (max depth [m],
+    crossings)."""
     deepest = 0.0
     count = 0
     k = 0
@@ -286,29 +306,31 @@ def edge_cut_depths(pairs, edges, faces, face_body, x, origin, inv_h, h, tbits, 
                 while i > 0 and ts[i - 1] > t:
                     ts[i] = ts[i - 1]
                     signs[i] = signs[i - 1]
+                    fs[i] = fs[i - 1]
                     i -= 1
                 ts[i] = t
                 signs[i] = sgn
+                fs[i] = f
                 n += 1
             if n == 0:
                 continue
             inside = signs[0] < 0  # the first crossing leaves B: the edge starts inside
             start = 0.0
+            f_in = -1
             for i in range(n):
                 if signs[i] > 0 and not inside:
                     inside = True
                     start = ts[i]
+                    f_in = fs[i]
                 elif signs[i] < 0 and inside:
                     inside = False
-                    d = _segment_depth(p, q, start, ts[i], body, faces, face_body, x, origin,
-                                       inv_h, h, tbits, bucket_start, keys, ents, kmax)
-                    if d > deepest:
-                        deepest = d
+                    deepest = _segment_depth(p, q, start, ts[i], f_in, fs[i], deepest, body,
+                                             faces, face_body, x, origin, inv_h, h, tbits,
+                                             bucket_start, keys, ents, kmax)
             if inside:
-                d = _segment_depth(p, q, start, 1.0, body, faces, face_body, x, origin, inv_h,
-                                   h, tbits, bucket_start, keys, ents, kmax)
-                if d > deepest:
-                    deepest = d
+                deepest = _segment_depth(p, q, start, 1.0, f_in, -1, deepest, body, faces,
+                                         face_body, x, origin, inv_h, h, tbits, bucket_start,
+                                         keys, ents, kmax)
         k = k_end
     return deepest, count
 
@@ -325,6 +347,7 @@ class PenetrationMeter:
         self.tet_hash = SpatialHash()
         self._ts = np.empty(256)
         self._signs = np.empty(256, np.int64)
+        self._faces = np.empty(256, np.int64)
 
     def measure(self, x, conn, elem_body, status, surface) -> dict:
         """{"max_penetration" [m], "node_depth" [m], "edge_depth" [m], "nodes_inside",
@@ -391,7 +414,7 @@ class PenetrationMeter:
             if cut_pairs.shape[0]:
                 depth, n_cut = edge_cut_depths(cut_pairs, surface.edges, surface.faces,
                                                surface.face_body, x, *grid, self._ts,
-                                               self._signs)
+                                               self._signs, self._faces)
                 out["edge_depth"] = float(depth)
                 out["edge_cuts"] = int(n_cut)
         out["max_penetration"] = max(out["node_depth"], out["edge_depth"])

@@ -238,32 +238,39 @@ def edge_normals(x, faces, face_edges, out):
 
 
 @numba.njit(cache=True)
-def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band, active):
+def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band, active, stamp, sweep,
+                    since):
     """Gauss-Seidel sweep over candidate edge pairs (ALGORITHMS.md 3.2): sequentially, in the
     given (sorted) order, each pair seeing the velocities already corrected. ``pairs (k, 2)``
     rows of indices into ``edges`` (body 1 edge, body 2 edge); ``normals (g, 3)`` from
-    ``edge_normals``; ``active (k,)`` uint8 set to 1 for every pair that got an impulse. Returns
-    (pairs corrected in this sweep, sum of normal impulses [N s], largest velocity change of a
-    corrected node [m/s])."""
+    ``edge_normals``; ``active (k,)`` uint8 set to 1 for every pair that got an impulse;
+    ``stamp``, ``sweep``, ``since``: the skipping of unchanged pairs in repeated sweeps, as in
+    ``nodeface.node_face_sweep``. Returns (pairs corrected in this sweep, sum of normal impulses
+    [N s], largest velocity change of a corrected node [m/s])."""
     applied = 0
     total = 0.0
     jump = 0.0
     for k in range(pairs.shape[0]):
         g1 = pairs[k, 0]
         g2 = pairs[k, 1]
-        J = edge_edge_correct(edges[g1, 0], edges[g1, 1], edges[g2, 0], edges[g2, 1], x, v, mass,
-                              tau, mu, band,
+        ia = edges[g1, 0]
+        ib = edges[g1, 1]
+        ie = edges[g2, 0]
+        jf = edges[g2, 1]
+        if max(max(stamp[ia], stamp[ib]), max(stamp[ie], stamp[jf])) < since:
+            continue
+        J = edge_edge_correct(ia, ib, ie, jf, x, v, mass, tau, mu, band,
                               normals[g1, 0] - normals[g2, 0], normals[g1, 1] - normals[g2, 1],
                               normals[g1, 2] - normals[g2, 2])
         if J > 0.0:
             applied += 1
             total += J
             active[k] = 1
-            for j in range(2):
-                m1 = mass[edges[g1, j]]
-                m2 = mass[edges[g2, j]]
-                if J / m1 > jump:
-                    jump = J / m1
-                if J / m2 > jump:
-                    jump = J / m2
+            stamp[ia] = sweep
+            stamp[ib] = sweep
+            stamp[ie] = sweep
+            stamp[jf] = sweep
+            for m in (mass[ia], mass[ib], mass[ie], mass[jf]):
+                if J / m > jump:
+                    jump = J / m
     return applied, total, jump

@@ -159,24 +159,40 @@ def node_face_correct(p, ia, ib, ic, x, v, mass, tau, mu, band, eps_bary):
 
 
 @numba.njit(cache=True)
-def node_face_sweep(pairs, nodes, faces, x, v, mass, tau, mu, band, eps_bary, active):
+def node_face_sweep(pairs, nodes, faces, x, v, mass, tau, mu, band, eps_bary, active, stamp,
+                    sweep, since):
     """Gauss-Seidel sweep over candidate pairs (ALGORITHMS.md 3.1 with the sequential rule of
     3.2): pair after pair in the given (sorted) order, each seeing the velocities corrected by the
     previous ones. ``pairs (k, 2)`` rows (index into nodes, index into faces); ``active (k,)``
-    uint8 is set to 1 for every pair that got an impulse. Returns (pairs corrected in this sweep,
-    sum of normal impulses [N s], largest velocity change of a corrected node J / m_node [m/s])."""
+    uint8 is set to 1 for every pair that got an impulse.
+
+    ``stamp (n_node,)`` int64 holds the number of the sweep that last changed each node's
+    velocity (numbers only grow); corrected nodes get ``sweep``. Pairs none of whose nodes has a
+    stamp >= ``since`` are skipped: a repeated sweep passes the previous sweep's number, and a
+    pair whose nodes did not change since then would repeat its last answer (no impulse), so the
+    result is the same as visiting it. The first sweep passes since = 0 and visits every pair.
+    Returns (pairs corrected in this sweep, sum of normal impulses [N s], largest velocity
+    change of a corrected node J / m_node [m/s])."""
     applied = 0
     total = 0.0
     jump = 0.0
     for k in range(pairs.shape[0]):
         p = nodes[pairs[k, 0]]
         f = pairs[k, 1]
-        J = node_face_correct(p, faces[f, 0], faces[f, 1], faces[f, 2], x, v, mass, tau, mu,
-                              band, eps_bary)
+        a = faces[f, 0]
+        b = faces[f, 1]
+        c = faces[f, 2]
+        if max(max(stamp[p], stamp[a]), max(stamp[b], stamp[c])) < since:
+            continue
+        J = node_face_correct(p, a, b, c, x, v, mass, tau, mu, band, eps_bary)
         if J > 0.0:
             applied += 1
             total += J
             active[k] = 1
+            stamp[p] = sweep
+            stamp[a] = sweep
+            stamp[b] = sweep
+            stamp[c] = sweep
             if J / mass[p] > jump:
                 jump = J / mass[p]
     return applied, total, jump

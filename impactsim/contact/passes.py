@@ -59,6 +59,7 @@ class ContactContext:
         self.band_rel = float(band)
         self.eps_bary = float(eps_bary)
         self.max_sweeps = max(int(max_sweeps), 1)
+        self.skip_unchanged = True  # repeated sweeps visit only pairs whose nodes changed
         self.meter = PenetrationMeter()
         self.passes: list[ContactPass] = []
         self.last = {}  # pass name -> statistics of its last run
@@ -66,6 +67,7 @@ class ContactContext:
         self._h = 0.0
         self._buf = {}
         self._v_star = None
+        self.sweep_id = 0
 
     def prepare(self, model) -> float:
         """Follow erosion (status) and return the current mean surface edge length h [m]."""
@@ -88,6 +90,16 @@ class ContactContext:
             b = np.empty(full, dtype=dtype)
             self._buf[name] = b
         return b[:rows]
+
+    def stamps(self, n_node: int) -> np.ndarray:
+        """Per node, the number of the sweep that last changed its velocity (see
+        ``nodeface.node_face_sweep``); numbers only grow, so the array is never reset."""
+        st = self._buf.get("stamp")
+        if st is None or st.shape[0] != n_node:
+            st = np.zeros(n_node, dtype=np.int64)  # sweeps are numbered from 1
+            self._buf["stamp"] = st
+            self.sweep_id = 0
+        return st
 
     def bounds(self, model, dt, pad):
         """Per-body bounding boxes (n_body, 3) of the surface nodes swept over the step."""
@@ -171,8 +183,13 @@ class ContactPass(Pass):
         first = 0.0
         sweeps = 0
         if pairs.shape[0]:
+            stamp = ctx.stamps(model.n_node)
             for sweep in range(ctx.max_sweeps):
-                applied, imp, jump = self._sweep(model, dt, h, pairs, active)
+                # the first sweep visits every pair, the next ones only pairs that changed
+                since = ctx.sweep_id if sweep > 0 and ctx.skip_unchanged else 0
+                ctx.sweep_id += 1
+                applied, imp, jump = self._sweep(model, dt, h, pairs, active, stamp,
+                                                 ctx.sweep_id, since)
                 impulse += imp
                 sweeps += 1
                 if applied == 0:
@@ -198,7 +215,7 @@ class ContactPass(Pass):
         """Broad phase: sorted candidate pairs (k, 2) int64 of this step."""
 
     @abc.abstractmethod
-    def _sweep(self, model, dt, h, pairs, active):
+    def _sweep(self, model, dt, h, pairs, active, stamp, sweep, since):
         """One Gauss-Seidel sweep: (pairs corrected, impulse [N s], largest velocity change)."""
 
     def history(self, model) -> dict[str, float]:
@@ -251,11 +268,12 @@ class NodeFacePass(ContactPass):
                                 s.face_body[esel], False, ctx.self_contact)
         return _lift(pairs, qsel, esel)
 
-    def _sweep(self, model, dt, h, pairs, active):
+    def _sweep(self, model, dt, h, pairs, active, stamp, sweep, since):
         ctx = self.ctx
         s = ctx.surface
         return node_face_sweep(pairs, s.nodes, s.faces, model.x, model.v, model.mass, dt,
-                               ctx.friction, ctx.band_rel * h, ctx.eps_bary, active)
+                               ctx.friction, ctx.band_rel * h, ctx.eps_bary, active, stamp,
+                               sweep, since)
 
 
 class EdgeEdgePass(ContactPass):
@@ -284,11 +302,11 @@ class EdgeEdgePass(ContactPass):
             edge_normals(model.x, s.faces, s.face_edges, self.normals)
         return _lift(pairs, sel, sel)
 
-    def _sweep(self, model, dt, h, pairs, active):
+    def _sweep(self, model, dt, h, pairs, active, stamp, sweep, since):
         ctx = self.ctx
         s = ctx.surface
         return edge_edge_sweep(pairs, s.edges, self.normals, model.x, model.v, model.mass, dt,
-                               ctx.friction, ctx.band_rel * h, active)
+                               ctx.friction, ctx.band_rel * h, active, stamp, sweep, since)
 
 
 PASSES = {"node-face": NodeFacePass, "edge-edge": EdgeEdgePass}

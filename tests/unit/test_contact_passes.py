@@ -157,3 +157,21 @@ def test_surface_follows_erosion():
     assert not np.isin(s.face_elem, [0]).any()
     meter = PenetrationMeter().measure(m.x, m.conn, m.elem_body, m.status, s)
     assert np.isfinite(meter["max_penetration"])
+
+
+def test_skipping_unchanged_pairs_in_repeated_sweeps_changes_nothing():
+    results = []
+    for skip in (True, False):
+        a = structured_box((0.02, 0.02, 0.01), 0.004)
+        b = structured_box((0.01, 0.01, 0.01), 0.003)
+        b = (b[0] @ rot(2, 17).T + [0.001, 0.002, 0.0101], b[1])
+        m = make_model([a, b], [(0, 0, 0), (0, 0, -300.0)])
+        passes = make_contact_passes(case_with(), m)
+        passes[0].ctx.skip_unchanged = skip
+        sweeps = 0
+        for _ in range(4):
+            step(m, passes, 1e-6)
+            sweeps += max(s["sweeps"] for s in passes[0].ctx.last.values())
+        results.append(m.v.copy())
+        assert sweeps > 4  # repeated sweeps did happen
+    assert np.array_equal(results[0], results[1])
