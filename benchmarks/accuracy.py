@@ -22,6 +22,8 @@ machine's other load shows in them.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import json
 import os
 import sys
@@ -70,7 +72,8 @@ def run_job(job: dict) -> dict:
     from impactsim.solver.run import run_case
 
     case = load_case(job["case"], overrides=job["overrides"])
-    summary = run_case(case, Path(job["out"]), progress=False)
+    with contextlib.redirect_stderr(io.StringIO()):  # the run's own log lines: not needed here
+        summary = run_case(case, Path(job["out"]), progress=False)
     quantities = MEASURES[job["measure"]](case, Path(job["out"]), summary)
     wall = summary["wall_seconds"] - summary["seconds_per_pass"].get("meshing", 0.0)
     return {**{k: job[k] for k in ("study", "series", "level", "x", "label")},
@@ -91,8 +94,9 @@ def _warm_up() -> None:
         for path, ov in ((BAR, ["run.end_time=2e-6", "body.0.mesh_size=0.005"]),
                          (TWO_BARS, ["run.end_time=2e-7", "body.striker.mesh_size=0.005",
                                      "body.target.mesh_size=0.005"])):
-            run_case(load_case(path, overrides=ov + ["output.frames=1"]), Path(tmp) / path.stem,
-                     progress=False)
+            with contextlib.redirect_stderr(io.StringIO()):
+                run_case(load_case(path, overrides=ov + ["output.frames=1"]),
+                         Path(tmp) / path.stem, progress=False)
 
 
 def run_all(selected: list[Study], n_jobs: int) -> list[dict]:

@@ -21,6 +21,8 @@ from benchmarks.accuracy_studies import ROOT, Study
 DOC = ROOT / "docs" / "accuracy.md"
 FIG_DIR = ROOT / "docs" / "accuracy"
 COMMAND = "make accuracy"
+MIN_RATE = 0.05  # q below this: the error does not fall with cost (converged, or a floor)
+P_SHOWN = (0.2, 8.0)  # a Richardson order outside this range gives no useful extrapolation
 
 
 @dataclass
@@ -36,6 +38,11 @@ class ErrorColumn:
     rate: float | None  # q of error = C wall^-q
     x: list[float] = field(default_factory=list)
     wall: list[float] = field(default_factory=list)
+    floor: float = 0.0  # absolute errors up to this are round-off (same unit as errors)
+
+    def at_floor(self) -> bool:
+        """Every error is round-off: nothing to converge."""
+        return self.floor > 0 and all(e <= self.floor for e in self.errors)
 
 
 @dataclass
@@ -73,9 +80,11 @@ def analyse(study: Study, runs: list[dict]) -> tuple[list[ErrorColumn], list[Ser
                 err = [relative_error(v, exact) * (scale if absolute else 1.0) for v in values]
                 p = fit_power(x, err)
                 q = fit_power(wall, err)
+                floor = q0.get("floor", 0.0) * scale if absolute else 0.0
                 columns.append(ErrorColumn(name, qname, "exact", absolute,
                                            unit if absolute else "", err,
-                                           p[0] if p else None, -q[0] if q else None, x, wall))
+                                           p[0] if p else None, -q[0] if q else None, x, wall,
+                                           floor))
             if exact is None or study.vs_finest:
                 err = errors_vs_finest(values)
                 p = order_vs_finest(x, values)
@@ -111,6 +120,25 @@ def _err_header(col: ErrorColumn) -> str:
     return f"{col.quantity} {what} vs {col.reference}"
 
 
+def _shown(columns: list[ErrorColumn], quantity: str, series: str) -> list[ErrorColumn]:
+    """The error columns of the runs table (an error against an exact 0 is the value itself)."""
+    return [c for c in columns if c.quantity == quantity and c.series == series
+            and not c.absolute]
+
+
+def falls(col: ErrorColumn) -> bool:
+    """The error falls with cost at a measurable rate, and the dearest run beats the cheapest."""
+    last = len(col.errors) - (2 if col.reference == "finest" else 1)
+    return (col.rate is not None and col.rate > MIN_RATE and last > 0
+            and col.errors[last] < col.errors[0])
+
+
+def verdict(col: ErrorColumn) -> str:
+    if col.at_floor():
+        return f"none left (≤ {col.floor:g} {col.unit} at every level)"
+    return "yes" if falls(col) else "no"
+
+
 def runs_table(study: Study, runs: list[dict], columns: list[ErrorColumn]) -> list[str]:
     series = _series_runs(runs, study)
     first = next(iter(series.values()))
@@ -120,8 +148,7 @@ def runs_table(study: Study, runs: list[dict], columns: list[ErrorColumn]) -> li
     for qn in qnames:
         q0 = first[0]["quantities"][qn]
         head.append(f"{qn}" + (f" [{q0['unit']}]" if q0["unit"] else ""))
-        head += [_err_header(c) for c in columns if c.quantity == qn and c.series == first[0]
-                 ["series"]]
+        head += [_err_header(c) for c in _shown(columns, qn, first[0]["series"])]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for name, rs in series.items():
         cols = [c for c in columns if c.series == name]
@@ -131,7 +158,7 @@ def runs_table(study: Study, runs: list[dict], columns: list[ErrorColumn]) -> li
             for qn in qnames:
                 q = r["quantities"][qn]
                 row.append(_num(q["value"] * q["scale"], 5))
-                row += [_err(c, i) for c in cols if c.quantity == qn]
+                row += [_err(c, i) for c in _shown(cols, qn, name)]
             if r.get("stopped"):
                 row[0] += " (stopped)"
             lines.append("| " + " | ".join(row) + " |")
@@ -147,14 +174,48 @@ def orders_table(study: Study, columns: list[ErrorColumn], fits: list[SeriesFit]
         fit = next(f for f in fits if f.series == c.series and f.quantity == c.quantity)
         rich = fit.richardson
         p3 = _num(rich[0], 3) if rich else "not monotone"
-        extra = (_num(rich[1] * fit.scale, 5) + (f" {fit.unit}" if fit.unit else "")) \
-            if rich else "–"
+        extra = "–"
+        if rich and P_SHOWN[0] <= rich[0] <= P_SHOWN[1]:
+            extra = _num(rich[1] * fit.scale, 5) + (f" {fit.unit}" if fit.unit else "")
         theory = "–"
         if fit.theory:
             theory = (f"{_num(fit.theory * fit.scale, 4)} {fit.unit}: "
                       f"{100 * (fit.finest - fit.theory) / fit.theory:+.2f} %")
         lines.append(f"| {c.series} | {c.quantity} | {c.reference} | {_num(c.order, 3)} | {p3} "
                      f"| {extra} | {_num(c.rate, 3)} | {theory} |")
+    return lines
+
+
+def _err_text(col: ErrorColumn, e: float) -> str:
+    return f"{e:.3g} {col.unit}".strip() if col.absolute else f"{100 * e:.3g} %"
+
+
+def findings(study: Study, runs: list[dict], columns: list[ErrorColumn]) -> list[str]:
+    """Generated sentences: each error from the cheapest to the dearest run that has one, and
+    the cost of each series against the first."""
+    lines = []
+    for c in columns:
+        last = len(c.errors) - (2 if c.reference == "finest" else 1)
+        if last < 1:
+            continue
+        if c.at_floor():
+            lines.append(f"- {c.series}, {c.quantity} vs {c.reference}: at most "
+                         f"{_err_text(c, max(c.errors))} at every level, within round-off "
+                         f"(≤ {c.floor:g} {c.unit}): nothing left to converge.")
+            continue
+        verdict = "falls" if falls(c) else "does not fall with cost"
+        lines.append(f"- {c.series}, {c.quantity} vs {c.reference}: {_err_text(c, c.errors[0])} "
+                     f"at {c.wall[0]:.3g} s, {_err_text(c, c.errors[last])} at "
+                     f"{c.wall[last]:.3g} s: {verdict} (q = {_num(c.rate, 2)}, "
+                     f"p = {_num(c.order, 2)}).")
+    series = _series_runs(runs, study)
+    names = list(series)
+    for name in names[1:]:
+        a, b = series[names[0]], series[name]
+        wall = sum(r["wall_seconds"] for r in b) / max(sum(r["wall_seconds"] for r in a), 1e-12)
+        steps = sum(r["steps"] for r in b) / max(sum(r["steps"] for r in a), 1)
+        lines.append(f"- cost: {name} takes {wall:.2f} times the wall seconds of {names[0]} "
+                     f"over the study ({steps:.2f} times the steps).")
     return lines
 
 
@@ -179,7 +240,8 @@ def plot_study(study: Study, columns: list[ErrorColumn], path: Path) -> None:
             ax.loglog(w, e, marker=markers[k % len(markers)], label=f"{c.series} vs {c.reference}"
                       f"{rate}")
         absolute = cols[0].absolute
-        ax.set_ylabel(f"{qn} error [{cols[0].unit}]" if absolute else f"{qn}: relative error")
+        unit = f" [{cols[0].unit}]" if cols[0].unit else ""
+        ax.set_ylabel(f"{qn} error{unit}" if absolute else f"{qn}: relative error")
         ax.set_xlabel("wall seconds")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7)
@@ -227,8 +289,12 @@ def write_report(studies: list[Study], runs: list[dict], meta: dict) -> Path:
         "",
         "## Summary",
         "",
-        "| study | series | quantity | reference | order p | rate q |",
-        "|---|---|---|---|---|---|",
+        f"'falls with cost' is yes where the rate q exceeds {MIN_RATE} and the dearest run's "
+        "error is below the cheapest's; where it is no, the study's text says why (a quantity "
+        "converged at every level, or held at a floor the discretisation does not control).",
+        "",
+        "| study | series | quantity | reference | order p | rate q | falls with cost |",
+        "|---|---|---|---|---|---|---|",
     ]
     body = []
     for study in studies:
@@ -239,7 +305,8 @@ def write_report(studies: list[Study], runs: list[dict], meta: dict) -> Path:
         plot_study(study, columns, png)
         for c in columns:
             lines.append(f"| [{study.key}](#{study.key}) | {c.series} | {c.quantity} | "
-                         f"{c.reference} | {_num(c.order, 3)} | {_num(c.rate, 3)} |")
+                         f"{c.reference} | {_num(c.order, 3)} | {_num(c.rate, 3)} | "
+                         f"{verdict(c)} |")
         seconds = sum(r["wall_seconds"] for r in runs if r["study"] == study.key)
         body += ["", f"<a id=\"{study.key}\"></a>", f"## {study.title}", "", study.about, "",
                  f"{sum(r['study'] == study.key for r in runs)} runs, {seconds:.0f} wall "
@@ -248,5 +315,7 @@ def write_report(studies: list[Study], runs: list[dict], meta: dict) -> Path:
         body += runs_table(study, runs, columns)
         body += ["", "Observed orders:", ""]
         body += orders_table(study, columns, fits)
+        body += ["", "In short (generated from the tables):", ""]
+        body += findings(study, runs, columns)
     DOC.write_text("\n".join(lines + body) + "\n")
     return DOC
