@@ -9,8 +9,11 @@ Particles fly ballistically between contacts.
 Particle-face contact (the node-face algebra of ALGORITHMS.md 3.1 with the particle's radius):
 a particle p and a boundary face (a, b, c) with outward unit normal n, the particle's centre
 projected inside the triangle at the end of the step (barycentric weights w_i >= -eps, positions
-x + tau U*). With the gap g = (x_p - x_a).n - r at the start of the step and the relative normal
-velocity u = (U*_p - sum w_i U*_i).n, the gap must not close within the step:
+x + tau U*). A particle meets a face from its outer side only: its centre must be in front of the
+face's plane at the start of the step. (A centre behind the plane is inside the body or past the
+face; counting such pairs let a particle larger than a thin cell press on its opposite faces at
+once and crush it between them.) With the gap g = (x_p - x_a).n - r at the start of the step and
+the relative normal velocity u = (U*_p - sum w_i U*_i).n, the gap must not close within the step:
 u >= -g / tau (or u >= 0 for a particle already overlapping, g < 0). When violated, the normal
 impulse J = du / (1/m_p + sum w_i^2 / m_i) with du the missing relative velocity is applied:
 U_p += J n / m_p, U_i -= w_i J n / m_i (compressive only; momentum conserved). Pairs are
@@ -125,12 +128,12 @@ def particle_face_sweep(pairs, px, pv, pm, pr, faces, x, v, mass, force, dtv, ta
         ny *= inv
         nz *= inv
         rad = pr[p]
-        d_end = rx * nx + ry * ny + rz * nz
-        if d_end < -rad:
-            continue  # beyond the face's plane: the particle is on the other side
-        # gap at the start of the step along the same normal
+        # the centre's distance from the face's plane at the start of the step: a particle
+        # meets a face from its outer side only
         d0 = ((px[p, 0] - x[ia, 0]) * nx + (px[p, 1] - x[ia, 1]) * ny
               + (px[p, 2] - x[ia, 2]) * nz)
+        if not d0 > 0.0:
+            continue
         g0 = d0 - rad
         ux = pv[p, 0] - (wa * v[ia, 0] + wb * v[ib, 0] + wc * v[ic, 0])
         uy = pv[p, 1] - (wa * v[ia, 1] + wb * v[ib, 1] + wc * v[ic, 1])
