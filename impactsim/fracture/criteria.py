@@ -12,13 +12,21 @@ Per live element e, after the element update of the step:
    temperature of the strength model.
 4. What leaves the mesh this step (``action``):
    PARTICLE  a FRACTURED element with a face on the body surface (4.1: one or several particles),
-             unless the material's erosion criterion is "fractured" (then it erodes);
+             unless the material's erosion criterion is "fractured" (then it erodes); also an
+             element of a material with failure data whose face neighbours have all left the
+             mesh (a one-cell fragment). [D19] do not say what becomes of such a cell. Kept as a
+             tet, nothing holds it any more: the spread of its four nodes' velocities stretches
+             it into a sliver (plastic strain 10-20 in sphere-plate) whose smallest altitude
+             throttled the time step of the whole run to about 1 ns, a quarter of what the
+             rest of the mesh allowed. As particles it keeps its mass, momentum and energy
+             (removal.py) and flies as the debris around it does;
    ERODE     the material's erosion criterion holds (plastic strain, JC damage D >= value,
              maximum principal strain, or the fractured state) in an element on the surface
              (``surface_only``, as [R20] does) or anywhere;
-   GUARD     distortion guard (materials with failure data only): the element would invert (volume below GUARD_FRACTION of V0)
-             within about two steps at the current velocities. It is eroded like ERODE; without
-             it, a fractured cell (no pressure) crushed between its neighbours stops the run.
+   GUARD     distortion guard (materials with failure data only): the element would invert
+             (volume below GUARD_FRACTION of V0) within about two steps at the current
+             velocities. It is eroded like ERODE; without it, a fractured cell (no pressure)
+             crushed between its neighbours stops the run.
 Only one layer leaves per step: an element exposed by this step's deletions is judged next step
 (a disturbance spreads one cell per step, as in the contact passes).
 """
@@ -76,11 +84,12 @@ def jc_fracture_strain(mat_params, mk, pressure, seq, rate, temperature):
 
 @numba.njit(cache=True, parallel=True)
 def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p,
-                      eps_p_prev, damage, eps_rate, temperature, mat_params, face_flag,
+                      eps_p_prev, damage, eps_rate, temperature, mat_params, face_flag, adj,
                       surface_only, dt, action):
     """Apply spall and loosening to ``status`` and decide ``action (e,) int8`` (module docstring).
 
-    face_flag (4e,) bool boundary faces (impactsim.contact.surface.Surface.face_flag).
+    face_flag (4e,) bool boundary faces and adj (e,4) face neighbours at t = 0 (-1: none)
+    (impactsim.contact.surface.Surface.face_flag, .adj).
     eps_p_prev (e,) plastic strain at the previous call (updated here). Returns
     (newly damaged, newly fractured, elements with an action).
     """
@@ -116,9 +125,15 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
                                                    temperature[e])
         on_surface = (face_flag[4 * e] or face_flag[4 * e + 1] or face_flag[4 * e + 2]
                       or face_flag[4 * e + 3])
+        failing = (code != 0 or mat_params[mk, P.SPALL] < math.inf
+                   or mat_params[mk, P.CHI_STAR] < math.inf)
         act = NONE
         if st == FRACTURED and on_surface and code != 4:
             act = PARTICLE
+        elif (failing and face_flag[4 * e] and face_flag[4 * e + 1] and face_flag[4 * e + 2]
+              and face_flag[4 * e + 3] and (adj[e, 0] >= 0 or adj[e, 1] >= 0
+                                            or adj[e, 2] >= 0 or adj[e, 3] >= 0)):
+            act = PARTICLE  # a one-cell fragment: every face neighbour has left the mesh
         elif code != 0 and (on_surface or not surface_only):
             val = mat_params[mk, P.EROSION_VALUE]
             i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
@@ -132,8 +147,7 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
                 hit = st == FRACTURED
             if hit:
                 act = ERODE
-        if act == NONE and (code != 0 or mat_params[mk, P.SPALL] < math.inf
-                            or mat_params[mk, P.CHI_STAR] < math.inf):
+        if act == NONE and failing:
             i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
             lim = 6.0 * GUARD_FRACTION * vol0[e]
             if (_volume6(x, v, 1.1 * dt, i0, i1, i2, i3) < lim

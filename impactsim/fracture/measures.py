@@ -8,6 +8,8 @@ Hole: the plate's live elements, at their current positions, are projected onto 
 mid-plane and rasterised on a grid of cell size h/2 (h the mean initial edge length); uncovered
 cells not connected to the grid border are holes. The largest hole is reported by its area, the
 diameter of the circle of that area, and its extent along the plate's two in-plane axes.
+Debris: the particles that came from a body (their number, mass and mean velocity), and the mean
+velocity of all of a body's material, for a projectile that has broken up.
 """
 
 from __future__ import annotations
@@ -125,9 +127,14 @@ def hole_size(x, x0, conn, live, h):
             "axes": [a1.tolist(), a2.tolist()]}
 
 
-def body_measures(model, node_live=None) -> dict:
-    """Per body: residual velocity, mass and fragments; hole size for plates (docstring)."""
+def body_measures(model, node_live=None, particles=None) -> dict:
+    """Per body: residual velocity, mass and fragments; hole size for plates (docstring).
+    With ``particles`` (impactsim.fracture.particles.Particles): ``debris`` of each body, the
+    number, mass and mass-weighted mean velocity of the particles that came from it, and
+    ``mean_velocity_all``, the mean velocity of all the body's material (nodes and particles):
+    the projectile's velocity when it has broken up entirely."""
     out = {}
+    n_p = 0 if particles is None else particles.n
     live_all = model.status != ERODED
     for b, name in enumerate(model.body_names):
         es = slice(model.elem_start[b], model.elem_start[b + 1])
@@ -156,5 +163,15 @@ def body_measures(model, node_live=None) -> dict:
         hole = hole_size(x, x0, conn, live, h) if conn.shape[0] else None
         if hole is not None:
             info["hole"] = hole
+        if particles is not None:
+            mine = particles.body[:n_p] == b
+            pm = particles.m[:n_p][mine]
+            pp = pm @ particles.v[:n_p][mine] if pm.size else np.zeros(3)
+            mp = float(pm.sum())
+            info["debris"] = {"particles": int(mine.sum()), "mass": mp,
+                              "mean_velocity": (pp / mp).tolist() if mp > 0 else [0.0] * 3}
+            mall = float(m.sum()) + mp
+            pall = m @ v + pp
+            info["mean_velocity_all"] = (pall / mall).tolist() if mall > 0 else [0.0] * 3
         out[name] = info
     return out

@@ -83,7 +83,7 @@ class FracturePass(Pass):
             model.x, model.v, model.x0, model.conn, model.elem_mat, model.status, model.sdev,
             model.pressure, model.vol, model.vol0, model.eps_p, s.eps_p_prev, model.damage,
             model.eps_rate, model.temperature, model.mat_params, s.surface.face_flag,
-            s.surface_only, dt, s.action)
+            s.surface.adj, s.surface_only, dt, s.action)
         s.counts["damaged"] += int(n_dam)
         s.counts["fractured"] += int(n_frac)
         if n_act == 0:
@@ -122,7 +122,7 @@ class FracturePass(Pass):
         s = self.s
         pa = s.particles
         mass_final = float(model.mass.sum()) + pa.mass()
-        bodies = body_measures(model, s.node_live)
+        bodies = body_measures(model, s.node_live, pa)
         return {"mass_initial": s.mass_initial, "mass_final": mass_final,
                 "mass_error": (mass_final - s.mass_initial) / s.mass_initial,
                 "particles": int(pa.n), "eroded_elements": int(s.counts["eroded"]

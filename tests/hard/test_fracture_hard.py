@@ -68,7 +68,8 @@ def test_10_km_s_sphere_through_a_thin_plate(tmp_path):
                r="1.5 mm", zs="1.52 mm", hs="0.75 mm", speed="10 km/s")
     _check(s)
     assert s["eroded_elements"] > 0
-    assert s["bodies"]["sphere"]["residual_velocity"][2] < -5000.0
+    # the sphere breaks up into particles: its material as a whole goes on through the plate
+    assert s["bodies"]["sphere"]["mean_velocity_all"][2] < -5000.0
 
 
 def test_plate_one_element_thick(tmp_path):

@@ -161,3 +161,30 @@ def test_particle_sits_in_its_cell_with_the_inscribed_radius():
                 for a, b, c in [(1, 2, 3), (0, 3, 2), (0, 1, 3), (0, 2, 1)])
     assert pr[0] == pytest.approx(3 * model.vol0[e] / areas)
     assert pm[0] == pytest.approx(model.elem_mass[e])
+
+
+def test_a_cell_left_without_face_neighbours_becomes_a_particle():
+    """Every cell but one is fully fractured: they leave as particles, layer after layer from
+    the surface; the intact cell they surrounded becomes a particle once its last face
+    neighbour has left (a one-cell fragment), and not before."""
+    model, passes = _fracture_model(Failure(spall_strength=1e12, loosening=0.03))
+    frac = passes[-1]
+    conn = model.conn
+    shared = [sum(len(set(conn[e]) & set(conn[f])) == 3 for f in range(model.n_elem))
+              for e in range(model.n_elem)]
+    e = int(np.argmax(shared))  # the cell with the most face neighbours
+    model.status[:] = FRACTURED
+    model.status[e] = INTACT
+    model.sdev[:] = 0.0
+    model.pressure[:] = 0.0
+    for _ in range(model.n_elem):
+        before = model.status.copy()
+        frac.run(model, 1e-9)
+        if model.status[e] == ERODED:
+            break
+        assert np.any(model.status != before), "no progress"
+    assert model.status[e] == ERODED
+    assert np.all(before[np.arange(model.n_elem) != e] == ERODED)  # it went last
+    s = frac.summary(model)
+    assert s["particles"] == model.n_elem
+    assert s["mass_final"] == pytest.approx(s["mass_initial"], rel=1e-14)
