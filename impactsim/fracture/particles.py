@@ -9,11 +9,12 @@ Particles fly ballistically between contacts.
 Particle-face contact (the node-face algebra of ALGORITHMS.md 3.1 with the particle's radius):
 a particle p and a boundary face (a, b, c) with outward unit normal n, the particle's centre
 projected inside the triangle at the end of the step (barycentric weights w_i >= -eps, positions
-x + tau U*). A particle meets a face from its outer side only: its centre must be in front of the
-face's plane at the start of the step. (A centre behind the plane is inside the body or past the
-face; counting such pairs let a particle larger than a thin cell press on its opposite faces at
-once and crush it between them.) With the gap g = (x_p - x_a).n - r at the start of the step and
-the relative normal velocity u = (U*_p - sum w_i U*_i).n, the gap must not close within the step:
+x + tau U*). A particle meets a face
+from its outer side only: its centre must be in front of the face's plane at the start of the
+step. (A centre behind the plane is inside the body or past the face; counting such pairs let a
+particle larger than a thin cell press on its opposite faces at once and crush it between
+them.) With the gap g = (x_p - x_a).n - r at the start of the step and the relative normal
+velocity u = (U*_p - sum w_i U*_i).n, the gap must not close within the step:
 u >= -g / tau (or u >= 0 for a particle already overlapping, g < 0). When violated, the normal
 impulse J = du / (1/m_p + sum w_i^2 / m_i) with du the missing relative velocity is applied:
 U_p += J n / m_p, U_i -= w_i J n / m_i (compressive only; momentum conserved). Pairs are
@@ -73,18 +74,22 @@ class Particles:
             self.grows += 1
             self._alloc(max(need, int(1.5 * self.capacity)))
 
+    def sums(self) -> tuple:
+        """(mass, kinetic energy, internal energy, momentum (3,)) of the live particles."""
+        m, ke, ie, p0, p1, p2 = particle_sums(self.m, self.v, self.energy, self.n)
+        return m, ke, ie, np.array([p0, p1, p2])
+
     def kinetic_energy(self) -> float:
-        n = self.n
-        return 0.5 * float(self.m[:n] @ np.einsum("ij,ij->i", self.v[:n], self.v[:n]))
+        return float(self.sums()[1])
 
     def internal_energy(self) -> float:
-        return float(self.energy[:self.n].sum())
+        return float(self.sums()[2])
 
     def mass(self) -> float:
-        return float(self.m[:self.n].sum())
+        return float(self.sums()[0])
 
     def momentum(self) -> np.ndarray:
-        return self.m[:self.n] @ self.v[:self.n] if self.n else np.zeros(3)
+        return self.sums()[3]
 
 
 @numba.njit(cache=True)
@@ -211,15 +216,78 @@ def particle_particle_sweep(pairs, px, pv, pm, pr, tau):
 
 
 @numba.njit(cache=True)
-def particle_boxes(px, pv, pr, n, tau, pad, lo, hi):
-    """Boxes of the particles' spheres swept over the step, padded. Writes lo, hi (n, 3)."""
+def particle_boxes(px, pv, pr, n, tau, pad, lo, hi, bounds):
+    """Boxes of the particles' spheres swept over the step, padded. Writes lo, hi (n, 3) and
+    their overall bounds (2, 3) (lowest corner, highest corner); returns the largest radius."""
+    r_max = 0.0
+    for d in range(3):
+        bounds[0, d] = np.inf
+        bounds[1, d] = -np.inf
     for p in range(n):
+        r_max = max(r_max, pr[p])
         for d in range(3):
             a = px[p, d]
             b = a + tau * pv[p, d]
             r = pr[p] + pad
             lo[p, d] = min(a, b) - r
             hi[p, d] = max(a, b) + r
+            bounds[0, d] = min(bounds[0, d], lo[p, d])
+            bounds[1, d] = max(bounds[1, d], hi[p, d])
+    return r_max
+
+
+@numba.njit(cache=True)
+def faces_near(x, v, tau, faces, face_body, n_faces, pad, cloud, lo, hi, sel, sel_body, bounds):
+    """The faces whose swept, padded boxes meet the box ``cloud (2, 3)`` of all particle boxes:
+    only they can meet a particle this step. Writes their rows (in order) to ``sel (k, 3)``,
+    bodies to ``sel_body``, boxes to ``lo, hi`` and widens ``bounds (2, 3)`` to cover them;
+    returns k. Linear in the number of faces, no allocation."""
+    k = 0
+    for f in range(n_faces):
+        inside = True
+        for d in range(3):
+            a = np.inf
+            b = -np.inf
+            for j in range(3):
+                c0 = x[faces[f, j], d]
+                c1 = c0 + tau * v[faces[f, j], d]
+                a = min(a, min(c0, c1))
+                b = max(b, max(c0, c1))
+            lo[k, d] = a - pad
+            hi[k, d] = b + pad
+            if lo[k, d] > cloud[1, d] or hi[k, d] < cloud[0, d]:
+                inside = False
+        if not inside:
+            continue
+        for j in range(3):
+            sel[k, j] = faces[f, j]
+        sel_body[k] = face_body[f]
+        for d in range(3):
+            bounds[0, d] = min(bounds[0, d], lo[k, d])
+            bounds[1, d] = max(bounds[1, d], hi[k, d])
+        k += 1
+    return k
+
+
+@numba.njit(cache=True)
+def particle_sums(pm, pv, pe, n):
+    """(mass [kg], kinetic energy [J], internal energy [J], momentum x, y, z [kg m/s]) of the
+    first n particles."""
+    mass = 0.0
+    ke = 0.0
+    ie = 0.0
+    p0 = 0.0
+    p1 = 0.0
+    p2 = 0.0
+    for p in range(n):
+        m = pm[p]
+        mass += m
+        ke += 0.5 * m * (pv[p, 0] * pv[p, 0] + pv[p, 1] * pv[p, 1] + pv[p, 2] * pv[p, 2])
+        ie += pe[p]
+        p0 += m * pv[p, 0]
+        p1 += m * pv[p, 1]
+        p2 += m * pv[p, 2]
+    return mass, ke, ie, p0, p1, p2
 
 
 @numba.njit(cache=True)

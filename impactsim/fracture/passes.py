@@ -8,9 +8,14 @@
   no particles;
 - ``fracture`` (fracture stage, after the element update): spall, loosening, Johnson-Cook damage,
   erosion and particle conversion (``criteria``), removal with mass-conserving orphan handling
-  (``removal``), and the incremental surface update (``impactsim.contact.surface.Surface``) so the
-  faces exposed by a deletion are on the surface at once, for the next criteria evaluation and
-  for the contact passes (they follow ``model.status`` too).
+  (``removal``), and the update of the free faces (``impactsim.fracture.boundary``, O(removed
+  elements)) so the faces exposed by a deletion are free at once, for the next criteria
+  evaluation and the particle contacts. The contact passes keep their own surface in step with
+  ``model.status``.
+
+Cost per step: the criteria kernel is one pass over the elements (numba); everything else is in
+proportion to what changed (removed elements) or to the particles and the faces near them (the
+particle broad phase hashes only the faces whose swept boxes meet the particles' bounding box).
 
 Energy terms (model.energy_terms, [J]): ``eroded`` gains what leaves with eroded elements;
 ``particles`` is the particles' current kinetic plus internal energy (it enters the total energy
@@ -25,11 +30,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from impactsim.contact.broadphase import SpatialHash, grid_for, swept_boxes
-from impactsim.contact.surface import Surface
+from impactsim.contact.broadphase import SpatialHash, grid_for
 from impactsim.fracture import criteria as C
+from impactsim.fracture.boundary import Boundary
 from impactsim.fracture.measures import body_measures
-from impactsim.fracture.particles import (Particles, move_particles, particle_boxes,
+from impactsim.fracture.particles import (Particles, faces_near, move_particles, particle_boxes,
                                           particle_face_sweep, particle_particle_sweep,
                                           particle_walls)
 from impactsim.fracture.removal import clear_corner_forces, remove_elements
@@ -37,13 +42,14 @@ from impactsim.model import DAMAGED, ERODED, FRACTURED
 from impactsim.solver.passes import Pass
 
 EPS_BARY = 1e-6
+PAD = 1e-3  # box padding of the particle broad phase, a fraction of the mean face edge length
 
 
 class FractureState:
-    """What the two fracture passes share: the surface, the particles, counters."""
+    """What the two fracture passes share: the free faces, the particles, counters."""
 
     def __init__(self, case, model):
-        self.surface = Surface.from_model(model)
+        self.boundary = Boundary.from_model(model)
         self.surface_only = case.fracture.erosion_region != "anywhere"
         self.n_per = int(case.fracture.particles_per_element)
         self.collisions = bool(case.fracture.particle_collisions)
@@ -51,6 +57,11 @@ class FractureState:
         self.node_live = np.bincount(model.conn[model.status != ERODED].reshape(-1),
                                      minlength=model.n_node).astype(np.int32)
         self.action = np.zeros(model.n_elem, dtype=np.int8)
+        self.ids = np.zeros(model.n_elem, dtype=np.int64)
+        b = self.boundary
+        e = b.faces[:b.n]
+        d = np.linalg.norm(model.x[e[:, 1]] - model.x[e[:, 0]], axis=1) if b.n else np.ones(1)
+        self.h_face = float(d.mean())  # [m] mean edge length of the free faces at t = 0
         self.eps_p_prev = model.eps_p.copy()
         self.mass_initial = float(model.mass.sum())
         self.counts = {"damaged": 0, "fractured": 0, "eroded": 0, "converted": 0, "guard": 0}
@@ -58,8 +69,8 @@ class FractureState:
         model.energy_terms["particles"] = 0.0
 
     def update_particle_energy(self, model) -> None:
-        pa = self.particles
-        model.energy_terms["particles"] = pa.kinetic_energy() + pa.internal_energy()
+        _, ke, ie, _ = self.particles.sums()
+        model.energy_terms["particles"] = ke + ie
 
 
 class FracturePass(Pass):
@@ -79,16 +90,21 @@ class FracturePass(Pass):
 
     def run(self, model, dt):
         s = self.s
+        b = s.boundary
         n_dam, n_frac, n_act = C.fracture_criteria(
             model.x, model.v, model.x0, model.conn, model.elem_mat, model.status, model.sdev,
             model.pressure, model.vol, model.vol0, model.eps_p, s.eps_p_prev, model.damage,
-            model.eps_rate, model.temperature, model.mat_params, s.surface.face_flag,
-            s.surface.adj, s.surface_only, dt, s.action)
+            model.eps_rate, model.temperature, model.mat_params, b.face_flag, b.adj,
+            s.surface_only, dt, s.action)
         s.counts["damaged"] += int(n_dam)
         s.counts["fractured"] += int(n_frac)
-        if n_act == 0:
-            return
-        ids = np.flatnonzero(s.action).astype(np.int64)
+        if n_act:
+            self._remove(model, s.ids[:C.action_ids(s.action, s.ids)])
+        # the particles' energy at the end of the step (contacts, motion, new particles)
+        s.update_particle_energy(model)
+
+    def _remove(self, model, ids):
+        s = self.s
         kinds = s.action[ids]
         s.counts["guard"] += int(np.count_nonzero(kinds == C.GUARD))
         pa = s.particles
@@ -103,15 +119,14 @@ class FracturePass(Pass):
         s.counts["converted"] += int(n_conv)
         if self.elem_force is not None:
             clear_corner_forces(ids, self.elem_force)
-        s.surface.remove_elements(ids)
-        s.update_particle_energy(model)
+        s.boundary.remove(ids)
 
     def history(self, model):
         s = self.s
         pa = s.particles
-        p = pa.momentum()
-        return {"particles": float(pa.n), "particle_kinetic_energy": pa.kinetic_energy(),
-                "particle_energy": pa.kinetic_energy() + pa.internal_energy(),
+        _, ke, ie, p = pa.sums()
+        return {"particles": float(pa.n), "particle_kinetic_energy": ke,
+                "particle_energy": ke + ie,
                 "particle_momentum_x": float(p[0]), "particle_momentum_y": float(p[1]),
                 "particle_momentum_z": float(p[2]),
                 "damaged": float(np.count_nonzero(model.status == DAMAGED)),
@@ -137,7 +152,8 @@ class FracturePass(Pass):
                              "particle_mass": pa.mass(),
                              "particle_momentum": pa.momentum().tolist(),
                              "particle_buffer_grows": pa.grows,
-                             "surface_faces": s.surface.n_faces}}
+                             "free_faces": s.boundary.n,
+                             "free_face_grows": s.boundary.grows}}
 
 
 class ParticlePass(Pass):
@@ -152,12 +168,16 @@ class ParticlePass(Pass):
         self.pp_hash = SpatialHash()
         self.impacts = 0
         self.collisions = 0
+        self.cloud = np.zeros((2, 3))  # bounds of the particle boxes of the step
+        self.bounds = np.zeros((2, 3))  # ... and of the faces near them
         self._buf = {}
 
-    def _buffer(self, name, rows):
+    def _buffer(self, name, rows, dtype=np.float64, cols=3):
+        """Reusable scratch rows (grows by half when short): no allocation in the time loop."""
         b = self._buf.get(name)
         if b is None or b.shape[0] < rows:
-            b = np.empty((max(rows, 16) * 3 // 2, 3))
+            shape = (max(rows, 16) * 3 // 2,) + ((cols,) if cols else ())
+            b = np.empty(shape, dtype=dtype)
             self._buf[name] = b
         return b[:rows]
 
@@ -167,29 +187,33 @@ class ParticlePass(Pass):
         n = pa.n
         if n == 0:
             return
-        surf = s.surface
-        surf.sync(model.status)
-        pad = 1e-3 * float(pa.radius[:n].mean())
+        b = s.boundary
+        pad = PAD * s.h_face
         plo, phi = self._buffer("plo", n), self._buffer("phi", n)
-        particle_boxes(pa.x, pa.v, pa.radius, n, dt, pad, plo, phi)
+        cloud = self.cloud
+        r_max = particle_boxes(pa.x, pa.v, pa.radius, n, dt, pad, plo, phi, cloud)
         work = 0.0
-        if surf.n_faces:
-            flo, fhi = self._buffer("flo", surf.n_faces), self._buffer("fhi", surf.n_faces)
-            swept_boxes(model.x, model.v, dt, surf.faces, pad, flo, fhi)
-            h = max(surf.mean_edge_length(model.x), 2.0 * float(pa.radius[:n].max()))
-            origin, cell = grid_for([(plo, phi), (flo, fhi)], h)
-            self.hash.build(flo, fhi, origin, cell)
-            pairs = self.hash.query(plo, phi, pa.ids[:n], pa.no_body[:n], surf.faces,
-                                    surf.face_body, False, False)
-            if pairs.shape[0]:
-                applied, w = particle_face_sweep(pairs, pa.x, pa.v, pa.m, pa.radius, surf.faces,
-                                                 model.x, model.v, model.mass, model.force,
-                                                 model.dtv, dt, EPS_BARY)
-                self.impacts += int(applied)
-                work += float(w)
+        if b.n:
+            flo, fhi = self._buffer("flo", b.n), self._buffer("fhi", b.n)
+            sel = self._buffer("sel", b.n, np.int32)
+            sel_body = self._buffer("sel_body", b.n, np.int32, None)
+            bounds = self.bounds
+            bounds[:] = cloud
+            k = faces_near(model.x, model.v, dt, b.faces, b.face_body, b.n, pad, cloud, flo,
+                           fhi, sel, sel_body, bounds)
+            if k:
+                origin, cell = grid_for([(bounds[:1], bounds[1:])], max(s.h_face, 2.0 * r_max))
+                self.hash.build(flo[:k], fhi[:k], origin, cell)
+                pairs = self.hash.query(plo, phi, pa.ids[:n], pa.no_body[:n], sel[:k],
+                                        sel_body[:k], False, False)
+                if pairs.shape[0]:
+                    applied, w = particle_face_sweep(pairs, pa.x, pa.v, pa.m, pa.radius, sel,
+                                                     model.x, model.v, model.mass, model.force,
+                                                     model.dtv, dt, EPS_BARY)
+                    self.impacts += int(applied)
+                    work += float(w)
         if s.collisions and n > 1:
-            h = 2.0 * float(pa.radius[:n].max())
-            origin, cell = grid_for([(plo, phi)], h)
+            origin, cell = grid_for([(cloud[:1], cloud[1:])], 2.0 * r_max)
             self.pp_hash.build(plo, phi, origin, cell)
             pairs = self.pp_hash.query(plo, phi, pa.ids[:n], pa.no_body[:n], pa.ids[:n],
                                        pa.no_body[:n], True, True)

@@ -1,4 +1,4 @@
-"""Face adjacency and the incremental surface update against brute force (ALGORITHMS.md 4.2)."""
+"""Face adjacency and the incremental surface updates against brute force (ALGORITHMS.md 4.2)."""
 
 import itertools
 
@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from impactsim.contact.surface import Surface
+from impactsim.fracture.boundary import Boundary
 from impactsim.mesh.structured import structured_box
 from impactsim.mesh.topology import LOCAL_FACES, boundary_faces, face_adjacency
 from impactsim.model import ERODED
@@ -81,3 +82,26 @@ def test_incremental_surface_update_equals_recomputation():
         got = {tuple(sorted(f)): (int(e), tuple(int(k) for k in f))
                for f, e in zip(surf.faces, surf.face_elem)}
         assert got == brute
+
+
+def test_free_faces_follow_removals_in_proportion_to_them():
+    """fracture.boundary.Boundary, updated removal after removal, has the free faces (flags,
+    oriented triples, bodies) of a Surface rebuilt from scratch, and its row index is exact."""
+    pts, tets = _mesh(6)
+    n = len(tets)
+    body = (np.arange(n) % 2).astype(np.int32)
+    status = np.zeros(n, np.int8)
+    b = Boundary(tets, body)
+    rng = np.random.default_rng(7)
+    for batch in np.array_split(rng.permutation(n), 10):
+        batch = np.sort(batch)
+        status[batch] = ERODED
+        assert b.remove(np.concatenate([batch, batch[:3]])) == batch.size  # repeats skipped
+        ref = Surface(tets, body, status)
+        assert np.array_equal(b.face_flag, ref.face_flag)
+        got = sorted(zip(map(tuple, b.faces[:b.n].tolist()), b.face_body[:b.n].tolist()))
+        want = sorted(zip(map(tuple, ref.faces.tolist()), ref.face_body.tolist()))
+        assert got == want
+        assert np.array_equal(b.pos[b.face_slot[:b.n]], np.arange(b.n))
+        assert np.count_nonzero(b.pos >= 0) == b.n
+    assert b.n == 0

@@ -1,10 +1,12 @@
 """Particle-face contact (ALGORITHMS.md 4.1 with the node-face algebra of 3.1): which side of a
-face a particle meets it from, crossing within one step, momentum."""
+face a particle meets it from, crossing within one step, momentum; the particle broad phase's
+selection of faces; the particle sums."""
 
 import numpy as np
 import pytest
 
-from impactsim.fracture.particles import particle_face_sweep
+from impactsim.fracture.particles import (Particles, faces_near, particle_boxes,
+                                          particle_face_sweep)
 
 R = 1e-4  # [m] particle radius
 TAU = 1e-8  # [s]
@@ -59,3 +61,46 @@ def test_fast_particle_crossing_within_one_step_is_caught():
     assert applied == 1
     gap_end = (px[0, 2] + TAU * pv[0, 2]) - (TAU * v.mean(axis=0)[2]) - R
     assert gap_end >= -1e-12
+
+
+def test_broad_phase_keeps_exactly_the_faces_near_the_particles():
+    rng = np.random.default_rng(3)
+    n, nf = 50, 400
+    px = rng.uniform(0.0, 1e-2, (n, 3))
+    pv = rng.normal(0.0, 100.0, (n, 3))
+    pr = rng.uniform(1e-5, 2e-4, n)
+    corner = rng.uniform(-1e-2, 2e-2, (nf, 1, 3))
+    x = (corner + rng.uniform(0.0, 1e-3, (nf, 3, 3))).reshape(-1, 3)  # small triangles
+    v = rng.normal(0.0, 100.0, x.shape)
+    faces = np.arange(3 * nf, dtype=np.int32).reshape(nf, 3)
+    body = rng.integers(0, 2, nf).astype(np.int32)
+    plo, phi, cloud = np.empty((n, 3)), np.empty((n, 3)), np.empty((2, 3))
+    r_max = particle_boxes(px, pv, pr, n, TAU, 1e-7, plo, phi, cloud)
+    assert r_max == pr.max()
+    assert np.array_equal(cloud, [plo.min(axis=0), phi.max(axis=0)])
+    flo, fhi = np.empty((nf, 3)), np.empty((nf, 3))
+    sel, sel_body, bounds = np.empty((nf, 3), np.int32), np.empty(nf, np.int32), cloud.copy()
+    k = faces_near(x, v, TAU, faces, body, nf, 1e-7, cloud, flo, fhi, sel, sel_body, bounds)
+    ends = np.stack([x[faces], x[faces] + TAU * v[faces]], axis=1).reshape(nf, 6, 3)
+    lo, hi = ends.min(axis=1) - 1e-7, ends.max(axis=1) + 1e-7
+    near = np.flatnonzero(np.all((lo <= cloud[1]) & (hi >= cloud[0]), axis=1))
+    assert 0 < k == near.size < nf
+    assert np.array_equal(sel[:k], faces[near]) and np.array_equal(sel_body[:k], body[near])
+    assert np.allclose(flo[:k], lo[near]) and np.allclose(fhi[:k], hi[near])
+    assert np.allclose(bounds, [np.minimum(cloud[0], lo[near].min(axis=0)),
+                                np.maximum(cloud[1], hi[near].max(axis=0))])
+
+
+def test_particle_sums():
+    pa = Particles(4)
+    pa.reserve(40)
+    rng = np.random.default_rng(4)
+    pa.n = 40
+    pa.m[:40] = rng.uniform(1e-9, 1e-8, 40)
+    pa.v[:40] = rng.normal(0.0, 1e3, (40, 3))
+    pa.energy[:40] = rng.uniform(0.0, 1e-3, 40)
+    m, ke, ie, p = pa.sums()
+    assert m == pytest.approx(pa.m[:40].sum(), rel=1e-14)
+    assert ke == pytest.approx(0.5 * np.sum(pa.m[:40, None] * pa.v[:40] ** 2), rel=1e-14)
+    assert ie == pytest.approx(pa.energy[:40].sum(), rel=1e-14)
+    assert np.allclose(p, pa.m[:40] @ pa.v[:40], rtol=1e-14, atol=0)
