@@ -24,9 +24,10 @@ touching at t = 0. Their order "before the crossing" is then not reliable (they 
 by round-off or by the second-order drift of turning edges), so n is oriented by the bodies'
 outward normals at the edges instead (the sum of the unit normals of the boundary faces at each
 edge): n . (nu_1 - nu_2) > 0; the same holds for a root whose material points d, c start at most
-``band`` apart. Touching edges are held so that their gap g = (c - d) . n along that n is
-non-negative at the end of the step: the numerator of N_c gets the extra term -g / tau (a
-compressive impulse that restores a small overlap, never a pull).
+``band`` apart. Touching edges are held so that their gap g = (c - d) . n along that n does
+not close beyond the end of the step: the numerator of N_c gets the extra term -g / tau, and
+for an overlap (g < 0) -restore * g / tau (restore = 1: undone in one step; a compressive
+impulse, never a pull).
 Parallel edges (|(b-a) x (f-e)| <= 1e-6 |b-a| |f-e|) have no crossing point; they are skipped
 (the node-face pass covers them).
 """
@@ -63,15 +64,16 @@ def line_parameters(ax, ay, az, d1x, d1y, d1z, ex, ey, ez, d2x, d2y, d2z):
 
 
 @numba.njit(cache=True)
-def _edge_edge_at(t, force_nu, band, ia, ib, ie, jf, x, v, mass, tau, mu, nu_x, nu_y, nu_z):
+def _edge_edge_at(t, force_nu, band, restore, ia, ib, ie, jf, x, v, mass, tau, mu, nu_x, nu_y,
+                  nu_z):
     """Crossing of edges [ia, ib] (body 1) and [ie, jf] (body 2) at time t (ALGORITHMS.md 3.2).
 
     n is oriented by the material points d, c at t = 0 (d -> c), unless ``force_nu`` (edges
     touching at t = 0) or they are at most ``band`` apart along n: then by nu = nu_1 - nu_2
     (outward normals), if nu is not nearly perpendicular to n. Touching edges (``force_nu``) keep
-    or regain their gap g = (c - d) . n by the end of the step: N_c uses the approach speed minus
-    g / tau. Returns -1 when not a valid crossing, 0 when valid but needing no impulse, else
-    tau N_c [N s]."""
+    their gap g = (c - d) . n (or undo ``restore`` of an overlap) by the end of the step: N_c
+    uses the approach speed minus g / tau (restore * g / tau for g < 0). Returns -1 when not a
+    valid crossing, 0 when valid but needing no impulse, else tau N_c [N s]."""
     ax = x[ia, 0] + t * v[ia, 0]
     ay = x[ia, 1] + t * v[ia, 1]
     az = x[ia, 2] + t * v[ia, 2]
@@ -117,7 +119,9 @@ def _edge_edge_at(t, force_nu, band, ia, ib, ie, jf, x, v, mass, tau, mu, nu_x, 
         ny = -ny
         nz = -nz
         s = -s
-    gap = s if force_nu else 0.0
+    gap = 0.0
+    if force_nu:
+        gap = s if s > 0.0 else restore * s
     una = v[ia, 0] * nx + v[ia, 1] * ny + v[ia, 2] * nz
     unb = v[ib, 0] * nx + v[ib, 1] * ny + v[ib, 2] * nz
     une = v[ie, 0] * nx + v[ie, 1] * ny + v[ie, 2] * nz
@@ -126,6 +130,8 @@ def _edge_edge_at(t, force_nu, band, ia, ib, ie, jf, x, v, mass, tau, mu, nu_x, 
     mb = mass[ib]
     me = mass[ie]
     mf = mass[jf]
+    if not (ma > 0.0 and mb > 0.0 and me > 0.0 and mf > 0.0):
+        return -1.0  # a massless node (orphaned by erosion) takes no impulse
     S = ((1.0 - be) ** 2 / me + be * be / mf + (1.0 - al) ** 2 / ma + al * al / mb)
     # [D19 eq. 11] (with the gap term for touching edges, see the docstring)
     Nc = ((1.0 - al) * una + al * unb - (1.0 - be) * une - be * unf - gap / tau) / (tau * S)
@@ -161,12 +167,13 @@ def _edge_edge_at(t, force_nu, band, ia, ib, ie, jf, x, v, mass, tau, mu, nu_x, 
 
 
 @numba.njit(cache=True)
-def edge_edge_correct(ia, ib, ie, jf, x, v, mass, tau, mu, band, nu_x, nu_y, nu_z):
+def edge_edge_correct(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, nu_y, nu_z):
     """One edge-edge pair (ALGORITHMS.md 3.2): the cubic, root selection in [0, tau], segment
     test, alpha, beta, the normal, N_c [D19 eq. 11] and the corrections [D19 eq. 12]. Corrects v
     in place; returns the normal impulse tau N_c [N s] (0 when nothing was done).
     (nu_x, nu_y, nu_z) = nu_1 - nu_2, the difference of the bodies' outward normals at the two
-    edges, orients n only for touching edges (``band``, see the module docstring)."""
+    edges, orients n only for touching edges (``band``, ``restore``: see the module
+    docstring)."""
     ax = x[ia, 0]
     ay = x[ia, 1]
     az = x[ia, 2]
@@ -185,7 +192,7 @@ def edge_edge_correct(ia, ib, ie, jf, x, v, mass, tau, mu, band, nu_x, nu_y, nu_
             gy = x[ie, 1] + be * d2y - ay - al * d1y
             gz = x[ie, 2] + be * d2z - az - al * d1z
             if gx * gx + gy * gy + gz * gz <= band * band:
-                J = _edge_edge_at(0.0, True, band, ia, ib, ie, jf, x, v, mass, tau, mu,
+                J = _edge_edge_at(0.0, True, band, restore, ia, ib, ie, jf, x, v, mass, tau, mu,
                                   nu_x, nu_y, nu_z)
                 if J > 0.0:
                     return J
@@ -199,8 +206,8 @@ def edge_edge_correct(ia, ib, ie, jf, x, v, mass, tau, mu, band, nu_x, nu_y, nu_
     n, r0, r1, r2 = cubic_roots_in(a, b, c, d, tau)
     for k in range(n):
         t = r0 if k == 0 else (r1 if k == 1 else r2)
-        J = _edge_edge_at(t, False, band, ia, ib, ie, jf, x, v, mass, tau, mu, nu_x, nu_y,
-                          nu_z)
+        J = _edge_edge_at(t, False, band, restore, ia, ib, ie, jf, x, v, mass, tau, mu, nu_x,
+                          nu_y, nu_z)
         if J > 0.0:
             return J
     return 0.0
@@ -238,8 +245,8 @@ def edge_normals(x, faces, face_edges, out):
 
 
 @numba.njit(cache=True)
-def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band, active, stamp, sweep,
-                    since):
+def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band, restore, active, stamp,
+                    sweep, since):
     """Gauss-Seidel sweep over candidate edge pairs (ALGORITHMS.md 3.2): sequentially, in the
     given (sorted) order, each pair seeing the velocities already corrected. ``pairs (k, 2)``
     rows of indices into ``edges`` (body 1 edge, body 2 edge); ``normals (g, 3)`` from
@@ -259,7 +266,7 @@ def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band, active, st
         jf = edges[g2, 1]
         if max(max(stamp[ia], stamp[ib]), max(stamp[ie], stamp[jf])) < since:
             continue
-        J = edge_edge_correct(ia, ib, ie, jf, x, v, mass, tau, mu, band,
+        J = edge_edge_correct(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore,
                               normals[g1, 0] - normals[g2, 0], normals[g1, 1] - normals[g2, 1],
                               normals[g1, 2] - normals[g2, 2])
         if J > 0.0:

@@ -20,9 +20,10 @@ Departure from the paper, for persistent contact: after a correction the node en
 the face's plane only up to round-off and second-order terms (the face turns and slides during
 the step), so at the next step it may start a little behind the plane, where the cubic has no
 sign change. A node that starts at depth g <= ``band`` behind the plane, inside the triangle,
-counts as touching at t = 0; it is held so that it is back on the plane at the end of the step
-(relative normal velocity at least g / tau, away from the face: still a compressive impulse,
-never a pull). Deeper nodes are left alone (the penetration diagnostic reports them).
+counts as touching at t = 0; it is held with a relative normal velocity of at least
+restore * g / tau away from the face (restore = 1: back on the plane at the end of the step;
+still a compressive impulse, never a pull). Deeper nodes are left alone (the penetration
+diagnostic reports them).
 """
 
 from __future__ import annotations
@@ -87,6 +88,8 @@ def _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary, vmin):
     ma = mass[ia]
     mb = mass[ib]
     mc = mass[ic]
+    if not (mp > 0.0 and ma > 0.0 and mb > 0.0 and mc > 0.0):
+        return -1.0  # a massless node (orphaned by erosion) takes no impulse
     minv = 1.0 / mp + wa * wa / ma + wb * wb / mb + wc * wc / mc
     J = (vmin - vn) / minv
     for d in range(3):
@@ -116,12 +119,13 @@ def _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary, vmin):
 
 
 @numba.njit(cache=True)
-def node_face_correct(p, ia, ib, ic, x, v, mass, tau, mu, band, eps_bary):
+def node_face_correct(p, ia, ib, ic, x, v, mass, tau, mu, band, eps_bary, restore):
     """One node-face pair (ALGORITHMS.md 3.1): continuous crossing test over [0, tau] (cubic in
     time, then inside the triangle), then the velocity-equalising normal impulse, compressive
     only, with optional Coulomb friction. Corrects v in place; returns the normal impulse [N s]
     (0 when nothing was done). ``band`` [m]: a node at most this far behind the face's plane at
-    t = 0 is treated as touching (see the module docstring)."""
+    t = 0 is treated as touching, and ``restore`` of its depth is undone in the step (see the
+    module docstring)."""
     e1x = x[ib, 0] - x[ia, 0]
     e1y = x[ib, 1] - x[ia, 1]
     e1z = x[ib, 2] - x[ia, 2]
@@ -146,7 +150,7 @@ def node_face_correct(p, ia, ib, ic, x, v, mass, tau, mu, band, eps_bary):
     if dist0 < -band:
         return 0.0
     if dist0 < 0.0:
-        J = _node_face_at(0.0, p, ia, ib, ic, x, v, mass, mu, eps_bary, -dist0 / tau)
+        J = _node_face_at(0.0, p, ia, ib, ic, x, v, mass, mu, eps_bary, -restore * dist0 / tau)
         if J > 0.0:
             return J
     n, r0, r1, r2 = cubic_roots_in(a, b, c, d, tau)
@@ -159,8 +163,8 @@ def node_face_correct(p, ia, ib, ic, x, v, mass, tau, mu, band, eps_bary):
 
 
 @numba.njit(cache=True)
-def node_face_sweep(pairs, nodes, faces, x, v, mass, tau, mu, band, eps_bary, active, stamp,
-                    sweep, since):
+def node_face_sweep(pairs, nodes, faces, x, v, mass, tau, mu, band, eps_bary, restore, active,
+                    stamp, sweep, since):
     """Gauss-Seidel sweep over candidate pairs (ALGORITHMS.md 3.1 with the sequential rule of
     3.2): pair after pair in the given (sorted) order, each seeing the velocities corrected by the
     previous ones. ``pairs (k, 2)`` rows (index into nodes, index into faces); ``active (k,)``
@@ -184,7 +188,7 @@ def node_face_sweep(pairs, nodes, faces, x, v, mass, tau, mu, band, eps_bary, ac
         c = faces[f, 2]
         if max(max(stamp[p], stamp[a]), max(stamp[b], stamp[c])) < since:
             continue
-        J = node_face_correct(p, a, b, c, x, v, mass, tau, mu, band, eps_bary)
+        J = node_face_correct(p, a, b, c, x, v, mass, tau, mu, band, eps_bary, restore)
         if J > 0.0:
             applied += 1
             total += J

@@ -38,10 +38,11 @@ from impactsim.contact.nodeface import node_face_sweep
 from impactsim.contact.surface import Surface
 from impactsim.solver.passes import Pass
 
-BAND = 0.01  # touching band, a fraction of the mean surface edge length h (nodeface, edgeedge)
+BAND = 1e-3  # touching band, a fraction of the mean surface edge length h (nodeface, edgeedge)
 BOX_PAD = 0.05  # padding of the swept boxes, a fraction of h (covers the band and the changes of
 #                 velocity by the corrections of the step)
 EPS_BARY = 1e-6  # tolerance of the inside-the-triangle test at the crossing
+RESTORE = 1.0  # share of a small overlap (inside the band) undone in one step
 MAX_SWEEPS = 16  # Gauss-Seidel sweeps per pass and step, at most
 SWEEP_TOL = 1e-8  # sweeps stop when the largest velocity change is below this share of the first
 
@@ -50,7 +51,8 @@ class ContactContext:
     """What the contact passes of one run share (see the module docstring)."""
 
     def __init__(self, model, friction: float = 0.0, self_contact: bool = False,
-                 band: float = BAND, eps_bary: float = EPS_BARY, max_sweeps: int = MAX_SWEEPS):
+                 band: float = BAND, eps_bary: float = EPS_BARY, max_sweeps: int = MAX_SWEEPS,
+                 restore: float = RESTORE):
         self.surface = Surface.from_model(model)
         self._conn_shape = model.conn.shape
         self.n_body = int(model.n_body)
@@ -59,6 +61,7 @@ class ContactContext:
         self.band_rel = float(band)
         self.eps_bary = float(eps_bary)
         self.max_sweeps = max(int(max_sweeps), 1)
+        self.restore = float(restore)
         self.skip_unchanged = True  # repeated sweeps visit only pairs whose nodes changed
         self.meter = PenetrationMeter()
         self.passes: list[ContactPass] = []
@@ -272,8 +275,8 @@ class NodeFacePass(ContactPass):
         ctx = self.ctx
         s = ctx.surface
         return node_face_sweep(pairs, s.nodes, s.faces, model.x, model.v, model.mass, dt,
-                               ctx.friction, ctx.band_rel * h, ctx.eps_bary, active, stamp,
-                               sweep, since)
+                               ctx.friction, ctx.band_rel * h, ctx.eps_bary, ctx.restore,
+                               active, stamp, sweep, since)
 
 
 class EdgeEdgePass(ContactPass):
@@ -306,7 +309,8 @@ class EdgeEdgePass(ContactPass):
         ctx = self.ctx
         s = ctx.surface
         return edge_edge_sweep(pairs, s.edges, self.normals, model.x, model.v, model.mass, dt,
-                               ctx.friction, ctx.band_rel * h, active, stamp, sweep, since)
+                               ctx.friction, ctx.band_rel * h, ctx.restore, active, stamp,
+                               sweep, since)
 
 
 PASSES = {"node-face": NodeFacePass, "edge-edge": EdgeEdgePass}

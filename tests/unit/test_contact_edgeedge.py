@@ -24,7 +24,7 @@ def momentum(v, m):
 def test_crossing_edges_get_the_paper_correction():
     x, v, m = crossing_setup()
     v0 = v.copy()
-    J = edge_edge_correct(0, 1, 2, 3, x, v, m, TAU, 0.0, 0.0, *NO_NU)
+    J = edge_edge_correct(0, 1, 2, 3, x, v, m, TAU, 0.0, 0.0, 1.0, *NO_NU)
     al, be = 0.7, 0.5
     n = np.array([0.0, 0.0, -1.0])  # from body 1 (above) toward body 2 before the crossing
     un = v0 @ n
@@ -62,7 +62,7 @@ def test_random_crossings_conserve_momentum_and_close_the_gap():
         v[:2] += n * 50.0
         m = rng.uniform(0.5, 3.0, 4)
         v0 = v.copy()
-        J = edge_edge_correct(0, 1, 2, 3, x, v, m, TAU, 0.0, 0.0, *NO_NU)
+        J = edge_edge_correct(0, 1, 2, 3, x, v, m, TAU, 0.0, 0.0, 1.0, *NO_NU)
         np.testing.assert_allclose(momentum(v, m), momentum(v0, m), atol=1e-12)
         assert np.all(np.isfinite(v))
         if J > 0:
@@ -82,18 +82,18 @@ def test_parallel_and_collinear_edges_give_no_correction_and_no_nan():
     v = np.array([[0, 0, -100.0]] * 2 + [[0, 0, 0.0]] * 2)
     for band in (0.0, 1e-3):
         vv = v.copy()
-        assert edge_edge_correct(0, 1, 2, 3, x, vv, np.ones(4), TAU, 0.0, band, 0, 0, -2) == 0
+        assert edge_edge_correct(0, 1, 2, 3, x, vv, np.ones(4), TAU, 0.0, band, 1.0, 0, 0, -2) == 0
         assert np.array_equal(vv, v)
     # collinear, overlapping and sliding along the line
     x = np.array([[0.0, 0, 0], [1.0, 0, 0], [0.5, 0, 0], [2.0, 0, 0]])
     v = np.array([[10.0, 0, 0]] * 2 + [[-10.0, 0, 0]] * 2)
     vv = v.copy()
-    assert edge_edge_correct(0, 1, 2, 3, x, vv, np.ones(4), TAU, 0.0, 1e-3, 1, 0, 0) == 0
+    assert edge_edge_correct(0, 1, 2, 3, x, vv, np.ones(4), TAU, 0.0, 1e-3, 1.0, 1, 0, 0) == 0
     assert np.array_equal(vv, v) and np.all(np.isfinite(vv))
     # a degenerate (zero-length) edge
     x = np.array([[0.2, 0, 0.01], [0.2, 0, 0.01], [0.2, -0.5, 0], [0.2, 0.5, 0]])
     vv = np.array([[0, 0, -100.0]] * 2 + [[0, 0, 0.0]] * 2)
-    edge_edge_correct(0, 1, 2, 3, x, vv, np.ones(4), TAU, 0.0, 1e-3, 0, 0, -2)
+    edge_edge_correct(0, 1, 2, 3, x, vv, np.ones(4), TAU, 0.0, 1e-3, 1.0, 0, 0, -2)
     assert np.all(np.isfinite(vv))
 
 
@@ -101,7 +101,7 @@ def test_lines_meeting_outside_the_segments_give_nothing():
     x, v, m = crossing_setup()
     x[2:, 1] = [0.2, 0.7]  # edge 2 now spans y in [0.2, 0.7]: the lines meet at y = 0
     v0 = v.copy()
-    assert edge_edge_correct(0, 1, 2, 3, x, v, m, TAU, 0.0, 0.0, *NO_NU) == 0
+    assert edge_edge_correct(0, 1, 2, 3, x, v, m, TAU, 0.0, 0.0, 1.0, *NO_NU) == 0
     assert np.array_equal(v, v0)
 
 
@@ -109,7 +109,7 @@ def test_separating_or_far_edges_are_untouched():
     for v1 in ((0, 0, 100.0), (0, 0, -5.0)):  # moving away; approaching but not reaching
         x, v, m = crossing_setup(v1=v1)
         v0 = v.copy()
-        assert edge_edge_correct(0, 1, 2, 3, x, v, m, TAU, 0.0, 0.0, *NO_NU) == 0
+        assert edge_edge_correct(0, 1, 2, 3, x, v, m, TAU, 0.0, 0.0, 1.0, *NO_NU) == 0
         assert np.array_equal(v, v0)
 
 
@@ -118,13 +118,13 @@ def test_touching_edges_crossed_by_round_off_are_held_by_the_band():
     x[:2, 2] = -1e-12  # body 1's edge a hair below body 2's: crossed by round-off
     nu = (0.0, 0.0, -2.0)  # outward normals: body 1 (above) -z, body 2 (below) +z
     vv = v.copy()
-    assert edge_edge_correct(0, 1, 2, 3, x, vv, m, TAU, 0.0, 1e-6, *nu) > 0
+    assert edge_edge_correct(0, 1, 2, 3, x, vv, m, TAU, 0.0, 1e-6, 1.0, *nu) > 0
     assert (0.3 * vv[0, 2] + 0.7 * vv[1, 2]) == pytest.approx(0.5 * vv[2, 2] + 0.5 * vv[3, 2])
     # leaving: untouched
     x2, v2, m2 = crossing_setup(v1=(0, 0, 50.0))
     x2[:2, 2] = -1e-12
     v20 = v2.copy()
-    assert edge_edge_correct(0, 1, 2, 3, x2, v2, m2, TAU, 0.0, 1e-6, *nu) == 0
+    assert edge_edge_correct(0, 1, 2, 3, x2, v2, m2, TAU, 0.0, 1e-6, 1.0, *nu) == 0
     assert np.array_equal(v2, v20)
 
 
@@ -132,7 +132,7 @@ def test_touching_edges_crossed_by_round_off_are_held_by_the_band():
 def test_coulomb_friction_conserves_momentum_and_respects_the_cone(mu):
     x, v, m = crossing_setup(v1=(20.0, 40.0, -100.0))
     v0 = v.copy()
-    J = edge_edge_correct(0, 1, 2, 3, x, v, m, TAU, mu, 0.0, *NO_NU)
+    J = edge_edge_correct(0, 1, 2, 3, x, v, m, TAU, mu, 0.0, 1.0, *NO_NU)
     np.testing.assert_allclose(momentum(v, m), momentum(v0, m), atol=1e-12)
     Jt = np.linalg.norm(m[2:, None] * (v[2:, :2] - v0[2:, :2]), axis=1).sum()
     assert Jt <= mu * J * (1 + 1e-12)
@@ -157,8 +157,8 @@ def test_sweep_is_gauss_seidel_and_bit_identical():
         vv = v.copy()
         active = np.zeros(2, np.uint8)
         stamp = np.zeros(6, np.int64)
-        out.append((edge_edge_sweep(pairs, edges, normals, x, vv, m, TAU, 0.0, 0.0, active, stamp,
-                                    1, 0), vv))
+        out.append((edge_edge_sweep(pairs, edges, normals, x, vv, m, TAU, 0.0, 0.0, 1.0, active,
+                                    stamp, 1, 0), vv))
     assert out[0][0] == out[1][0] and np.array_equal(out[0][1], out[1][1])
     applied, total, jump = out[0][0]
     assert applied == 2  # the second pair sees the first correction, and still approaches
@@ -168,7 +168,7 @@ def test_sweep_is_gauss_seidel_and_bit_identical():
     vj = v.copy()
     for k in range(2):
         vk = v.copy()
-        edge_edge_sweep(pairs[k:k + 1], edges, normals, x, vk, m, TAU, 0.0, 0.0,
+        edge_edge_sweep(pairs[k:k + 1], edges, normals, x, vk, m, TAU, 0.0, 0.0, 1.0,
                         np.zeros(1, np.uint8), np.zeros(6, np.int64), 1, 0)
         vj += vk - v
     assert not np.allclose(vj, out[0][1])

@@ -57,7 +57,7 @@ def test_crossing_node_and_face_leave_with_equal_normal_velocity():
         x, v, m = setup(p, v_p, face, v_face, masses=rng.uniform(0.5, 2.0, 4))
         ref = crossing_reference(x, v, tau)
         v_before = v.copy()
-        J = node_face_correct(0, 1, 2, 3, x, v, m, tau, 0.0, 0.0, EPS)
+        J = node_face_correct(0, 1, 2, 3, x, v, m, tau, 0.0, 0.0, EPS, 1.0)
         if ref is None:
             assert J == 0.0 and np.array_equal(v, v_before)
             continue
@@ -93,14 +93,14 @@ def test_separating_pairs_are_untouched():
     for p, vp in cases:
         x, v, m = setup(p, vp, face, np.zeros((3, 3)))
         v0 = v.copy()
-        assert node_face_correct(0, 1, 2, 3, x, v, m, tau, 0.0, 1e-6, EPS) == 0.0
+        assert node_face_correct(0, 1, 2, 3, x, v, m, tau, 0.0, 1e-6, EPS, 1.0) == 0.0
         assert np.array_equal(v, v0), p
 
 
 def test_touching_node_within_the_band_is_held():
     face = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
     x, v, m = setup([0.2, 0.2, -1e-9], [0, 0, -5.0], face, np.zeros((3, 3)))
-    J = node_face_correct(0, 1, 2, 3, x, v, m, 1e-3, 0.0, 1e-6, EPS)
+    J = node_face_correct(0, 1, 2, 3, x, v, m, 1e-3, 0.0, 1e-6, EPS, 1.0)
     assert J > 0
     # held so that it is back on the face's plane at the end of the step (depth / tau apart)
     rel = v[0, 2] - (0.6 * v[1, 2] + 0.2 * v[2, 2] + 0.2 * v[3, 2])
@@ -109,20 +109,29 @@ def test_touching_node_within_the_band_is_held():
     assert y[0, 2] - (0.6 * y[1, 2] + 0.2 * y[2, 2] + 0.2 * y[3, 2]) == pytest.approx(0, abs=1e-15)
     # without a band it is not seen (it starts behind the plane)
     x, v, m = setup([0.2, 0.2, -1e-9], [0, 0, -5.0], face, np.zeros((3, 3)))
-    assert node_face_correct(0, 1, 2, 3, x, v, m, 1e-3, 0.0, 0.0, EPS) == 0.0
+    assert node_face_correct(0, 1, 2, 3, x, v, m, 1e-3, 0.0, 0.0, EPS, 1.0) == 0.0
 
 
 def test_node_hitting_a_vertex_or_an_edge_is_caught():
     face = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
     for p in ([0.0, 0.0, 0.01], [0.5, 0.0, 0.01], [0.5, 0.5, 0.01]):
         x, v, m = setup(p, [0, 0, -100.0], face, np.zeros((3, 3)))
-        assert node_face_correct(0, 1, 2, 3, x, v, m, 1e-3, 0.0, 0.0, EPS) > 0, p
+        assert node_face_correct(0, 1, 2, 3, x, v, m, 1e-3, 0.0, 0.0, EPS, 1.0) > 0, p
+
+
+def test_massless_node_takes_no_impulse():
+    face = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
+    x, v, m = setup([0.2, 0.2, 0.01], [0, 0, -100.0], face, np.zeros((3, 3)),
+                    masses=(0.0, 1.0, 1.0, 1.0))
+    v0 = v.copy()
+    assert node_face_correct(0, 1, 2, 3, x, v, m, 1e-3, 0.0, 1e-6, EPS, 1.0) == 0.0
+    assert np.array_equal(v, v0)
 
 
 def test_degenerate_face_gives_no_nan():
     face = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0]], float)
     x, v, m = setup([0.5, 0.0, 0.01], [0, 0, -100.0], face, np.zeros((3, 3)))
-    assert node_face_correct(0, 1, 2, 3, x, v, m, 1e-3, 0.0, 1e-6, EPS) == 0.0
+    assert node_face_correct(0, 1, 2, 3, x, v, m, 1e-3, 0.0, 1e-6, EPS, 1.0) == 0.0
     assert np.all(np.isfinite(v))
 
 
@@ -132,7 +141,7 @@ def test_coulomb_friction(mu):
     x, v, m = setup([0.2, 0.3, 0.01], [30.0, -10.0, -100.0], face, np.zeros((3, 3)),
                     masses=(1.0, 2.0, 1.5, 3.0))
     v0 = v.copy()
-    J = node_face_correct(0, 1, 2, 3, x, v, m, 1e-3, mu, 0.0, EPS)
+    J = node_face_correct(0, 1, 2, 3, x, v, m, 1e-3, mu, 0.0, EPS, 1.0)
     np.testing.assert_allclose(momentum(v, m), momentum(v0, m), atol=1e-12)
     dv_t = m[0] * (v[0, :2] - v0[0, :2])  # tangential impulse on the node
     assert np.linalg.norm(dv_t) <= mu * J * (1 + 1e-12)
@@ -160,7 +169,7 @@ def test_sweep_is_sequential_and_bit_identical():
         active = np.zeros(2, np.uint8)
         stamp = np.zeros(5, np.int64)
         applied, total, jump = node_face_sweep(pairs, nodes, faces, x, vv, m, 1e-3, 0.0, 0.0,
-                                               EPS, active, stamp, 1, 0)
+                                               EPS, 1.0, active, stamp, 1, 0)
         assert list(stamp) == [1, 1, 1, 1, 0]  # the nodes the impulse changed
         results.append((applied, total, vv))
         assert list(active) == [1, 0] and jump == pytest.approx(total / m[0])
@@ -168,7 +177,7 @@ def test_sweep_is_sequential_and_bit_identical():
     # a repeated sweep over unchanged velocities skips every pair and changes nothing
     vv = results[0][2].copy()
     stamp = np.ones(5, np.int64)
-    assert node_face_sweep(pairs, nodes, faces, x, vv, m, 1e-3, 0.0, 0.0, EPS,
+    assert node_face_sweep(pairs, nodes, faces, x, vv, m, 1e-3, 0.0, 0.0, EPS, 1.0,
                            np.zeros(2, np.uint8), stamp, 3, 2)[0] == 0
     assert np.array_equal(vv, results[0][2])
     assert results[0][1] == results[1][1] and np.array_equal(results[0][2], results[1][2])
