@@ -86,14 +86,14 @@ def _warm_up() -> None:
     """Load the numba kernels of a contact and a wall run once per worker."""
     import tempfile
 
-    from benchmarks.accuracy_studies import BAR, TWO_BARS
+    from benchmarks.accuracy_studies import BAR, ELASTIC_BARS
     from impactsim.case import load_case
     from impactsim.solver.run import run_case
 
     with tempfile.TemporaryDirectory() as tmp:
         for path, ov in ((BAR, ["run.end_time=2e-6", "body.0.mesh_size=0.005"]),
-                         (TWO_BARS, ["run.end_time=2e-7", "body.striker.mesh_size=0.005",
-                                     "body.target.mesh_size=0.005"])):
+                         (ELASTIC_BARS, ["run.end_time=2e-7", "body.striker.mesh_size=0.005",
+                                         "body.target.mesh_size=0.005"])):
             with contextlib.redirect_stderr(io.StringIO()):
                 run_case(load_case(path, overrides=ov + ["output.frames=1"]),
                          Path(tmp) / path.stem, progress=False)
