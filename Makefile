@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV ?= .venv
 PY := $(VENV)/bin/python
 BIN := $(VENV)/bin
-CASES := elastic-bar-wall taylor-bar two-cubes two-cylinders elastic-bars hertz-spheres
+CASES := elastic-bar-wall taylor-bar two-cubes two-cylinders elastic-bars hertz-spheres sphere-plate oblique-sphere
 SWEEP ?= cases/sweeps/mesh-size.toml
 
 .PHONY: setup test hard bench accuracy sweep cases demo clean
