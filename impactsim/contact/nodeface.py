@@ -14,7 +14,8 @@ with n the unit normal of the face at the crossing pointing into the face's body
 with the outward normal and J = tau N). Compressive only: nothing is done for a separating pair.
 Optional Coulomb friction: a tangential impulse along the relative sliding direction, at most the
 one that stops sliding and at most mu times the normal impulse, with the same weights (momentum is
-conserved).
+conserved). This algebra is ``point_face_impulse``, the pointwise law shared with the
+particle-face contact (impactsim.fracture.particles: the same algebra with the particle's radius).
 
 Departure from the paper, for persistent contact: after a correction the node ends the step on
 the face's plane only up to round-off and second-order terms (the face turns and slides during
@@ -75,16 +76,30 @@ def _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary, vmin):
     wb /= ws
     wc /= ws
     inv = 1.0 / math.sqrt(nn)
-    nx *= inv
-    ny *= inv
-    nz *= inv
-    vrx = v[p, 0] - (wa * v[ia, 0] + wb * v[ib, 0] + wc * v[ic, 0])
-    vry = v[p, 1] - (wa * v[ia, 1] + wb * v[ib, 1] + wc * v[ic, 1])
-    vrz = v[p, 2] - (wa * v[ia, 2] + wb * v[ib, 2] + wc * v[ic, 2])
+    return point_face_impulse(v, p, mass[p], v, mass, ia, ib, ic, wa, wb, wc, nx * inv,
+                              ny * inv, nz * inv, vmin, mu)
+
+
+@numba.njit(cache=True)
+def point_face_impulse(vp, p, mp, v, mass, ia, ib, ic, wa, wb, wc, nx, ny, nz, vmin, mu):
+    """The impulse algebra of ALGORITHMS.md 3.1, pointwise: a point of mass mp (row p of vp: a
+    boundary node, vp is v, or a particle of impactsim.fracture.particles) against the point of
+    face (ia, ib, ic) with barycentric weights w (rows of v, masses in mass), along the face's
+    unit outward normal n. The point's normal velocity relative to the face point,
+    u = (U_p - sum w_i U_i) . n, must be at least ``vmin``; when it is not, the normal impulse
+
+        J = (vmin - u) / (1/m_p + sum w_i^2 / m_i),   U_p += J n / m_p,   U_i -= w_i J n / m_i
+
+    is applied (compressive only, momentum conserved), then, with mu > 0, Coulomb friction: a
+    tangential impulse along the relative sliding velocity, at most the one that stops sliding
+    and at most mu J, with the same weights. Returns J [N s], 0 when nothing was needed, -1 when
+    a massless node (orphaned by erosion) would take part (nothing is applied)."""
+    vrx = vp[p, 0] - (wa * v[ia, 0] + wb * v[ib, 0] + wc * v[ic, 0])
+    vry = vp[p, 1] - (wa * v[ia, 1] + wb * v[ib, 1] + wc * v[ic, 1])
+    vrz = vp[p, 2] - (wa * v[ia, 2] + wb * v[ib, 2] + wc * v[ic, 2])
     vn = vrx * nx + vry * ny + vrz * nz
     if not vn < vmin:
         return 0.0
-    mp = mass[p]
     ma = mass[ia]
     mb = mass[ib]
     mc = mass[ic]
@@ -94,7 +109,7 @@ def _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary, vmin):
     J = (vmin - vn) / minv
     for d in range(3):
         nd = nx if d == 0 else (ny if d == 1 else nz)
-        v[p, d] += J / mp * nd
+        vp[p, d] += J / mp * nd
         v[ia, d] -= wa * J / ma * nd
         v[ib, d] -= wb * J / mb * nd
         v[ic, d] -= wc * J / mc * nd
@@ -111,7 +126,7 @@ def _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary, vmin):
             tz = vtz / vt
             for d in range(3):
                 td = tx if d == 0 else (ty if d == 1 else tz)
-                v[p, d] -= Jt / mp * td
+                vp[p, d] -= Jt / mp * td
                 v[ia, d] += wa * Jt / ma * td
                 v[ib, d] += wb * Jt / mb * td
                 v[ic, d] += wc * Jt / mc * td
