@@ -233,13 +233,18 @@ def _tri_distance(px, py, pz, f, faces, x):
 
 
 @numba.njit(cache=True)
-def _segment_depth(p, q, t0, t1, fa, fb, deepest, body, faces, face_body, x, origin, inv_h, h,
-                   tbits, bucket_start, keys, ents, kmax):
+def _segment_depth(p, q, t0, t1, fa, fb, deepest, floor, search, body, faces, face_body, x,
+                   origin, inv_h, h, tbits, bucket_start, keys, ents, kmax):
     """Largest distance to the surface of ``body`` among points at 1/4, 1/2, 3/4 of the piece
     [t0, t1] of segment p -> q (a piece inside that body, entered through face fa and left
-    through face fb, -1 for none), or ``deepest`` if none is deeper. The distance to the
-    triangles fa, fb bounds the depth from above and spares the search when it cannot win."""
+    through face fb, -1 for none), or ``deepest`` if none is deeper.
+
+    The distance to the triangles fa, fb bounds the depth from above: a point whose bound cannot
+    beat ``deepest`` is skipped, and a bound below ``floor`` is taken as the depth (an upper
+    bound of a negligible depth). Otherwise the face hash is searched; with ``search`` False
+    (no hash yet) the function only reports that a search is needed. Returns (depth, needed)."""
     best = deepest
+    needed = False
     for j in range(1, 4):
         t = t0 + 0.25 * j * (t1 - t0)
         px = x[p, 0] + t * (x[q, 0] - x[p, 0])
@@ -252,27 +257,35 @@ def _segment_depth(p, q, t0, t1, fa, fb, deepest, body, faces, face_body, x, ori
             bound = min(bound, _tri_distance(px, py, pz, fb, faces, x))
         if bound <= best:
             continue
+        if bound <= floor:
+            best = bound
+            continue
+        if not search:
+            needed = True
+            continue
         d = nearest_face_distance(px, py, pz, body, faces, face_body, x, origin, inv_h, h, tbits,
                                   bucket_start, keys, ents, kmax)
         if d < np.inf and d > best:
             best = d
-    return best
+    return best, needed
 
 
 @numba.njit(cache=True)
-def edge_cut_depths(pairs, edges, faces, face_body, x, origin, inv_h, h, tbits, bucket_start,
-                    keys, ents, kmax, ts, signs, fs):
+def edge_cut_depths(pairs, edges, faces, face_body, x, floor, search, origin, inv_h, h, tbits,
+                    bucket_start, keys, ents, kmax, ts, signs, fs):
     """Edges of A cutting through the surface of another body B.
 
     ``pairs (k, 2)`` (edge, face) candidates sorted by edge. For each edge and body the crossings
     with B's faces are ordered along the edge; between an entering and the next leaving crossing
     (or an end of the edge) the edge is inside B, and the depth of that piece is the largest
     distance to B's surface of three points on it. A touching or grazing edge gives about 0, an
-    edge sliced through a corner of B about the depth of the cut. ``ts``, ``signs``, ``fs``:
-    scratch arrays (their length caps the crossings kept per edge). Returns (max depth [m],
-    crossings)."""
+    edge sliced through a corner of B about the depth of the cut. ``floor``, ``search``: see
+    ``_segment_depth`` (the face hash, the arguments origin .. kmax, is read only with search).
+    ``ts``, ``signs``, ``fs``: scratch arrays (their length caps the crossings kept per edge).
+    Returns (max depth [m], crossings, whether a search is needed)."""
     deepest = 0.0
     count = 0
+    needed = False
     k = 0
     cap = ts.shape[0]
     while k < pairs.shape[0]:
@@ -324,15 +337,21 @@ def edge_cut_depths(pairs, edges, faces, face_body, x, origin, inv_h, h, tbits, 
                     f_in = fs[i]
                 elif signs[i] < 0 and inside:
                     inside = False
-                    deepest = _segment_depth(p, q, start, ts[i], f_in, fs[i], deepest, body,
-                                             faces, face_body, x, origin, inv_h, h, tbits,
-                                             bucket_start, keys, ents, kmax)
+                    deepest, need = _segment_depth(p, q, start, ts[i], f_in, fs[i], deepest,
+                                                   floor, search, body, faces, face_body, x,
+                                                   origin, inv_h, h, tbits, bucket_start, keys,
+                                                   ents, kmax)
+                    needed = needed or need
             if inside:
-                deepest = _segment_depth(p, q, start, 1.0, f_in, -1, deepest, body, faces,
-                                         face_body, x, origin, inv_h, h, tbits, bucket_start,
-                                         keys, ents, kmax)
+                deepest, need = _segment_depth(p, q, start, 1.0, f_in, -1, deepest, floor,
+                                               search, body, faces, face_body, x, origin, inv_h,
+                                               h, tbits, bucket_start, keys, ents, kmax)
+                needed = needed or need
         k = k_end
-    return deepest, count
+    return deepest, count, needed
+
+
+FLOOR = 1e-4  # cut pieces whose depth bound is below FLOOR x cell size report the bound
 
 
 class PenetrationMeter:
@@ -397,7 +416,17 @@ class PenetrationMeter:
                 cut_pairs = cut_pairs[keep.view(bool)]
             else:
                 cut_pairs = cut_pairs[:0]
-        if count or cut_pairs.shape[0]:
+        floor = FLOOR * h
+        need = False
+        if cut_pairs.shape[0]:
+            ch = self.cut_hash  # a valid grid to pass; not read without search
+            grid = (ch.origin, ch.inv_h, ch.h, ch.tbits, ch.bucket_start, ch.keys, ch.ents, 0)
+            depth, n_cut, need = edge_cut_depths(cut_pairs, surface.edges, surface.faces,
+                                                 surface.face_body, x, floor, False, *grid,
+                                                 self._ts, self._signs, self._faces)
+            out["edge_depth"] = float(depth)
+            out["edge_cuts"] = int(n_cut)
+        if count or need:
             # depths below the other body's surface: nearest boundary face, from a hash of all
             alo = np.empty((surface.n_faces, 3))
             ahi = np.empty((surface.n_faces, 3))
@@ -411,12 +440,11 @@ class PenetrationMeter:
                     pairs, inside, nodes_q, tet_body, x, surface.faces, surface.face_body,
                     *grid))
                 out["nodes_inside"] = int(count)
-            if cut_pairs.shape[0]:
-                depth, n_cut = edge_cut_depths(cut_pairs, surface.edges, surface.faces,
-                                               surface.face_body, x, *grid, self._ts,
-                                               self._signs, self._faces)
+            if need:
+                depth, n_cut, _ = edge_cut_depths(cut_pairs, surface.edges, surface.faces,
+                                                  surface.face_body, x, floor, True, *grid,
+                                                  self._ts, self._signs, self._faces)
                 out["edge_depth"] = float(depth)
-                out["edge_cuts"] = int(n_cut)
         out["max_penetration"] = max(out["node_depth"], out["edge_depth"])
         return out
 
