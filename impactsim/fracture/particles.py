@@ -9,16 +9,18 @@ Particles fly ballistically between contacts.
 Particle-face contact (the node-face algebra of ALGORITHMS.md 3.1 with the particle's radius):
 a particle p and a boundary face (a, b, c) with outward unit normal n, the particle's centre
 projected inside the triangle at the end of the step (barycentric weights w_i >= -eps, positions
-x + tau U*). A particle meets a face
+x + tau U*; clamped to [0, 1] and renormalised as in the node-face pass). A particle meets a face
 from its outer side only: its centre must be in front of the face's plane at the start of the
 step. (A centre behind the plane is inside the body or past the face; counting such pairs let a
-particle larger than a thin cell press on its opposite faces at once and crush it between
-them.) With the gap g = (x_p - x_a).n - r at the start of the step and the relative normal
-velocity u = (U*_p - sum w_i U*_i).n, the gap must not close within the step:
-u >= -g / tau (or u >= 0 for a particle already overlapping, g < 0). When violated, the normal
-impulse J = du / (1/m_p + sum w_i^2 / m_i) with du the missing relative velocity is applied:
-U_p += J n / m_p, U_i -= w_i J n / m_i (compressive only; momentum conserved). Pairs are
-corrected one after the other in sorted order (Gauss-Seidel, as 3.2 asks).
+particle larger than a thin cell press on its opposite faces at once and crush it between them.)
+With the gap g = (x_p - x_a).n - r at the start of the step and the relative normal velocity
+u = (U*_p - sum w_i U*_i).n, the gap must not close within the step: u >= -g / tau (or u >= 0
+for a particle already overlapping, g < 0). When violated, the normal impulse
+J = du / (1/m_p + sum w_i^2 / m_i) with du the missing relative velocity is applied:
+U_p += J n / m_p, U_i -= w_i J n / m_i (compressive only; momentum conserved). The impulse is
+``impactsim.contact.nodeface.point_face_impulse``, the one function both passes call (a face
+with a massless node takes none). Pairs are corrected one after the other in sorted order
+(Gauss-Seidel, as 3.2 asks).
 
 Particle-particle contact (optional): the same with two spheres, n along the line of centres and
 g = |x_j - x_i| - r_i - r_j.
@@ -37,6 +39,8 @@ import math
 
 import numba
 import numpy as np
+
+from impactsim.contact.nodeface import point_face_impulse
 
 
 class Particles:
@@ -94,7 +98,8 @@ class Particles:
 
 @numba.njit(cache=True)
 def particle_face_sweep(pairs, px, pv, pm, pr, faces, x, v, mass, force, dtv, tau, eps_bary):
-    """Gauss-Seidel particle-face corrections over sorted ``pairs (k,2)`` (particle, face row).
+    """Gauss-Seidel particle-face corrections over sorted ``pairs (k,2)`` (particle, face row);
+    the impulse is ``impactsim.contact.nodeface.point_face_impulse``, the node-face algebra.
     Returns (pairs corrected, work of the impulses on nodes and particles [J])."""
     applied = 0
     work = 0.0
@@ -102,6 +107,8 @@ def particle_face_sweep(pairs, px, pv, pm, pr, faces, x, v, mass, force, dtv, ta
         p = pairs[k, 0]
         f = pairs[k, 1]
         ia, ib, ic = faces[f, 0], faces[f, 1], faces[f, 2]
+        if not (mass[ia] > 0.0 and mass[ib] > 0.0 and mass[ic] > 0.0):
+            continue
         # geometry at the end of the step (predicted positions)
         ax = x[ia, 0] + tau * v[ia, 0]
         ay = x[ia, 1] + tau * v[ia, 1]
@@ -128,52 +135,53 @@ def particle_face_sweep(pairs, px, pv, pm, pr, faces, x, v, mass, force, dtv, ta
         wa = 1.0 - wb - wc
         if wa < -eps_bary or wb < -eps_bary or wc < -eps_bary:
             continue
+        wa = max(wa, 0.0)
+        wb = max(wb, 0.0)
+        wc = max(wc, 0.0)
+        ws = wa + wb + wc
+        wa /= ws
+        wb /= ws
+        wc /= ws
         inv = 1.0 / math.sqrt(nn)
         nx *= inv
         ny *= inv
         nz *= inv
-        rad = pr[p]
         # the centre's distance from the face's plane at the start of the step: a particle
         # meets a face from its outer side only
         d0 = ((px[p, 0] - x[ia, 0]) * nx + (px[p, 1] - x[ia, 1]) * ny
               + (px[p, 2] - x[ia, 2]) * nz)
         if not d0 > 0.0:
             continue
-        g0 = d0 - rad
-        ux = pv[p, 0] - (wa * v[ia, 0] + wb * v[ib, 0] + wc * v[ic, 0])
-        uy = pv[p, 1] - (wa * v[ia, 1] + wb * v[ib, 1] + wc * v[ic, 1])
-        uz = pv[p, 2] - (wa * v[ia, 2] + wb * v[ib, 2] + wc * v[ic, 2])
-        un = ux * nx + uy * ny + uz * nz
+        g0 = d0 - pr[p]
         umin = -g0 / tau if g0 > 0.0 else 0.0
-        if un >= umin:
+        p0, p1, p2 = pv[p, 0], pv[p, 1], pv[p, 2]
+        a0, a1, a2 = v[ia, 0], v[ia, 1], v[ia, 2]
+        b0, b1, b2 = v[ib, 0], v[ib, 1], v[ib, 2]
+        c0, c1, c2 = v[ic, 0], v[ic, 1], v[ic, 2]
+        jn = point_face_impulse(pv, p, pm[p], v, mass, ia, ib, ic, wa, wb, wc, nx, ny, nz,
+                                umin, 0.0)
+        if not jn > 0.0:
             continue
-        ma, mb, mc = mass[ia], mass[ib], mass[ic]
-        den = 1.0 / pm[p]
-        if ma > 0.0:
-            den += wa * wa / ma
-        if mb > 0.0:
-            den += wb * wb / mb
-        if mc > 0.0:
-            den += wc * wc / mc
-        jn = (umin - un) / den
-        # particle
-        a = jn / pm[p]
-        for d, nd in ((0, nx), (1, ny), (2, nz)):
-            before = pv[p, d]
-            pv[p, d] = before + a * nd
-            work += pm[p] * a * nd * 0.5 * (before + pv[p, d])
-        # face nodes
-        for i, w in ((ia, wa), (ib, wb), (ic, wc)):
-            mi = mass[i]
-            if mi <= 0.0:
-                continue
-            b = -w * jn / mi
-            for d, nd in ((0, nx), (1, ny), (2, nz)):
-                old = v[i, d] - dtv * force[i, d] / mi
-                v[i, d] += b * nd
-                work += mi * b * nd * 0.5 * (old + v[i, d])
+        work += 0.5 * pm[p] * ((pv[p, 0] - p0) * (pv[p, 0] + p0)
+                               + (pv[p, 1] - p1) * (pv[p, 1] + p1)
+                               + (pv[p, 2] - p2) * (pv[p, 2] + p2))
+        work += _node_work(v, mass, force, dtv, ia, a0, a1, a2)
+        work += _node_work(v, mass, force, dtv, ib, b0, b1, b2)
+        work += _node_work(v, mass, force, dtv, ic, c0, c1, c2)
         applied += 1
     return applied, work
+
+
+@numba.njit(cache=True, inline="always")
+def _node_work(v, mass, force, dtv, i, u0, u1, u2):
+    """Work of the impulse that changed node i's velocity from (u0, u1, u2) to v[i]: the node
+    moves with the mean of U^{n-1/2} = U - dtv F / m (before the impulse) and U^{n+1/2}."""
+    m = mass[i]
+    w = 0.0
+    for d in range(3):
+        u = u0 if d == 0 else (u1 if d == 1 else u2)
+        w += m * (v[i, d] - u) * 0.5 * (u - dtv * force[i, d] / m + v[i, d])
+    return w
 
 
 @numba.njit(cache=True)

@@ -63,6 +63,14 @@ def test_fast_particle_crossing_within_one_step_is_caught():
     assert gap_end >= -1e-12
 
 
+def test_face_with_a_massless_node_takes_no_impulse():
+    s = _scene(0.5 * R, -100.0)
+    s[2][1] = 0.0  # node 1 orphaned by erosion
+    applied, work = _sweep(*s)
+    assert applied == 0 and work == 0.0
+    assert s[5][0, 2] == -100.0 and np.all(s[1] == 0.0)
+
+
 def test_broad_phase_keeps_exactly_the_faces_near_the_particles():
     rng = np.random.default_rng(3)
     n, nf = 50, 400
