@@ -54,6 +54,7 @@ def swept_boxes(x, v, tau, ent, pad, lo, hi):
 
 @numba.njit(cache=True)
 def _cell(p, o, inv_h):
+    """Grid cell index of coordinate p (clamped to the key range; ALGORITHMS.md 3.2 hash)."""
     c = int(math.floor((p - o) * inv_h))
     if c < 0:
         return 0
@@ -64,11 +65,13 @@ def _cell(p, o, inv_h):
 
 @numba.njit(cache=True)
 def _key(ix, iy, iz):
+    """Packed int64 key of cell (ix, iy, iz), 21 bits each (ALGORITHMS.md 3.2 hash)."""
     return (np.int64(ix) << 42) | (np.int64(iy) << 21) | np.int64(iz)
 
 
 @numba.njit(cache=True)
 def _bucket(key, tbits):
+    """Bucket of a cell key: Fibonacci hashing to tbits bits (ALGORITHMS.md 3.2 hash)."""
     return np.int64((np.uint64(key) * _GOLDEN) >> np.uint64(64 - tbits))
 
 
@@ -120,6 +123,7 @@ def build_hash(lo, hi, origin, inv_h, tbits, tmp_keys, tmp_ents, bucket_start, k
 
 @numba.njit(cache=True)
 def _shares_node(qent, i, eent, j):
+    """True when rows i and j share a node (self-contact exclusion, ALGORITHMS.md 3.2)."""
     for a in range(qent.shape[1]):
         for b in range(eent.shape[1]):
             if qent[i, a] == eent[j, b]:
@@ -130,7 +134,9 @@ def _shares_node(qent, i, eent, j):
 @numba.njit(cache=True)
 def query_pairs(qlo, qhi, qent, qbody, elo, ehi, eent, ebody, same_set, self_contact,
                 origin, inv_h, tbits, bucket_start, keys, ents, out):
-    """Candidate pairs (i, j): query box i overlaps hashed box j, of different bodies (or of the
+    """Candidate pairs (ALGORITHMS.md 3.2, "Cost": the broad phase before the cubic).
+
+    (i, j): query box i overlaps hashed box j, of different bodies (or of the
     same body when ``self_contact`` and the entities share no node); with ``same_set`` (both sides
     the same entity list) only j > i. Each pair once, in query order. Writes ``out (cap, 2)`` and
     returns the number of pairs found (more than cap: the caller grows ``out`` and repeats)."""
@@ -175,7 +181,9 @@ def query_pairs(qlo, qhi, qent, qbody, elo, ehi, eent, ebody, same_set, self_con
 
 @numba.njit(cache=True)
 def body_bounds(x, v, tau, nodes, node_body, pad, blo, bhi):
-    """Bounding box (n_body, 3) of each body's ``nodes`` swept over [x, x + tau v], padded; an
+    """Broad-phase pre-selection (ALGORITHMS.md 3.2, "Cost").
+
+    Bounding box (n_body, 3) of each body's ``nodes`` swept over [x, x + tau v], padded; an
     empty body gets +inf / -inf. Returns False when a coordinate is not finite (a NaN or
     infinite position or velocity must not pass unnoticed)."""
     for b in range(blo.shape[0]):
@@ -201,7 +209,9 @@ def body_bounds(x, v, tau, nodes, node_body, pad, blo, bhi):
 
 @numba.njit(cache=True)
 def select_boxes(x, v, tau, ent, pad, body, blo, bhi, keep_all, skip, sel, lo, hi):
-    """Swept, padded boxes of the rows of ``ent`` that can meet another body: rows whose box
+    """Broad-phase pre-selection (ALGORITHMS.md 3.2, "Cost").
+
+    Swept, padded boxes of the rows of ``ent`` that can meet another body: rows whose box
     meets the bounding box (blo, bhi) of a body other than their own (all rows with
     ``keep_all``, for self-contact); rows with skip[i] != 0 are left out (``skip`` may be empty).
     Writes their indices (increasing) to sel and their boxes to lo, hi; returns how many."""
@@ -258,7 +268,8 @@ def select_boxes(x, v, tau, ent, pad, body, blo, bhi, keep_all, skip, sel, lo, h
 
 @numba.njit(cache=True)
 def mean_length(x, edges):
-    """Mean length [m] of the segments ``edges (g, 2)`` (0 for none)."""
+    """Mean length [m] of the segments ``edges (g, 2)`` (0 for none): the hash cell size and
+    the touching band of ALGORITHMS.md 3 scale with it."""
     if edges.shape[0] == 0:
         return 0.0
     total = 0.0

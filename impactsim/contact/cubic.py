@@ -21,7 +21,7 @@ import numba
 
 @numba.njit(cache=True)
 def det3(ux, uy, uz, vx, vy, vz, wx, wy, wz):
-    """det[u, v, w] (columns) = u . (v x w)."""
+    """det[u, v, w] (columns) = u . (v x w) (ALGORITHMS.md 3.2, the coplanarity determinant)."""
     return ux * (vy * wz - vz * wy) + uy * (vz * wx - vx * wz) + uz * (vx * wy - vy * wx)
 
 
@@ -43,12 +43,14 @@ def cubic_coefficients(a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z,
 
 @numba.njit(cache=True)
 def _poly(A, B, C, D, s):
+    """The cubic of ALGORITHMS.md 3.2 in s = t / tau, by Horner's rule."""
     return ((A * s + B) * s + C) * s + D
 
 
 @numba.njit(cache=True)
 def _push(n, r0, r1, r2, s):
-    """Append s to the increasing root list (r0, r1, r2) of length n, skipping duplicates."""
+    """Append s to the increasing root list (r0, r1, r2) of length n, skipping duplicates
+    (ALGORITHMS.md 3.2, "take the roots in [0, tau]")."""
     last = r0 if n == 1 else (r1 if n == 2 else r2)
     if n > 0 and s <= last + 1e-14:
         return n, r0, r1, r2
@@ -63,7 +65,8 @@ def _push(n, r0, r1, r2, s):
 
 @numba.njit(cache=True)
 def _bracketed_root(A, B, C, D, lo, hi, plo):
-    """Root of the cubic in [lo, hi] where it is monotone and changes sign (plo = p(lo)):
+    """Root of the cubic of ALGORITHMS.md 3.2 in [lo, hi] where it is monotone and changes sign
+    (plo = p(lo)):
     Newton steps kept inside the shrinking bracket, bisection otherwise."""
     s = 0.5 * (lo + hi)
     for _ in range(200):

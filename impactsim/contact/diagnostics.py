@@ -29,12 +29,13 @@ from impactsim.contact.cubic import det3
 
 @numba.njit(cache=True)
 def _dot(ax, ay, az, bx, by, bz):
+    """a . b (geometry of the penetration measure, ALGORITHMS.md 3: bodies never interpenetrate)."""
     return ax * bx + ay * by + az * bz
 
 
 @numba.njit(cache=True)
 def point_segment_distance(px, py, pz, ax, ay, az, bx, by, bz):
-    """Euclidean distance of point p from segment [a, b]."""
+    """Euclidean distance of point p from segment [a, b] (penetration measure, ALGORITHMS.md 3)."""
     dx = bx - ax
     dy = by - ay
     dz = bz - az
@@ -51,7 +52,8 @@ def point_segment_distance(px, py, pz, ax, ay, az, bx, by, bz):
 @numba.njit(cache=True)
 def point_triangle_distance(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
     """Euclidean distance of point p from triangle (a, b, c): the plane distance when the
-    projection falls inside, else the distance to the nearest side."""
+    projection falls inside, else the distance to the nearest side (penetration measure,
+    ALGORITHMS.md 3)."""
     e1x = bx - ax
     e1y = by - ay
     e1z = bz - az
@@ -78,7 +80,9 @@ def point_triangle_distance(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
 @numba.njit(cache=True)
 def nearest_face_distance(px, py, pz, body, faces, face_body, x, origin, inv_h, h, tbits,
                           bucket_start, keys, ents, kmax):
-    """Distance of p from the nearest boundary face of ``body``: cells searched in shells of
+    """Depth of a penetrating point (ALGORITHMS.md 3: no body crosses another).
+
+    Distance of p from the nearest boundary face of ``body``: cells searched in shells of
     growing Chebyshev radius k around p's cell until the best distance is <= k h (every face
     closer than that has a cell in the shells seen). inf when the body has no face."""
     cx = _cell(px, origin[0], inv_h)
@@ -120,7 +124,9 @@ def nearest_face_distance(px, py, pz, body, faces, face_body, x, origin, inv_h, 
 
 @numba.njit(cache=True)
 def nodes_in_tets(pairs, nodes, tets, x, inside):
-    """For candidate (boundary node, tet of another body) pairs: inside[k] = 1 when the node lies
+    """Penetration measure, nodes (ALGORITHMS.md 3: no body crosses another).
+
+    For candidate (boundary node, tet of another body) pairs: inside[k] = 1 when the node lies
     in the tet (all barycentric coordinates >= 0). Returns the number of such pairs."""
     count = 0
     for k in range(pairs.shape[0]):
@@ -163,7 +169,8 @@ def nodes_in_tets(pairs, nodes, tets, x, inside):
 @numba.njit(cache=True)
 def inside_node_depths(pairs, inside, nodes, tet_body, x, faces, face_body, origin, inv_h, h,
                        tbits, bucket_start, keys, ents, kmax):
-    """Depth [m] of the deepest node flagged by ``nodes_in_tets``: its distance to the boundary
+    """Penetration measure, nodes (ALGORITHMS.md 3). Depth [m] of the deepest node flagged by
+    ``nodes_in_tets``: its distance to the boundary
     surface of the tet's body (nearest face, searched in the face hash)."""
     deepest = 0.0
     for k in range(pairs.shape[0]):
@@ -180,7 +187,9 @@ def inside_node_depths(pairs, inside, nodes, tet_body, x, faces, face_body, orig
 
 @numba.njit(cache=True)
 def _crossing(p, q, a, b, c, x):
-    """Parameter t in [0, 1] along p -> q where the segment crosses triangle (a, b, c), and +1
+    """Penetration measure, edges (ALGORITHMS.md 3.2: edges cutting through faces).
+
+    Parameter t in [0, 1] along p -> q where the segment crosses triangle (a, b, c), and +1
     when it enters the body behind the face (outward normal (b - a) x (c - a)), -1 when it
     leaves; (-1.0, 0) when it does not cross the triangle."""
     e1x = x[b, 0] - x[a, 0]
@@ -212,7 +221,8 @@ def _crossing(p, q, a, b, c, x):
 
 @numba.njit(cache=True)
 def crossing_pairs(pairs, edges, faces, x, keep):
-    """keep[k] = 1 for the (edge, face) pairs whose edge crosses the triangle; returns how many."""
+    """keep[k] = 1 for the (edge, face) pairs whose edge crosses the triangle; returns how many
+    (penetration measure, edges cutting through faces: ALGORITHMS.md 3.2)."""
     n = 0
     for k in range(pairs.shape[0]):
         f = pairs[k, 1]
@@ -225,6 +235,7 @@ def crossing_pairs(pairs, edges, faces, x, keep):
 
 @numba.njit(cache=True)
 def _tri_distance(px, py, pz, f, faces, x):
+    """Distance of p from boundary face f (penetration measure, ALGORITHMS.md 3)."""
     a = faces[f, 0]
     b = faces[f, 1]
     c = faces[f, 2]
@@ -235,7 +246,9 @@ def _tri_distance(px, py, pz, f, faces, x):
 @numba.njit(cache=True)
 def _segment_depth(p, q, t0, t1, fa, fb, deepest, floor, search, body, faces, face_body, x,
                    origin, inv_h, h, tbits, bucket_start, keys, ents, kmax):
-    """Largest distance to the surface of ``body`` among points at 1/4, 1/2, 3/4 of the piece
+    """Penetration measure, edges (ALGORITHMS.md 3.2: edges cutting through faces).
+
+    Largest distance to the surface of ``body`` among points at 1/4, 1/2, 3/4 of the piece
     [t0, t1] of segment p -> q (a piece inside that body, entered through face fa and left
     through face fb, -1 for none), or ``deepest`` if none is deeper.
 
@@ -273,7 +286,8 @@ def _segment_depth(p, q, t0, t1, fa, fb, deepest, floor, search, body, faces, fa
 @numba.njit(cache=True)
 def edge_cut_depths(pairs, edges, faces, face_body, x, floor, search, origin, inv_h, h, tbits,
                     bucket_start, keys, ents, kmax, ts, signs, fs):
-    """Edges of A cutting through the surface of another body B.
+    """Edges of A cutting through the surface of another body B (ALGORITHMS.md 3.2: "without
+    it, edges of one body cut through faces of the other").
 
     ``pairs (k, 2)`` (edge, face) candidates sorted by edge. For each edge and body the crossings
     with B's faces are ordered along the edge; between an entering and the next leaving crossing

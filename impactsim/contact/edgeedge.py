@@ -216,7 +216,8 @@ def edge_edge_correct(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, 
 @numba.njit(cache=True)
 def edge_normals(x, faces, face_edges, out):
     """Outward normal at each boundary edge: the sum of the unit normals of its boundary faces
-    (used only to orient touching edge pairs, see the module docstring). out (g, 3)."""
+    (used only to orient touching edge pairs, the departure from ALGORITHMS.md 3.2 described in
+    the module docstring). out (g, 3)."""
     for g in range(out.shape[0]):
         out[g, 0] = 0.0
         out[g, 1] = 0.0

@@ -7,7 +7,10 @@ import numba
 
 @numba.njit(cache=True)
 def impulse_work(nodes, v_star, v, mass, force, dtv):
-    """Work [J] of the velocity corrections of ``nodes`` in one step, in the convention of the
+    """Energy of the contact corrections of ALGORITHMS.md 3 (velocity equalisation is an
+    inelastic impact, ALGORITHMS.md 1 energy accounting).
+
+    Work [J] of the velocity corrections of ``nodes`` in one step, in the convention of the
     solver's walls (impactsim.solver.constraints): the impulse J = m (U - U*) acts at t^n while
     the node moves with the mean of U^{n-1/2} = U* - dtv F / m and U^{n+1/2} = U, so its work
     is J . (U^{n-1/2} + U) / 2. ``v_star (h, 3)``: U* of the nodes before any contact pass.

@@ -62,7 +62,8 @@ def _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary, vmin):
     nn = nx * nx + ny * ny + nz * nz
     if not nn > 0.0:
         return -1.0
-    # barycentric weights of the node's projection: w_b = (r x e2).n / |n|^2, w_c = (e1 x r).n / |n|^2
+    # barycentric weights of the node's projection:
+    # w_b = (r x e2).n / |n|^2, w_c = (e1 x r).n / |n|^2
     wb = ((ry * e2z - rz * e2y) * nx + (rz * e2x - rx * e2z) * ny + (rx * e2y - ry * e2x) * nz) / nn
     wc = ((e1y * rz - e1z * ry) * nx + (e1z * rx - e1x * rz) * ny + (e1x * ry - e1y * rx) * nz) / nn
     wa = 1.0 - wb - wc

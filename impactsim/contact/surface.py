@@ -70,9 +70,9 @@ def _remove_elements_kernel(ids, conn, adj, elem_edges, alive, face_flag, edge_c
 class Surface:
     """Boundary faces, edges and nodes of all bodies of a tet mesh (see the module docstring).
 
-    ``conn (e,4) int32`` positive tets; ``elem_body (e,) int32``; ``status (e,) int8`` (elements with
-    status ERODED are not part of the mesh); ``node_body (n,) int32`` (derived from the elements when
-    None); ``n_node`` the number of nodes (max node + 1 when None).
+    ``conn (e,4) int32`` positive tets; ``elem_body (e,) int32``; ``status (e,) int8``
+    (elements with status ERODED are not part of the mesh); ``node_body (n,) int32`` (derived
+    from the elements when None); ``n_node`` the number of nodes (max node + 1 when None).
     """
 
     def __init__(self, conn, elem_body, status=None, node_body=None, n_node=None):
