@@ -72,6 +72,13 @@ class ContactContext:
         self._v_star = None
         self.sweep_id = 0
 
+    def rebuild_surface(self, model) -> None:
+        """Start the surface afresh from model.conn (for a pass that renumbers or splits nodes in
+        place, e.g. node separation; erosion needs nothing: ``prepare`` follows model.status)."""
+        self.surface = Surface.from_model(model)
+        self._conn_shape = model.conn.shape
+        self._h_key = None
+
     def prepare(self, model) -> float:
         """Follow erosion (status) and return the current mean surface edge length h [m]."""
         if model.conn.shape != self._conn_shape:

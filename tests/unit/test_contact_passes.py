@@ -175,3 +175,13 @@ def test_skipping_unchanged_pairs_in_repeated_sweeps_changes_nothing():
         results.append(m.v.copy())
         assert sweeps > 4  # repeated sweeps did happen
     assert np.array_equal(results[0], results[1])
+
+
+def test_rebuild_surface_after_conn_changes_in_place():
+    m = crossing_cubes()
+    passes = make_contact_passes(case_with(), m)
+    ctx = passes[0].ctx
+    before = ctx.surface
+    ctx.rebuild_surface(m)
+    assert ctx.surface is not before
+    np.testing.assert_array_equal(ctx.surface.faces, before.faces)
