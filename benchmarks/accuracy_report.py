@@ -275,7 +275,8 @@ def write_report(studies: list[Study], runs: list[dict], meta: dict) -> Path:
         "overrides=[...])` and `run_case`. Errors are against an analytic value ('exact') where "
         "the problem has one, else against the finest run of the same series ('finest'). "
         "'wall s' is the run's wall time without meshing (meshes are cached); the machine is "
-        "shared, so these carry its load. Fitted rates:",
+        "shared, so these carry its load (runs under two seconds are repeated and the fastest "
+        "time kept). Fitted rates:",
         "",
         "- order p: least-squares fit of error = C x^p over the runs (x = mesh size h or CFL "
         "number; against 'finest' over the runs coarser than the finest, which makes p high "
