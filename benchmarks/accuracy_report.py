@@ -144,7 +144,7 @@ def runs_table(study: Study, runs: list[dict], columns: list[ErrorColumn]) -> li
     first = next(iter(series.values()))
     qnames = list(first[0]["quantities"])
     xh = "h [mm]" if study.x_name == "h" else "CFL"
-    head = ["series", xh, "elements", "steps", "wall s"]
+    head = ["series", xh, "elements", "steps", "wall s", "CPU s"]
     for qn in qnames:
         q0 = first[0]["quantities"][qn]
         head.append(f"{qn}" + (f" [{q0['unit']}]" if q0["unit"] else ""))
@@ -154,7 +154,8 @@ def runs_table(study: Study, runs: list[dict], columns: list[ErrorColumn]) -> li
         cols = [c for c in columns if c.series == name]
         for i, r in enumerate(rs):
             row = [name, _x_text(study, r["x"]), f"{r['elements']:,}", f"{r['steps']:,}",
-                   f"{r['wall_seconds']:.2f}"]
+                   f"{r['wall_seconds']:.2f}",
+                   f"{r['cpu_seconds']:.2f}" if "cpu_seconds" in r else "–"]
             for qn in qnames:
                 q = r["quantities"][qn]
                 row.append(_num(q["value"] * q["scale"], 5))
@@ -224,6 +225,7 @@ def plot_study(study: Study, columns: list[ErrorColumn], path: Path) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullFormatter
 
     qnames = list(dict.fromkeys(c.quantity for c in columns))
     fig, axes = plt.subplots(1, len(qnames), figsize=(4.2 * len(qnames), 3.8), squeeze=False)
@@ -243,6 +245,10 @@ def plot_study(study: Study, columns: list[ErrorColumn], path: Path) -> None:
         unit = f" [{cols[0].unit}]" if cols[0].unit else ""
         ax.set_ylabel(f"{qn} error{unit}" if absolute else f"{qn}: relative error")
         ax.set_xlabel("wall seconds")
+        for axis, lim in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
+            if lim[1] > 10 * lim[0]:  # a decade or more: labels at decades (minor ones overlap)
+                axis.set_minor_formatter(NullFormatter())
+        ax.tick_params(which="both", labelsize=7)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7)
         ax.set_title(qn, fontsize=9)
@@ -276,7 +282,8 @@ def write_report(studies: list[Study], runs: list[dict], meta: dict) -> Path:
         "the problem has one, else against the finest run of the same series ('finest'). "
         "'wall s' is the run's wall time without meshing (meshes are cached); the machine is "
         "shared, so these carry its load (runs under two seconds are repeated and the fastest "
-        "time kept). Fitted rates:",
+        "time kept); 'CPU s' is the run's process time, which the other load inflates far less. "
+        "Fitted rates:",
         "",
         "- order p: least-squares fit of error = C x^p over the runs (x = mesh size h or CFL "
         "number; against 'finest' over the runs coarser than the finest, which makes p high "

@@ -29,6 +29,7 @@ class Level:
     x: float  # mesh size [m] or Courant number
     overrides: list[str]
     label: str
+    only: tuple[str, ...] = ()  # run for these series only (empty: every series)
 
 
 @dataclass
@@ -78,11 +79,14 @@ SHORT_BARS = ["run.end_time=16e-6",
 def studies() -> list[Study]:
     column_h = [5e-3 / 2 ** k for k in range(5)]  # 5 mm ... 0.3125 mm, 20 to 320 cells long
     bar_h = [10e-3 / n for n in (2, 3, 4, 6, 8)]  # 5 ... 1.25 mm: 2 to 8 cells across
-    # 1.6 ... 0.635 mm, elements doubling from level to level: 1,300 to 19,000 elements. A
-    # 0.504 mm level (37,000 elements, 6,600 steps with tet4 and 11,400 with anp) would add
-    # 17 of the 30 minutes `make accuracy` may take on a busy two-core machine.
-    taylor_h = [1.6e-3 * 2.0 ** (-k / 3) for k in range(5)]
-    taylor_cfl_h = taylor_h[1]
+    # 1.27 ... 0.635 mm for both formulations, elements doubling from level to level (2,700 to
+    # 19,000), and 0.504 mm (37,000 elements) for tet4 alone: anp takes 1.8 times the steps
+    # of tet4 (11,400 at 0.504 mm), which would add 11 minutes on a busy two-core machine.
+    # Below 1.27 mm (six elements across) the results scatter more than they converge.
+    taylor_h = [1.6e-3 * 2.0 ** (-k / 3) for k in range(1, 6)]
+    taylor_levels = mesh_levels(taylor_h, ["body.0.mesh_size"])
+    taylor_levels[-1].only = ("tet4",)
+    taylor_cfl_h = taylor_h[0]
     cfls = [0.9, 0.6, 0.45, 0.3, 0.15]
     return [
         Study(
@@ -122,15 +126,16 @@ def studies() -> list[Study]:
             "taylor-mesh", "Taylor bar: mesh size and element formulation", TAYLOR,
             "taylor_bar",
             "The bundled `cases/taylor-bar.toml` (OFHC copper, Johnson-Cook, 190 m/s, 80 us) at "
-            "five gmsh mesh sizes from 1.6 to 0.635 mm (the case's own is 0.8 mm; the elements "
-            "double from level to level), with the constant-strain tet (`tet4`) and the "
-            "averaged nodal-pressure tet (`anp`). Final length and foot diameter in the last "
-            "frame, against the finest run of the same formulation; the two formulations "
-            "converge to different shapes (tet4 locks in near-incompressible flow and keeps "
+            "gmsh mesh sizes from 1.27 to 0.635 mm (the case's own is 0.8 mm; the elements "
+            "double from level to level) with the constant-strain tet (`tet4`) and the "
+            "averaged nodal-pressure tet (`anp`), and at 0.504 mm with tet4 alone (anp takes "
+            "about twice the steps, and the run would double the study's time). Final length "
+            "and foot diameter in the last frame, against the finest run of the same "
+            "formulation; the two formulations converge to different shapes (tet4 locks in near-incompressible flow and keeps "
             "the foot narrow), so compare their values, not only their errors. Each level is a "
             "new unstructured mesh, which adds a scatter of a few tenths of a percent to the "
             "length. The measured final length of Johnson & Cook (1983) is about 16.2 mm.",
-            TETS, mesh_levels(taylor_h, ["body.0.mesh_size"]),
+            TETS, taylor_levels,
             COMMON + ["output.history_every=100"]),
         Study(
             "taylor-cfl", "Taylor bar: Courant number", TAYLOR, "taylor_bar",
