@@ -32,10 +32,8 @@ import numpy as np
 from impactsim.contact.broadphase import (SpatialHash, body_bounds, grid_from_bounds,
                                           select_boxes)
 from impactsim.contact.diagnostics import PenetrationMeter
-from impactsim.contact.edgeedge import GEO_COLS as EE_GEO_COLS
 from impactsim.contact.edgeedge import edge_edge_sweep, edge_normals
 from impactsim.contact.energy import impulse_work
-from impactsim.contact.nodeface import GEO_COLS as NF_GEO_COLS
 from impactsim.contact.nodeface import node_face_sweep
 from impactsim.contact.surface import Surface
 from impactsim.solver.passes import Pass
@@ -164,41 +162,6 @@ _NO_SKIP = np.zeros(0, np.uint8)
 _NO_PAIRS = np.zeros((0, 2), dtype=np.int64)
 
 
-def _relax(model, dt, group, joint=False) -> None:
-    """Gauss-Seidel sweeps of the passes of ``group`` over their candidate pairs of the step (one
-    pass: its own sweeps; several: joint rounds, each pass sweeping in turn), until a round
-    changes nothing or its largest velocity change falls below SWEEP_TOL of the first round's,
-    at most ``max_sweeps`` rounds. A pass's repeated sweep visits only pairs with a node changed
-    since that pass's previous sweep (``skip_unchanged``); the joint rounds start with that rule
-    at once, since every pair was visited by its pass's own sweeps."""
-    ctx = group[0].ctx
-    if not any(p._pairs.shape[0] for p in group):
-        return
-    stamp = ctx.stamps(model.n_node)
-    first = 0.0
-    for rnd in range(ctx.max_sweeps):
-        applied = 0
-        jump = 0.0
-        for p in group:
-            if p._pairs.shape[0] == 0:
-                continue
-            since = p._last_sweep if (rnd > 0 or joint) and ctx.skip_unchanged else 0
-            ctx.sweep_id += 1
-            p._last_sweep = ctx.sweep_id
-            a, imp, jmp = p._sweep(model, dt, p._h, p._pairs, p._active, stamp, ctx.sweep_id,
-                                   since, p._geo)
-            p._impulse += imp
-            p._sweeps += 1
-            applied += a
-            jump = max(jump, jmp)
-        if applied == 0:
-            break
-        if rnd == 0:
-            first = jump
-        elif jump <= SWEEP_TOL * first:
-            break
-
-
 def _lift(pairs, qsel, esel):
     """Pairs of selected rows -> pairs of full rows (order is kept: the maps are increasing)."""
     if pairs.shape[0]:
@@ -220,51 +183,50 @@ class ContactPass(Pass):
 
     def run(self, model, dt: float) -> None:
         ctx = self.ctx
-        group = ctx.passes if self in ctx.passes else [self]
         h = ctx.prepare(model)
-        if self is group[0]:
+        if ctx.passes and self is ctx.passes[0]:
             ctx.begin_step(model)
-        self._h = h
-        self._pairs = self._candidates(model, dt, h)
-        k = self._pairs.shape[0]
-        self._active = ctx.buffer(self.name + ".active", k, np.uint8)
-        self._active[:] = 0
-        self._geo = ctx.buffer(self.name + ".geo", (k, self.geo_cols))
-        self._impulse = 0.0
-        self._sweeps = 0
-        self._last_sweep = 0
-        _relax(model, dt, [self])
-        if self is group[-1]:
-            if len(group) > 1:
-                # the corrections of a later pass can push apart pairs of an earlier one: joint
-                # sweeps over the constraint rows of all passes until they agree
-                _relax(model, dt, group, joint=True)
-            for p in group:
-                p._finish()
-            ctx.end_step(model)
-
-    def _finish(self) -> None:
-        """Statistics of the step (after all sweeps of all passes)."""
-        k = self._pairs.shape[0]
-        n_active = int(np.count_nonzero((self._active[:k] == 1) & (self._geo[:k, 0] > 0.0)))
-        self.ctx.last[self.name] = {"pairs": n_active, "impulse": self._impulse,
-                                    "candidates": int(k), "sweeps": self._sweeps}
+        pairs = self._candidates(model, dt, h)
+        active = ctx.buffer(self.name + ".active", pairs.shape[0], np.uint8)
+        active[:] = 0
+        impulse = 0.0
+        first = 0.0
+        sweeps = 0
+        if pairs.shape[0]:
+            stamp = ctx.stamps(model.n_node)
+            for sweep in range(ctx.max_sweeps):
+                # the first sweep visits every pair, the next ones only pairs that changed
+                since = ctx.sweep_id if sweep > 0 and ctx.skip_unchanged else 0
+                ctx.sweep_id += 1
+                applied, imp, jump = self._sweep(model, dt, h, pairs, active, stamp,
+                                                 ctx.sweep_id, since)
+                impulse += imp
+                sweeps += 1
+                if applied == 0:
+                    break
+                if sweep == 0:
+                    first = jump
+                elif jump <= SWEEP_TOL * first:
+                    break
+        n_active = int(active.sum())
+        ctx.last[self.name] = {"pairs": n_active, "impulse": impulse,
+                               "candidates": int(pairs.shape[0]), "sweeps": sweeps}
         t = self.totals
         t["pairs"] += n_active
-        t["impulse"] += self._impulse
-        t["candidates"] += int(k)
-        t["sweeps"] += self._sweeps
+        t["impulse"] += impulse
+        t["candidates"] += int(pairs.shape[0])
+        t["sweeps"] += sweeps
         t["steps_in_contact"] += int(n_active > 0)
+        if ctx.passes and self is ctx.passes[-1]:
+            ctx.end_step(model)
 
     @abc.abstractmethod
     def _candidates(self, model, dt, h) -> np.ndarray:
         """Broad phase: sorted candidate pairs (k, 2) int64 of this step."""
 
     @abc.abstractmethod
-    def _sweep(self, model, dt, h, pairs, active, stamp, sweep, since, geo):
-        """One Gauss-Seidel sweep: (pairs corrected, impulse change [N s], largest velocity
-        change); ``active`` and ``geo`` hold the constraint rows of the pairs corrected so far
-        in the step."""
+    def _sweep(self, model, dt, h, pairs, active, stamp, sweep, since):
+        """One Gauss-Seidel sweep: (pairs corrected, impulse [N s], largest velocity change)."""
 
     def history(self, model) -> dict[str, float]:
         if not self.reports_history:
@@ -297,7 +259,6 @@ class NodeFacePass(ContactPass):
     self-contact)."""
 
     name = "contact.node-face"
-    geo_cols = NF_GEO_COLS
 
     def _candidates(self, model, dt, h):
         ctx = self.ctx
@@ -317,12 +278,12 @@ class NodeFacePass(ContactPass):
                                 s.face_body[esel], False, ctx.self_contact)
         return _lift(pairs, qsel, esel)
 
-    def _sweep(self, model, dt, h, pairs, active, stamp, sweep, since, geo):
+    def _sweep(self, model, dt, h, pairs, active, stamp, sweep, since):
         ctx = self.ctx
         s = ctx.surface
         return node_face_sweep(pairs, s.nodes, s.faces, model.x, model.v, model.mass, dt,
                                ctx.friction, ctx.band_rel * h, ctx.eps_bary, ctx.restore,
-                               active, stamp, sweep, since, geo)
+                               active, stamp, sweep, since)
 
 
 class EdgeEdgePass(ContactPass):
@@ -330,7 +291,6 @@ class EdgeEdgePass(ContactPass):
     bodies (or of one body without a shared node, with self-contact)."""
 
     name = "contact.edge-edge"
-    geo_cols = EE_GEO_COLS
 
     def _candidates(self, model, dt, h):
         ctx = self.ctx
@@ -352,12 +312,12 @@ class EdgeEdgePass(ContactPass):
             edge_normals(model.x, s.faces, s.face_edges, self.normals)
         return _lift(pairs, sel, sel)
 
-    def _sweep(self, model, dt, h, pairs, active, stamp, sweep, since, geo):
+    def _sweep(self, model, dt, h, pairs, active, stamp, sweep, since):
         ctx = self.ctx
         s = ctx.surface
         return edge_edge_sweep(pairs, s.edges, self.normals, model.x, model.v, model.mass, dt,
                                ctx.friction, ctx.band_rel * h, ctx.restore, active, stamp,
-                               sweep, since, geo)
+                               sweep, since)
 
 
 PASSES = {"node-face": NodeFacePass, "edge-edge": EdgeEdgePass}

@@ -169,7 +169,7 @@ def test_sweep_is_sequential_and_bit_identical():
         active = np.zeros(2, np.uint8)
         stamp = np.zeros(5, np.int64)
         applied, total, jump = node_face_sweep(pairs, nodes, faces, x, vv, m, 1e-3, 0.0, 0.0,
-                                               EPS, 1.0, active, stamp, 1, 0, np.zeros((2, 8)))
+                                               EPS, 1.0, active, stamp, 1, 0)
         assert list(stamp) == [1, 1, 1, 1, 0]  # the nodes the impulse changed
         results.append((applied, total, vv))
         assert list(active) == [1, 0] and jump == pytest.approx(total / m[0])
@@ -178,7 +178,7 @@ def test_sweep_is_sequential_and_bit_identical():
     vv = results[0][2].copy()
     stamp = np.ones(5, np.int64)
     assert node_face_sweep(pairs, nodes, faces, x, vv, m, 1e-3, 0.0, 0.0, EPS, 1.0,
-                           np.zeros(2, np.uint8), stamp, 3, 2, np.zeros((2, 8)))[0] == 0
+                           np.zeros(2, np.uint8), stamp, 3, 2)[0] == 0
     assert np.array_equal(vv, results[0][2])
     assert results[0][1] == results[1][1] and np.array_equal(results[0][2], results[1][2])
     np.testing.assert_allclose(momentum(results[0][2], m), momentum(v, m), atol=1e-13)
