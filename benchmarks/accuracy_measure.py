@@ -113,7 +113,9 @@ def taylor_bar(case, out: Path, summary: dict) -> dict[str, Quantity]:
             "foot_diameter": Quantity(float(2.0 * r.max()), unit="mm", scale=1e3)}
 
 
-PENETRATION_FLOOR = 1e-9  # [m] 1 nm, a millionth of the bars' size: no penetration to speak of
+# [m] 0.1 um, 1e-5 of the bodies' width and a tenth of the band (1e-3 h at h = 1 mm) in which the
+# contact passes take a node as touching: below this there is no penetration to speak of
+PENETRATION_FLOOR = 1e-7
 
 
 def mid_contact_force(time: np.ndarray, impulse: np.ndarray, t0: float, duration: float) -> float:

@@ -38,10 +38,10 @@ class ErrorColumn:
     rate: float | None  # q of error = C wall^-q
     x: list[float] = field(default_factory=list)
     wall: list[float] = field(default_factory=list)
-    floor: float = 0.0  # absolute errors up to this are round-off (same unit as errors)
+    floor: float = 0.0  # absolute errors up to this count as none (same unit as errors)
 
     def at_floor(self) -> bool:
-        """Every error is round-off: nothing to converge."""
+        """Every error is below the floor: nothing to converge."""
         return self.floor > 0 and all(e <= self.floor for e in self.errors)
 
 
@@ -51,6 +51,7 @@ class SeriesFit:
     quantity: str
     richardson: tuple[float, float] | None  # (p, extrapolated value) from the three finest
     theory: float | None  # a simpler theory's value (unscaled)
+    exact: float | None  # the analytic value (unscaled)
     finest: float  # the finest run's value (unscaled)
     unit: str
     scale: float
@@ -92,7 +93,7 @@ def analyse(study: Study, runs: list[dict]) -> tuple[list[ErrorColumn], list[Ser
                 columns.append(ErrorColumn(name, qname, "finest", False, "", err,
                                            p[0] if p else None, -q[0] if q else None, x, wall))
             fits.append(SeriesFit(name, qname, richardson_order(x, values), q0["theory"],
-                                  values[-1], unit, scale))
+                                  exact, values[-1], unit, scale))
     return columns, fits
 
 
@@ -176,7 +177,7 @@ def orders_table(study: Study, columns: list[ErrorColumn], fits: list[SeriesFit]
         rich = fit.richardson
         p3 = _num(rich[0], 3) if rich else "not monotone"
         extra = "–"
-        if rich and P_SHOWN[0] <= rich[0] <= P_SHOWN[1]:
+        if rich and P_SHOWN[0] <= rich[0] <= P_SHOWN[1] and fit.exact != 0:
             extra = _num(rich[1] * fit.scale, 5) + (f" {fit.unit}" if fit.unit else "")
         theory = "–"
         if fit.theory:
@@ -201,8 +202,8 @@ def findings(study: Study, runs: list[dict], columns: list[ErrorColumn]) -> list
             continue
         if c.at_floor():
             lines.append(f"- {c.series}, {c.quantity} vs {c.reference}: at most "
-                         f"{_err_text(c, max(c.errors))} at every level, within round-off "
-                         f"(≤ {c.floor:g} {c.unit}): nothing left to converge.")
+                         f"{_err_text(c, max(c.errors))} at every level, below what the measure "
+                         f"resolves (≤ {c.floor:g} {c.unit}): nothing left to converge.")
             continue
         verdict = "falls" if falls(c) else "does not fall with cost"
         lines.append(f"- {c.series}, {c.quantity} vs {c.reference}: {_err_text(c, c.errors[0])} "
@@ -211,12 +212,14 @@ def findings(study: Study, runs: list[dict], columns: list[ErrorColumn]) -> list
                      f"p = {_num(c.order, 2)}).")
     series = _series_runs(runs, study)
     names = list(series)
-    for name in names[1:]:
-        a, b = series[names[0]], series[name]
+    for name in names[1:]:  # over the levels both series ran
+        common = {r["level"] for r in series[name]} & {r["level"] for r in series[names[0]]}
+        a = [r for r in series[names[0]] if r["level"] in common]
+        b = [r for r in series[name] if r["level"] in common]
         wall = sum(r["wall_seconds"] for r in b) / max(sum(r["wall_seconds"] for r in a), 1e-12)
         steps = sum(r["steps"] for r in b) / max(sum(r["steps"] for r in a), 1)
         lines.append(f"- cost: {name} takes {wall:.2f} times the wall seconds of {names[0]} "
-                     f"over the study ({steps:.2f} times the steps).")
+                     f"over the levels both ran ({steps:.2f} times the steps).")
     return lines
 
 

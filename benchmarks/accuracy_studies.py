@@ -131,10 +131,11 @@ def studies() -> list[Study]:
             "averaged nodal-pressure tet (`anp`), and at 0.504 mm with tet4 alone (anp takes "
             "about twice the steps, and the run would double the study's time). Final length "
             "and foot diameter in the last frame, against the finest run of the same "
-            "formulation; the two formulations converge to different shapes (tet4 locks in near-incompressible flow and keeps "
-            "the foot narrow), so compare their values, not only their errors. Each level is a "
-            "new unstructured mesh, which adds a scatter of a few tenths of a percent to the "
-            "length. The measured final length of Johnson & Cook (1983) is about 16.2 mm.",
+            "formulation; the two formulations converge to different shapes (tet4 locks in "
+            "near-incompressible flow and keeps the foot narrow), so compare their values, not "
+            "only their errors. Each level is a new unstructured mesh, which adds a scatter of "
+            "a few tenths of a percent to the length. The measured final length of Johnson & "
+            "Cook (1983) is about 16.2 mm.",
             TETS, taylor_levels,
             COMMON + ["output.history_every=100"]),
         Study(
@@ -166,7 +167,9 @@ def studies() -> list[Study]:
             "is the striker's), and every node held in x and y: uniaxial strain, where the 1-D "
             "solution is exact: interface stress rho c_L v / 2 for 2L/c_L, then the striker at "
             "rest (`striker_speed`, its final mean speed in m/s, is the error of the momentum "
-            "handed over). The stress is the sum of the contact impulses over the middle half "
+            "handed over). Node-face penetration here is a matter of whether an edge of one "
+            "face slips past an edge of the other at a given mesh pair, not a smooth function "
+            "of h. The stress is the sum of the contact impulses over the middle half "
             "of the contact, over that time and the cross-section: it tells whether the contact "
             "carries the analytic stress; its error, a percent or two, is the scatter of the "
             "contact force between non-matching meshes rather than a discretisation error that "
