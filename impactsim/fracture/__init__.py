@@ -3,8 +3,9 @@ boundary cells, erosion with mass-conserving orphan handling and an incremental 
 
 Modules: principal (principal stress and stretch), criteria (spall, loosening, JC damage,
 erosion and distortion-guard decisions per element), removal (erosion and particle conversion),
-particles (particle arrays, particle-face and particle-particle contact, motion), measures
-(residual velocity, hole size), passes (the passes bound to the model).
+boundary (the free faces, updated in O(removed elements)), particles (particle arrays,
+particle-face and particle-particle contact, motion), measures (residual velocity, hole size,
+debris), passes (the passes bound to the model).
 """
 
 from impactsim.fracture.passes import (FracturePass, FractureState, ParticlePass,
