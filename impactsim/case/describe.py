@@ -17,11 +17,6 @@ from impactsim.case.dump import case_to_dict
 from impactsim.case.schema import Body, Case
 from impactsim.case.units import format_quantity
 
-# Tetrahedra per mesh_size^3 of volume that gmsh makes for a target edge length h: a regular
-# tet of edge h has volume h^3 / (6 sqrt 2) ~ h^3 / 8.5; gmsh's meshes land at about 6-9.
-TETS_PER_H3 = 8.5
-TETS_PER_HEX = 6  # the structured mesher: max(1, round(l / h)) cells per axis, 6 Kuhn tets each
-CUBE12_TETS = 12
 
 
 def describe_case(case: Case) -> str:
@@ -47,18 +42,11 @@ def body_volume(body: Body) -> float | None:
 
 
 def estimate_elements(body: Body) -> int | None:
-    """Approximate tetrahedron count of the body's mesh; None when unknown before meshing."""
-    if body.shape == "cube12":
-        return CUBE12_TETS
-    if body.shape == "file":
-        return None
-    if body.mesher == "structured":
-        cells = 1
-        for length in body.dimensions["size"]:
-            cells *= max(1, round(length / body.mesh_size))
-        return TETS_PER_HEX * cells
-    volume = body_volume(body)
-    return max(1, round(volume / (body.mesh_size**3 / TETS_PER_H3)))
+    """Approximate tetrahedron count of the body's mesh (impactsim.case.estimate.body_elements:
+    exact for structured boxes and cube12, fitted to gmsh's meshes otherwise); None for files."""
+    from impactsim.case.estimate import body_elements
+
+    return body_elements(body)
 
 
 def has_contact(case: Case) -> bool:
@@ -80,21 +68,13 @@ def active_passes(case: Case) -> list[tuple[str, str]]:
         passes.append(("velocity", "walls"))
     if has_contact(case):
         passes += [("velocity", f"contact.{name}") for name in case.contact.passes]
-    makes_particles = any(f.loosening is not None for f in fail)
-    if makes_particles:
-        passes.append(("velocity", "particle-contact"))
-        if case.fracture.particle_collisions:
-            passes.append(("velocity", "particle-collisions"))
-    if any(f.spall_strength is not None for f in fail):
-        passes.append(("fracture", "spall"))
-    if makes_particles:
-        passes += [("fracture", "loosening"), ("fracture", "particles")]
-    if any(f.erosion == "jc-damage" for f in fail):
-        passes.append(("fracture", "jc-damage"))
-    if any(f.erosion is not None for f in fail):
-        passes.append(("fracture", "erosion"))
-    if any(f.fracture_strain is not None for f in fail):
-        passes.append(("fracture", "node-separation"))
+    if any(f.active for f in fail):  # impactsim.fracture.make_fracture_passes
+        passes.append(("velocity", "fracture.particles"))
+        effects = [name for name, on in (
+            ("spall", any(f.spall_strength is not None for f in fail)),
+            ("loosening", any(f.loosening is not None for f in fail)),
+            ("erosion", any(f.erosion is not None for f in fail))) if on]
+        passes.append(("fracture", "fracture (" + ", ".join(effects) + ")"))
     return passes
 
 

@@ -46,7 +46,12 @@ class Failure:
     erosion: str | None = None  # "plastic-strain" | "jc-damage" | "principal-strain" | "fractured"
     erosion_value: float | None = None  # threshold of the erosion criterion (strain, or D = 1)
     jc_damage: tuple[float, float, float, float, float] | None = None  # D1..D5
-    fracture_strain: float | None = None  # node separation [Z]
+    fracture_strain: float | None = None  # node separation [Z]; not accepted by the loader yet
+
+    @property
+    def active(self) -> bool:
+        """True when the material can fail (spall, loosening or erosion): fracture passes run."""
+        return any(v is not None for v in (self.spall_strength, self.loosening, self.erosion))
 
 
 @dataclass

@@ -186,7 +186,7 @@ FAILURE = Table("failure", "Fracture and erosion data; a mechanism is off when i
     Key("jc_damage", "number-list", "Johnson-Cook fracture constants D1..D5; needed by "
         "erosion = \"jc-damage\".", None, length=5),
     Key("fracture_strain", "number", "Node separation [Z]: plastic strain at which coincident "
-        "node copies come apart (> 0).", None),
+        "node copies come apart. Not available yet: the key is rejected.", None),
 ), shorthands=("none",), default="no failure")
 
 MATERIAL = Table("material", "A material. Start from a library entry with `library` and "

@@ -246,14 +246,9 @@ class ParticlePass(Pass):
         self._series.write(time, pa.x[:n], None, point_data=data)
 
 
-def has_failure(mat) -> bool:
-    f = mat.failure
-    return any(v is not None for v in (f.spall_strength, f.loosening, f.erosion))
-
-
 def make_fracture_passes(case, model) -> list[Pass]:
     """[particle pass, fracture pass] for a case with failure data, else []."""
-    if not any(has_failure(m) for m in case.materials.values()):
+    if not any(m.failure.active for m in case.materials.values()):
         return []
     state = FractureState(case, model)
     return [ParticlePass(state), FracturePass(state)]

@@ -23,16 +23,11 @@ def build_passes(case: Case, model: Model) -> list[Pass]:
         from impactsim.contact import make_contact_passes
 
         passes.extend(make_contact_passes(case, model))
-    if any(_has_failure(m) for m in case.materials.values()):
+    if any(m.failure.active for m in case.materials.values()):
         from impactsim.fracture import make_fracture_passes
 
         passes.extend(make_fracture_passes(case, model))
     return passes
-
-
-def _has_failure(mat) -> bool:
-    f = mat.failure
-    return any(v is not None for v in (f.spall_strength, f.loosening, f.erosion))
 
 
 def mach_warnings(case: Case) -> list[str]:

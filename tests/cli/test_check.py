@@ -68,12 +68,13 @@ def test_check_prints_resolved_case_and_what_would_run(tmp_path):
     assert 'name = "al-2024-t3"' in out and "spall_strength = 1600000000.0" in out
     assert "velocity = [\n    0.0,\n    0.0,\n    -2000.0,\n]" in out
     # what would run
-    assert "sphere: sphere r 10 mm" in out and "≈ 35,605 tetrahedra" in out
+    # gmsh fit of impactsim.case.estimate: 3.62 V/h^3 + 1.51 S/h^2
+    assert "sphere: sphere r 10 mm" in out and "≈ 17,061 tetrahedra" in out
     # structured: 120 x 120 x 4 cells, 6 tets each
     assert "plate: box 60 mm x 60 mm x 2 mm" in out and "≈ 345,600 tetrahedra" in out
     assert ("velocity passes: boundary-conditions, contact.node-face, contact.edge-edge, "
-            "particle-contact") in out
-    assert "fracture passes: spall, loosening, particles" in out
+            "fracture.particles") in out
+    assert "fracture passes: fracture (spall, loosening)" in out
     assert "end time: 4 us" in out
     assert result.stderr == ""
 
@@ -92,7 +93,7 @@ def test_check_applies_overrides(tmp_path):
                           "--set", 'contact.passes=["node-face"]')
     assert result.exit_code == 0, result.output
     assert "mesh_size = 0.002" in result.stdout
-    assert "velocity passes: boundary-conditions, contact.node-face, particle-contact" in result.stdout
+    assert "velocity passes: boundary-conditions, contact.node-face, fracture.particles" in result.stdout
 
 
 def test_single_body_has_no_contact_and_no_fracture(tmp_path):
@@ -103,8 +104,9 @@ def test_single_body_has_no_contact_and_no_fracture(tmp_path):
     text = describe_case(case)
     assert "fracture passes: none" in text
     assert "no contact passes: one body" in text
-    # volume / (h^3 / 8.5): pi 5^2 100 mm^3 / (8 mm^3 / 8.5)
-    assert estimate_elements(case.bodies[0]) == round(3.14159265358979 * 25 * 100 / (8 / 8.5))
+    # the gmsh fit 3.62 V/h^3 + 1.51 S/h^2 (impactsim.case.estimate), all in mm
+    volume, area = 3.14159265358979 * 25 * 100, 2 * 3.14159265358979 * 5 * (5 + 100)
+    assert estimate_elements(case.bodies[0]) == round(3.62 * volume / 8 + 1.51 * area / 4)
     tomllib.loads(text)  # the summary lines are TOML comments
 
 
