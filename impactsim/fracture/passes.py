@@ -233,7 +233,7 @@ class ParticlePass(Pass):
                                        "hash_grows": self.hash.grows + self.pp_hash.grows}}
 
     def frame(self, model, time, out_dir):
-        """Write particles_XXXXX.vtu of the particles.pvd series (called with every frame)."""
+        """Write the next numbered particles_*.vtu of the particles.pvd series (called with every frame)."""
         from impactsim.output.series import SeriesWriter
 
         if getattr(self, "_series", None) is None or self._series_dir != out_dir:

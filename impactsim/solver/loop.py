@@ -64,10 +64,6 @@ class Simulation:
         self.worst_element = -1
         self._update_elements(0.0)  # forces and stable step of the initial state
 
-    @property
-    def passes(self) -> list[Pass]:
-        return self.velocity_passes + self.fracture_passes + self.other_passes
-
     def next_dt(self, limit: float = math.inf) -> float:
         dt = self.cfl * self.dt_stable
         if self.dt > 0.0:

@@ -86,7 +86,7 @@ def kinetic_energy(v, mass):
     n = mass.shape[0]
     nch = (n + CHUNK - 1) // CHUNK
     part = np.zeros(max(nch, 1))
-    for ch in numba.prange(nch):
+    for ch in range(nch):
         s = 0.0
         for i in range(ch * CHUNK, min(n, (ch + 1) * CHUNK)):
             s += mass[i] * (v[i, 0] * v[i, 0] + v[i, 1] * v[i, 1] + v[i, 2] * v[i, 2])
