@@ -99,6 +99,34 @@ def flow_stress(code, mp, k, eps_p, eps_rate, temperature):
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
+def yield_floor(code, mp, k, eps_p, temperature):
+    """A lower bound [Pa] of the yield stress at (eps_p, temperature) over all strain rates.
+
+    A trial stress at or below it is elastic whatever the rate, so the element kernel caches it
+    per element (it changes only when eps_p or the temperature does, i.e. in a plastic step) and
+    skips the rate term's log and the other pows of `radial_return` for such elements.
+    ideal-plastic: Y0. Johnson-Cook: (A + B eps_p^n)(1 - T*^m), the rate factor being >= 1
+    (floored); 0 (no bound) when C < 0. elastic: +inf.
+    """
+    if code == P.IDEAL_PLASTIC:
+        return mp[k, P.Y0]
+    if code != P.JOHNSON_COOK:
+        return math.inf
+    if mp[k, P.JC_C] < 0.0:
+        return 0.0
+    hard = mp[k, P.JC_A]
+    if eps_p > 0.0:
+        hard += mp[k, P.JC_B] * eps_p ** mp[k, P.JC_N]
+    t_room = mp[k, P.T_ROOM]
+    t_star = (temperature - t_room) / (mp[k, P.T_MELT] - t_room)
+    if t_star >= 1.0:
+        return 0.0
+    if t_star > 0.0:
+        return hard * (1.0 - t_star ** mp[k, P.JC_M])
+    return hard
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def radial_return(code, mp, k, shear, seq_trial, eps_p, eps_rate, temperature):
     """Plastic strain increment of the radial return to the yield surface (ALGORITHMS.md 2).
 

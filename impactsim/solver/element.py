@@ -1,13 +1,33 @@
-"""The fused element update of the explicit scheme (ALGORITHMS.md 1-2) for 4-node tetrahedra.
+"""The element update of the explicit scheme (ALGORITHMS.md 1-2) for 4-node tetrahedra.
 
-One kernel does, per element: geometry at x^{n+1}, velocity gradient on the mid-step
-configuration x^{n+1/2} = x^{n+1} - dt/2 U^{n+1}, hypoelastic Jaumann update of the deviator,
-radial return, EOS pressure with the per-element internal energy integrated implicitly in e,
-bulk artificial viscosity, the element's nodal forces and its stable time step. Forces are stored
-per element corner and gathered per node afterwards (deterministic, no racing scatter).
+Per element: geometry at x^{n+1}, velocity gradient on the mid-step configuration
+x^{n+1/2} = x^{n+1} - dt/2 U^{n+1}, hypoelastic Jaumann update of the deviator, radial return,
+EOS pressure with the per-element internal energy integrated implicitly in e, bulk artificial
+viscosity, the element's nodal forces and its stable time step. Forces are stored per element
+corner and gathered per node afterwards (deterministic, no racing scatter).
 
-Elements are processed in fixed chunks; per-chunk reductions (time step, viscous work, inverted
-elements) are summed in chunk order, so results do not depend on the number of threads.
+Elements are processed in chunks of CHUNK (the unit of the parallel loop and of the reductions:
+time step, viscous work, inverted elements, summed in chunk order so that results do not depend
+on the number of threads). Inside a chunk, blocks of B elements go down one of two paths:
+
+- the vector path, for a full block of intact elements of one material (nearly every block of a
+  real mesh): the block's node and element data are copied into a (rows x B) buffer
+  (`_load_block`), the arithmetic runs as loops over the B lanes that LLVM turns into packed
+  SIMD instructions (`_kinematics_block`: velocity gradient, geometry, trial stress;
+  `_pressure_block`: EOS, energy, viscosity, time step, forces), only the radial return is
+  scalar (`_return_block`, and only for lanes whose trial stress exceeds the element's cached
+  yield floor), and the results are copied back (`_store_block`);
+- the scalar path (`_element_scalar`), one element at a time with every branch: damaged,
+  fractured and eroded elements, blocks that mix materials, the partial block at the end of
+  the mesh, and a block with an inverted element.
+Both paths compute the same formulas (equal to round-off, tested); which one an element takes
+depends only on its block's content, never on the thread count.
+
+The vector loops are separate small functions on purpose: LLVM vectorises a loop whose only
+memory is the block buffer with a constant trip count B (no aliasing to check at run time), and
+does not vectorise the same loop inside the big parallel function. `math.sqrt` gets an argument
+LLVM can prove non-negative (`max(x, 0.0)`) where it is not obviously so, else it stays a libm
+call. See docs/performance.md.
 """
 
 from __future__ import annotations
@@ -18,16 +38,43 @@ import numba
 import numpy as np
 
 from impactsim.materials import params as P
-from impactsim.materials.laws import eos_linear_part, radial_return
+from impactsim.materials.laws import eos_linear_part, radial_return, yield_floor
 from impactsim.model import DAMAGED, ERODED, FRACTURED
 
 CHUNK = 512
+B = 32  # lanes of a block; the buffer (ROWS x B doubles, 20 kB) stays in the L1 cache
 # IEEE semantics are kept (no nnan/ninf: inf marks "no limit"); numpy's error model drops the
 # zero-division checks that Python semantics would put on every division.
 FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
 # columns of the per-chunk reduction array
 OUT_DT, OUT_QWORK, OUT_INVERTED, OUT_WORST = 0, 1, 2, 3
 N_OUT = 4
+
+# rows of the block buffer: row r of lane i is buf[r * B + i]
+R_X = 0  # 12 rows: x^{n+1} of corners 0..3 (x, y, z each)
+R_V = 12  # 12 rows: U^{n+1} of corners 0..3
+R_S0 = 24  # 6 rows: deviatoric stress at n (xx, yy, zz, xy, yz, zx)
+R_VOLD = 30  # volume at n
+R_VEOSOLD = 31  # EOS volume at n (the ANP tet's averaged volume)
+R_MASS = 32
+R_EN = 33  # specific internal energy at n
+R_POLD = 34  # pressure at n
+R_VEOS = 35  # ANP: the mean of the corners' nodal volume ratios times V0
+R_B = 36  # 9 rows: b_1, b_2, b_3 = 6 V grad N_1..3 at n+1
+R_DET = 45  # 6 V at n+1
+R_D = 46  # 6 rows: deviatoric strain rate xx, yy, zz and D xy, yz, zx
+R_TRD = 52  # tr D
+R_LEN = 53  # characteristic length 3V / max face area
+R_SN = 54  # 6 rows: deviatoric stress at n+1 (trial, then returned)
+R_SEQ = 60  # von Mises equivalent of the trial stress
+R_RATE = 61  # effective deviatoric strain rate
+R_PN = 62  # pressure at n+1
+R_QN = 63  # bulk viscosity at n+1
+R_EN1 = 64  # specific internal energy at n+1
+R_DTE = 65  # stable time step
+R_F = 66  # 12 rows: forces on corners 0..3
+R_QW = 78  # viscous work of the step
+ROWS = 79
 
 
 def n_chunks(n_elem: int) -> int:
@@ -53,219 +100,589 @@ def _tet_gradients(x0, y0, z0, x1, y1, z1, x2, y2, z2, x3, y3, z3):
     return det, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z
 
 
+@numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
+def _return_map(code, mat_params, mk, shear, seq, rate, eps_p, temperature, floor, e, rho):
+    """Radial return of element e with its trial stress seq; updates eps_p, temperature and the
+    cached yield floor of the element. Returns (d eps_p, yield stress); (0, .) when elastic.
+
+    The floor is a rate-independent lower bound of the yield stress (`laws.yield_floor`): a
+    trial stress at or below it is elastic, and the return (a log and up to two pows for
+    Johnson-Cook) is skipped. 0 in the cache means "not computed yet".
+    """
+    if seq <= floor[e]:
+        return 0.0, 0.0
+    deps, sy = radial_return(code, mat_params, mk, shear, seq, eps_p[e], rate, temperature[e])
+    if deps > 0.0:
+        eps_p[e] += deps
+        temperature[e] += mat_params[mk, P.TQ] * sy * deps / (rho * mat_params[mk, P.CV])
+        floor[e] = yield_floor(code, mat_params, mk, eps_p[e], temperature[e])
+    elif floor[e] == 0.0:
+        floor[e] = yield_floor(code, mat_params, mk, eps_p[e], temperature[e])
+    return deps, sy
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
+def _element_scalar(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+                    temperature, yield_floor, energy, vol, vol_eos, vol0, elem_mass, mat_params,
+                    jnode, use_anp, half, dt, cq, cl, elem_force):
+    """The whole update of element e with every branch (the scalar path).
+
+    Returns (stable dt, viscous work -q dV, 1 if the element inverted else 0).
+    """
+    st = status[e]
+    if st == ERODED:
+        for k in range(4):
+            for d in range(3):
+                elem_force[4 * e + k, d] = 0.0
+        return math.inf, 0.0, 0
+    i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
+    # --- velocities and the mid-step geometry: velocity gradient L = dv/dx^{n+1/2}
+    v0x, v0y, v0z = v[i0, 0], v[i0, 1], v[i0, 2]
+    v1x, v1y, v1z = v[i1, 0], v[i1, 1], v[i1, 2]
+    v2x, v2y, v2z = v[i2, 0], v[i2, 1], v[i2, 2]
+    v3x, v3y, v3z = v[i3, 0], v[i3, 1], v[i3, 2]
+    p0x, p0y, p0z = x[i0, 0], x[i0, 1], x[i0, 2]
+    p1x, p1y, p1z = x[i1, 0], x[i1, 1], x[i1, 2]
+    p2x, p2y, p2z = x[i2, 0], x[i2, 1], x[i2, 2]
+    p3x, p3y, p3z = x[i3, 0], x[i3, 1], x[i3, 2]
+    det, a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z = _tet_gradients(
+        p0x - half * v0x, p0y - half * v0y, p0z - half * v0z,
+        p1x - half * v1x, p1y - half * v1y, p1z - half * v1z,
+        p2x - half * v2x, p2y - half * v2y, p2z - half * v2z,
+        p3x - half * v3x, p3y - half * v3y, p3z - half * v3z)
+    # velocity differences to node 0
+    w1x, w1y, w1z = v1x - v0x, v1y - v0y, v1z - v0z
+    w2x, w2y, w2z = v2x - v0x, v2y - v0y, v2z - v0z
+    w3x, w3y, w3z = v3x - v0x, v3y - v0y, v3z - v0z
+    inv = 1.0 / det if det != 0.0 else 0.0
+    # L_ij = sum_a w_a,i dN_a/dx_j
+    lxx = (w1x * a1x + w2x * a2x + w3x * a3x) * inv
+    lxy = (w1x * a1y + w2x * a2y + w3x * a3y) * inv
+    lxz = (w1x * a1z + w2x * a2z + w3x * a3z) * inv
+    lyx = (w1y * a1x + w2y * a2x + w3y * a3x) * inv
+    lyy = (w1y * a1y + w2y * a2y + w3y * a3y) * inv
+    lyz = (w1y * a1z + w2y * a2z + w3y * a3z) * inv
+    lzx = (w1z * a1x + w2z * a2x + w3z * a3x) * inv
+    lzy = (w1z * a1y + w2z * a2y + w3z * a3y) * inv
+    lzz = (w1z * a1z + w2z * a2z + w3z * a3z) * inv
+    dxy = 0.5 * (lxy + lyx)
+    dyz = 0.5 * (lyz + lzy)
+    dzx = 0.5 * (lzx + lxz)
+    wxy = 0.5 * (lxy - lyx)  # spin W = (L - L^T)/2
+    wyz = 0.5 * (lyz - lzy)
+    wzx = 0.5 * (lzx - lxz)
+    trd = lxx + lyy + lzz
+    third = trd / 3.0
+    exx, eyy, ezz = lxx - third, lyy - third, lzz - third  # deviatoric D'
+    # --- geometry at n+1: volume and force gradients
+    det1, b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z = _tet_gradients(
+        p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, p3x, p3y, p3z)
+    vnew = det1 / 6.0
+    if vnew <= 0.0:
+        for k in range(4):
+            for d in range(3):
+                elem_force[4 * e + k, d] = 0.0
+        return math.inf, 0.0, 1
+    vold = vol[e]
+    veos_old = vol_eos[e]  # the same array as vol for tet4
+    mk = elem_mat[e]
+    mass = elem_mass[e]
+    rho = mass / vnew
+    rho0 = mat_params[mk, P.RHO0]
+    shear = mat_params[mk, P.G]
+    # --- deviatoric stress: Jaumann rate s' = 2G D' + W s - s W
+    sxx, syy, szz = sdev[e, 0], sdev[e, 1], sdev[e, 2]
+    sxy, syz, szx = sdev[e, 3], sdev[e, 4], sdev[e, 5]
+    # (W s - s W) for symmetric s, skew W with W_xy = wxy, W_yz = wyz, W_zx = wzx
+    rxx = 2.0 * (wxy * sxy - wzx * szx)
+    ryy = 2.0 * (wyz * syz - wxy * sxy)
+    rzz = 2.0 * (wzx * szx - wyz * syz)
+    rxy = wxy * (syy - sxx) + wzx * syz - wyz * szx
+    ryz = wyz * (szz - syy) + wxy * szx - wzx * sxy
+    rzx = wzx * (sxx - szz) + wyz * sxy - wxy * syz
+    g2 = 2.0 * shear
+    nxx = sxx + dt * (g2 * exx + rxx)
+    nyy = syy + dt * (g2 * eyy + ryy)
+    nzz = szz + dt * (g2 * ezz + rzz)
+    nxy = sxy + dt * (g2 * dxy + rxy)
+    nyz = syz + dt * (g2 * dyz + ryz)
+    nzx = szx + dt * (g2 * dzx + rzx)
+    # effective deviatoric strain rate sqrt(2/3 D':D')
+    rate = math.sqrt((2.0 / 3.0) * (exx * exx + eyy * eyy + ezz * ezz
+                                    + 2.0 * (dxy * dxy + dyz * dyz + dzx * dzx)))
+    eps_rate[e] = rate
+    code = int(mat_params[mk, P.STRENGTH])
+    deps = 0.0
+    sy = 0.0
+    if st != 0:  # damaged or fractured: no deviatoric stress (ALGORITHMS.md 4.1)
+        nxx = nyy = nzz = nxy = nyz = nzx = 0.0
+    elif code != P.ELASTIC:
+        j2 = 0.5 * (nxx * nxx + nyy * nyy + nzz * nzz) + nxy * nxy + nyz * nyz + nzx * nzx
+        seq = math.sqrt(3.0 * j2)
+        deps, sy = _return_map(code, mat_params, mk, shear, seq, rate, eps_p, temperature,
+                               yield_floor, e, rho)
+        if deps > 0.0:
+            scale = sy / seq if seq > 0.0 else 0.0
+            nxx *= scale
+            nyy *= scale
+            nzz *= scale
+            nxy *= scale
+            nyz *= scale
+            nzx *= scale
+    # deviatoric work over the step with the mid-step stress and volume
+    wdev = 0.5 * dt * (vold + vnew) * 0.5 * (
+        (sxx + nxx) * exx + (syy + nyy) * eyy + (szz + nzz) * ezz
+        + 2.0 * ((sxy + nxy) * dxy + (syz + nyz) * dyz + (szx + nzx) * dzx))
+    sdev[e, 0], sdev[e, 1], sdev[e, 2] = nxx, nyy, nzz
+    sdev[e, 3], sdev[e, 4], sdev[e, 5] = nxy, nyz, nzx
+    # --- artificial bulk viscosity and characteristic length
+    f1 = b1x * b1x + b1y * b1y + b1z * b1z
+    f2 = b2x * b2x + b2y * b2y + b2z * b2z
+    f3 = b3x * b3x + b3y * b3y + b3z * b3z
+    s0x, s0y, s0z = b1x + b2x + b3x, b1y + b2y + b3y, b1z + b2z + b3z
+    f0 = s0x * s0x + s0y * s0y + s0z * s0z
+    # |grad N_a| det = 2 * (area of the face opposite a); L = 3V / A_max = det / |g|max
+    fmax = max(max(f0, f1), max(f2, f3))
+    length = det1 / math.sqrt(fmax)
+    # --- pressure: EOS with the energy integrated implicitly (p = a + b e); the ANP tet
+    # feeds the EOS the averaged nodal volume ratio and integrates p dV with its volume
+    if use_anp:
+        veos = 0.25 * (jnode[i0] + jnode[i1] + jnode[i2] + jnode[i3]) * vol0[e]
+    else:
+        veos = vnew
+    pa, pb, c2a, c2b = eos_linear_part(int(mat_params[mk, P.EOS]), mass / veos, rho0, mat_params[mk, P.K], mat_params[mk, P.C0],
+                                       mat_params[mk, P.S], mat_params[mk, P.GAMMA0])
+    pold = pressure[e]
+    dv = veos - veos_old
+    c2 = c2a + c2b * max(pold, 0.0)
+    if c2 < 0.0:
+        c2 = 0.0
+    c = math.sqrt(c2)
+    qn = 0.0
+    if trd < 0.0 and st != FRACTURED:
+        qn = rho * length * (cq * cq * length * trd * trd - cl * c * trd)
+    ecur = energy[e]
+    base = ecur + (wdev - dv * (0.5 * pold + qn)) / mass
+    if st == FRACTURED:
+        pn = 0.0
+        enew = base
+    else:
+        # e_new = base - dv/(2 mass) * (pa + pb e_new)
+        k = 0.5 * dv / mass
+        enew = (base - k * pa) / (1.0 + k * pb)
+        pn = pa + pb * enew
+        if st == DAMAGED and pn < 0.0:
+            pn = 0.0
+            enew = base
+    energy[e] = enew
+    pressure[e] = pn
+    q[e] = qn
+    vol[e] = vnew
+    vol_eos[e] = veos
+    # --- stable time step
+    c2 = c2a + c2b * max(pn, 0.0)
+    if c2 < 0.0:
+        c2 = 0.0
+    if st == 0:
+        c2 += 4.0 * shear / (3.0 * rho)
+    c = math.sqrt(c2)
+    qq = 0.0
+    if trd < 0.0:
+        qq = cl * c + cq * cq * length * (-trd)
+    dte = length / (qq + math.sqrt(qq * qq + c2)) if c2 > 0.0 or qq > 0.0 else math.inf
+    # --- nodal forces f_a = -V sigma grad N_a, sigma = s - (p + q) I
+    ptot = pn + qn
+    txx, tyy, tzz = nxx - ptot, nyy - ptot, nzz - ptot
+    # V grad N_a = (det/6) (b_a / det) = b_a / 6
+    s6 = -1.0 / 6.0
+    f1x = s6 * (txx * b1x + nxy * b1y + nzx * b1z)
+    f1y = s6 * (nxy * b1x + tyy * b1y + nyz * b1z)
+    f1z = s6 * (nzx * b1x + nyz * b1y + tzz * b1z)
+    f2x = s6 * (txx * b2x + nxy * b2y + nzx * b2z)
+    f2y = s6 * (nxy * b2x + tyy * b2y + nyz * b2z)
+    f2z = s6 * (nzx * b2x + nyz * b2y + tzz * b2z)
+    f3x = s6 * (txx * b3x + nxy * b3y + nzx * b3z)
+    f3y = s6 * (nxy * b3x + tyy * b3y + nyz * b3z)
+    f3z = s6 * (nzx * b3x + nyz * b3y + tzz * b3z)
+    k4 = 4 * e
+    elem_force[k4, 0] = -(f1x + f2x + f3x)
+    elem_force[k4, 1] = -(f1y + f2y + f3y)
+    elem_force[k4, 2] = -(f1z + f2z + f3z)
+    elem_force[k4 + 1, 0], elem_force[k4 + 1, 1], elem_force[k4 + 1, 2] = f1x, f1y, f1z
+    elem_force[k4 + 2, 0], elem_force[k4 + 2, 1], elem_force[k4 + 2, 2] = f2x, f2y, f2z
+    elem_force[k4 + 3, 0], elem_force[k4 + 3, 1], elem_force[k4 + 3, 2] = f3x, f3y, f3z
+    return dte, -qn * dv, 0
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _load_block(x, v, conn, sdev, pressure, energy, vol, vol_eos, vol0, elem_mass, jnode,
+                use_anp, e0, buf):
+    """Copy the data of elements e0 .. e0 + B - 1 into the block buffer."""
+    for i in range(B):
+        e = e0 + i
+        for k in range(4):
+            n = conn[e, k]
+            for d in range(3):
+                buf[(R_X + 3 * k + d) * B + i] = x[n, d]
+                buf[(R_V + 3 * k + d) * B + i] = v[n, d]
+        for c in range(6):
+            buf[(R_S0 + c) * B + i] = sdev[e, c]
+        buf[R_VOLD * B + i] = vol[e]
+        buf[R_VEOSOLD * B + i] = vol_eos[e]
+        buf[R_MASS * B + i] = elem_mass[e]
+        buf[R_EN * B + i] = energy[e]
+        buf[R_POLD * B + i] = pressure[e]
+        if use_anp:
+            buf[R_VEOS * B + i] = 0.25 * (jnode[conn[e, 0]] + jnode[conn[e, 1]] + jnode[conn[e, 2]]
+                                         + jnode[conn[e, 3]]) * vol0[e]
+
+
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def _kinematics_block(buf, half, dt, shear):
+    """Velocity gradient on the mid-step geometry, gradients and length at n+1, trial stress."""
+    for i in range(B):
+        p0x = buf[(R_X + 0) * B + i]
+        p0y = buf[(R_X + 1) * B + i]
+        p0z = buf[(R_X + 2) * B + i]
+        p1x = buf[(R_X + 3) * B + i]
+        p1y = buf[(R_X + 4) * B + i]
+        p1z = buf[(R_X + 5) * B + i]
+        p2x = buf[(R_X + 6) * B + i]
+        p2y = buf[(R_X + 7) * B + i]
+        p2z = buf[(R_X + 8) * B + i]
+        p3x = buf[(R_X + 9) * B + i]
+        p3y = buf[(R_X + 10) * B + i]
+        p3z = buf[(R_X + 11) * B + i]
+        v0x = buf[(R_V + 0) * B + i]
+        v0y = buf[(R_V + 1) * B + i]
+        v0z = buf[(R_V + 2) * B + i]
+        v1x = buf[(R_V + 3) * B + i]
+        v1y = buf[(R_V + 4) * B + i]
+        v1z = buf[(R_V + 5) * B + i]
+        v2x = buf[(R_V + 6) * B + i]
+        v2y = buf[(R_V + 7) * B + i]
+        v2z = buf[(R_V + 8) * B + i]
+        v3x = buf[(R_V + 9) * B + i]
+        v3y = buf[(R_V + 10) * B + i]
+        v3z = buf[(R_V + 11) * B + i]
+        # mid-step edges from node 0
+        ax = (p1x - half * v1x) - (p0x - half * v0x)
+        ay = (p1y - half * v1y) - (p0y - half * v0y)
+        az = (p1z - half * v1z) - (p0z - half * v0z)
+        bx = (p2x - half * v2x) - (p0x - half * v0x)
+        by = (p2y - half * v2y) - (p0y - half * v0y)
+        bz = (p2z - half * v2z) - (p0z - half * v0z)
+        cx = (p3x - half * v3x) - (p0x - half * v0x)
+        cy = (p3y - half * v3y) - (p0y - half * v0y)
+        cz = (p3z - half * v3z) - (p0z - half * v0z)
+        a1x, a1y, a1z = by * cz - bz * cy, bz * cx - bx * cz, bx * cy - by * cx
+        a2x, a2y, a2z = cy * az - cz * ay, cz * ax - cx * az, cx * ay - cy * ax
+        a3x, a3y, a3z = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+        det = ax * a1x + ay * a1y + az * a1z
+        inv = 1.0 / det
+        w1x, w1y, w1z = v1x - v0x, v1y - v0y, v1z - v0z
+        w2x, w2y, w2z = v2x - v0x, v2y - v0y, v2z - v0z
+        w3x, w3y, w3z = v3x - v0x, v3y - v0y, v3z - v0z
+        lxx = (w1x * a1x + w2x * a2x + w3x * a3x) * inv
+        lxy = (w1x * a1y + w2x * a2y + w3x * a3y) * inv
+        lxz = (w1x * a1z + w2x * a2z + w3x * a3z) * inv
+        lyx = (w1y * a1x + w2y * a2x + w3y * a3x) * inv
+        lyy = (w1y * a1y + w2y * a2y + w3y * a3y) * inv
+        lyz = (w1y * a1z + w2y * a2z + w3y * a3z) * inv
+        lzx = (w1z * a1x + w2z * a2x + w3z * a3x) * inv
+        lzy = (w1z * a1y + w2z * a2y + w3z * a3y) * inv
+        lzz = (w1z * a1z + w2z * a2z + w3z * a3z) * inv
+        dxy = 0.5 * (lxy + lyx)
+        dyz = 0.5 * (lyz + lzy)
+        dzx = 0.5 * (lzx + lxz)
+        wxy = 0.5 * (lxy - lyx)
+        wyz = 0.5 * (lyz - lzy)
+        wzx = 0.5 * (lzx - lxz)
+        trd = lxx + lyy + lzz
+        third = trd / 3.0
+        exx, eyy, ezz = lxx - third, lyy - third, lzz - third
+        # geometry at n+1
+        ax, ay, az = p1x - p0x, p1y - p0y, p1z - p0z
+        bx, by, bz = p2x - p0x, p2y - p0y, p2z - p0z
+        cx, cy, cz = p3x - p0x, p3y - p0y, p3z - p0z
+        b1x, b1y, b1z = by * cz - bz * cy, bz * cx - bx * cz, bx * cy - by * cx
+        b2x, b2y, b2z = cy * az - cz * ay, cz * ax - cx * az, cx * ay - cy * ax
+        b3x, b3y, b3z = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+        det1 = ax * b1x + ay * b1y + az * b1z
+        f1 = b1x * b1x + b1y * b1y + b1z * b1z
+        f2 = b2x * b2x + b2y * b2y + b2z * b2z
+        f3 = b3x * b3x + b3y * b3y + b3z * b3z
+        s0x, s0y, s0z = b1x + b2x + b3x, b1y + b2y + b3y, b1z + b2z + b3z
+        f0 = s0x * s0x + s0y * s0y + s0z * s0z
+        fmax = max(max(f0, f1), max(f2, f3))
+        buf[R_LEN * B + i] = det1 / math.sqrt(fmax)
+        buf[(R_B + 0) * B + i] = b1x
+        buf[(R_B + 1) * B + i] = b1y
+        buf[(R_B + 2) * B + i] = b1z
+        buf[(R_B + 3) * B + i] = b2x
+        buf[(R_B + 4) * B + i] = b2y
+        buf[(R_B + 5) * B + i] = b2z
+        buf[(R_B + 6) * B + i] = b3x
+        buf[(R_B + 7) * B + i] = b3y
+        buf[(R_B + 8) * B + i] = b3z
+        buf[R_DET * B + i] = det1
+        buf[(R_D + 0) * B + i] = exx
+        buf[(R_D + 1) * B + i] = eyy
+        buf[(R_D + 2) * B + i] = ezz
+        buf[(R_D + 3) * B + i] = dxy
+        buf[(R_D + 4) * B + i] = dyz
+        buf[(R_D + 5) * B + i] = dzx
+        buf[R_TRD * B + i] = trd
+        # trial deviatoric stress: Jaumann rate s' = 2G D' + W s - s W
+        sxx = buf[(R_S0 + 0) * B + i]
+        syy = buf[(R_S0 + 1) * B + i]
+        szz = buf[(R_S0 + 2) * B + i]
+        sxy = buf[(R_S0 + 3) * B + i]
+        syz = buf[(R_S0 + 4) * B + i]
+        szx = buf[(R_S0 + 5) * B + i]
+        rxx = 2.0 * (wxy * sxy - wzx * szx)
+        ryy = 2.0 * (wyz * syz - wxy * sxy)
+        rzz = 2.0 * (wzx * szx - wyz * syz)
+        rxy = wxy * (syy - sxx) + wzx * syz - wyz * szx
+        ryz = wyz * (szz - syy) + wxy * szx - wzx * sxy
+        rzx = wzx * (sxx - szz) + wyz * sxy - wxy * syz
+        g2 = 2.0 * shear
+        nxx = sxx + dt * (g2 * exx + rxx)
+        nyy = syy + dt * (g2 * eyy + ryy)
+        nzz = szz + dt * (g2 * ezz + rzz)
+        nxy = sxy + dt * (g2 * dxy + rxy)
+        nyz = syz + dt * (g2 * dyz + ryz)
+        nzx = szx + dt * (g2 * dzx + rzx)
+        buf[(R_SN + 0) * B + i] = nxx
+        buf[(R_SN + 1) * B + i] = nyy
+        buf[(R_SN + 2) * B + i] = nzz
+        buf[(R_SN + 3) * B + i] = nxy
+        buf[(R_SN + 4) * B + i] = nyz
+        buf[(R_SN + 5) * B + i] = nzx
+        buf[R_RATE * B + i] = math.sqrt(max((2.0 / 3.0) * (exx * exx + eyy * eyy + ezz * ezz
+                                        + 2.0 * (dxy * dxy + dyz * dyz + dzx * dzx)), 0.0))
+        j2 = 0.5 * (nxx * nxx + nyy * nyy + nzz * nzz) + nxy * nxy + nyz * nyz + nzx * nzx
+        buf[R_SEQ * B + i] = math.sqrt(max(3.0 * j2, 0.0))
+
+
+
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def _return_block(buf, code, mat_params, mk, shear, eps_p, temperature, yield_floor, e0):
+    """Radial return of the lanes whose trial stress exceeds their yield floor (scalar)."""
+    for i in range(B):
+        seq = buf[R_SEQ * B + i]
+        rho = buf[R_MASS * B + i] / (buf[R_DET * B + i] * (1.0 / 6.0))
+        deps, sy = _return_map(code, mat_params, mk, shear, seq, buf[R_RATE * B + i], eps_p,
+                               temperature, yield_floor, e0 + i, rho)
+        if deps > 0.0:
+            scale = sy / seq if seq > 0.0 else 0.0
+            for c in range(6):
+                buf[(R_SN + c) * B + i] *= scale
+
+
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def _pressure_block(buf, dt, anp, mg, rho0, bulk, c0, s, gamma0, shear, cq, cl):
+    """Deviatoric work, EOS pressure with the energy implicit, bulk viscosity, stable dt, forces.
+
+    The EOS branch (mg: Mie-Grueneisen, else linear) is the same for all lanes; the
+    Hugoniot's two branches (compression, tension) are selects.
+    """
+    k0 = rho0 * c0 * c0
+    for i in range(B):
+        det1 = buf[R_DET * B + i]
+        vnew = det1 * (1.0 / 6.0)
+        vold = buf[R_VOLD * B + i]
+        mass = buf[R_MASS * B + i]
+        rho = mass / vnew
+        exx = buf[(R_D + 0) * B + i]
+        eyy = buf[(R_D + 1) * B + i]
+        ezz = buf[(R_D + 2) * B + i]
+        dxy = buf[(R_D + 3) * B + i]
+        dyz = buf[(R_D + 4) * B + i]
+        dzx = buf[(R_D + 5) * B + i]
+        nxx = buf[(R_SN + 0) * B + i]
+        nyy = buf[(R_SN + 1) * B + i]
+        nzz = buf[(R_SN + 2) * B + i]
+        nxy = buf[(R_SN + 3) * B + i]
+        nyz = buf[(R_SN + 4) * B + i]
+        nzx = buf[(R_SN + 5) * B + i]
+        wdev = 0.25 * dt * (vold + vnew) * (
+            (buf[(R_S0 + 0) * B + i] + nxx) * exx + (buf[(R_S0 + 1) * B + i] + nyy) * eyy
+            + (buf[(R_S0 + 2) * B + i] + nzz) * ezz
+            + 2.0 * ((buf[(R_S0 + 3) * B + i] + nxy) * dxy + (buf[(R_S0 + 4) * B + i] + nyz) * dyz
+                     + (buf[(R_S0 + 5) * B + i] + nzx) * dzx))
+        length = buf[R_LEN * B + i]
+        trd = buf[R_TRD * B + i]
+        veos = buf[R_VEOS * B + i] if anp else vnew
+        rho_e = mass / veos
+        if mg:
+            eta = 1.0 - rho0 / rho_e
+            den = max(1.0 - s * max(eta, 0.0), 0.05)
+            comp = eta > 0.0
+            ph = k0 * eta / (den * den) if comp else k0 * eta
+            dph = k0 * (1.0 + s * eta) / (den * den * den) if comp else k0
+            pa = ph * (1.0 - 0.5 * gamma0 * eta)
+            pb = gamma0 * rho0
+            r2 = rho0 / (rho_e * rho_e)
+            c2a = (dph * (1.0 - 0.5 * gamma0 * eta) - 0.5 * gamma0 * ph) * r2
+            c2b = gamma0 * r2
+        else:
+            pa = bulk * (rho_e / rho0 - 1.0)
+            pb = 0.0
+            c2a = bulk / rho0
+            c2b = 0.0
+        pold = buf[R_POLD * B + i]
+        dv = veos - buf[R_VEOSOLD * B + i]
+        c = math.sqrt(max(c2a + c2b * max(pold, 0.0), 0.0))
+        qn = rho * length * (cq * cq * length * trd * trd - cl * c * trd) if trd < 0.0 else 0.0
+        base = buf[R_EN * B + i] + (wdev - dv * (0.5 * pold + qn)) / mass
+        kk = 0.5 * dv / mass
+        enew = (base - kk * pa) / (1.0 + kk * pb)
+        pn = pa + pb * enew
+        buf[R_EN1 * B + i] = enew
+        buf[R_PN * B + i] = pn
+        buf[R_QN * B + i] = qn
+        buf[R_QW * B + i] = -qn * dv
+        c2 = max(c2a + c2b * max(pn, 0.0), 0.0) + 4.0 * shear / (3.0 * rho)
+        qq = cl * math.sqrt(c2) - cq * cq * length * trd if trd < 0.0 else 0.0
+        buf[R_DTE * B + i] = length / (qq + math.sqrt(max(qq * qq + c2, 0.0)))
+        ptot = pn + qn
+        txx, tyy, tzz = nxx - ptot, nyy - ptot, nzz - ptot
+        b1x = buf[(R_B + 0) * B + i]
+        b1y = buf[(R_B + 1) * B + i]
+        b1z = buf[(R_B + 2) * B + i]
+        b2x = buf[(R_B + 3) * B + i]
+        b2y = buf[(R_B + 4) * B + i]
+        b2z = buf[(R_B + 5) * B + i]
+        b3x = buf[(R_B + 6) * B + i]
+        b3y = buf[(R_B + 7) * B + i]
+        b3z = buf[(R_B + 8) * B + i]
+        s6 = -1.0 / 6.0
+        f1x = s6 * (txx * b1x + nxy * b1y + nzx * b1z)
+        f1y = s6 * (nxy * b1x + tyy * b1y + nyz * b1z)
+        f1z = s6 * (nzx * b1x + nyz * b1y + tzz * b1z)
+        f2x = s6 * (txx * b2x + nxy * b2y + nzx * b2z)
+        f2y = s6 * (nxy * b2x + tyy * b2y + nyz * b2z)
+        f2z = s6 * (nzx * b2x + nyz * b2y + tzz * b2z)
+        f3x = s6 * (txx * b3x + nxy * b3y + nzx * b3z)
+        f3y = s6 * (nxy * b3x + tyy * b3y + nyz * b3z)
+        f3z = s6 * (nzx * b3x + nyz * b3y + tzz * b3z)
+        buf[(R_F + 0) * B + i] = -(f1x + f2x + f3x)
+        buf[(R_F + 1) * B + i] = -(f1y + f2y + f3y)
+        buf[(R_F + 2) * B + i] = -(f1z + f2z + f3z)
+        buf[(R_F + 3) * B + i] = f1x
+        buf[(R_F + 4) * B + i] = f1y
+        buf[(R_F + 5) * B + i] = f1z
+        buf[(R_F + 6) * B + i] = f2x
+        buf[(R_F + 7) * B + i] = f2y
+        buf[(R_F + 8) * B + i] = f2z
+        buf[(R_F + 9) * B + i] = f3x
+        buf[(R_F + 10) * B + i] = f3y
+        buf[(R_F + 11) * B + i] = f3z
+
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _store_block(sdev, pressure, q, eps_rate, energy, vol, vol_eos, elem_force, use_anp, e0, buf):
+    """Copy the block's results back to the element arrays; returns (min dt, its element,
+    viscous work), reduced in lane order."""
+    dt_min = math.inf
+    worst = -1
+    qwork = 0.0
+    for i in range(B):
+        e = e0 + i
+        for c in range(6):
+            sdev[e, c] = buf[(R_SN + c) * B + i]
+        pressure[e] = buf[R_PN * B + i]
+        q[e] = buf[R_QN * B + i]
+        energy[e] = buf[R_EN1 * B + i]
+        eps_rate[e] = buf[R_RATE * B + i]
+        vnew = buf[R_DET * B + i] * (1.0 / 6.0)
+        vol[e] = vnew
+        vol_eos[e] = buf[R_VEOS * B + i] if use_anp else vnew
+        for k in range(4):
+            for d in range(3):
+                elem_force[4 * e + k, d] = buf[(R_F + 3 * k + d) * B + i]
+        qwork += buf[R_QW * B + i]
+        dte = buf[R_DTE * B + i]
+        if dte < dt_min:
+            dt_min = dte
+            worst = e
+    return dt_min, worst, qwork
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _vector_block(elem_mat, status, e0):
+    """The block's material row if it can take the vector path (all intact, one material)."""
+    mk = elem_mat[e0]
+    for e in range(e0, e0 + B):
+        if status[e] != 0 or elem_mat[e] != mk:
+            return -1
+    return mk
+
+
 @numba.njit(cache=True, parallel=True, error_model="numpy", fastmath=FAST)
 def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
-                   energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp, dt, cq, cl,
-                   elem_force, chunk_out):
+                   yield_floor, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp,
+                   dt, cq, cl, elem_force, chunk_out):
     """Advance every element from step n to n+1 and compute its nodal forces at n+1.
 
     x (n,3) positions x^{n+1}; v (n,3) velocities U^{n+1} (the step's velocity); dt the step.
-    jnode (n,) nodal volume ratios of the averaged-nodal-pressure tet (Bonet & Burton 1998), read
-    only when use_anp: then the EOS sees the element's mean of its nodes' ratios instead of its
-    own V/V0, which removes volumetric locking of the linear tet in nearly incompressible flow.
-    Writes sdev, pressure, q, eps_p, eps_rate, temperature, energy, vol, elem_force (4e, 3) and
-    per chunk: [min stable dt, viscous work, inverted count, index of the element with min dt].
-    The stable dt of an element is L / (Q + sqrt(Q^2 + c^2)), L = 3V / max face area (smallest
-    altitude), Q = C_l c + C_q^2 L |tr D| in compression, c the EOS sound speed with 4G/3rho.
+    yield_floor (n_elem,) the per-element cache of `laws.yield_floor` (start with zeros; the
+    kernel keeps it current). jnode (n,) nodal volume ratios of the averaged-nodal-pressure tet
+    (Bonet & Burton 1998), read only when use_anp: then the EOS sees the element's mean of its
+    nodes' ratios instead of its own V/V0, which removes volumetric locking of the linear tet in
+    nearly incompressible flow. Writes sdev, pressure, q, eps_p, eps_rate, temperature, energy,
+    vol, elem_force (4e, 3) and per chunk: [min stable dt, viscous work, inverted count, index
+    of the element with min dt]. The stable dt of an element is L / (Q + sqrt(Q^2 + c^2)),
+    L = 3V / max face area (smallest altitude), Q = C_l c + C_q^2 L |tr D| in compression, c the
+    EOS sound speed with 4G/3rho.
     """
     n_elem = conn.shape[0]
     nch = chunk_out.shape[0]
     half = 0.5 * dt
     for ch in numba.prange(nch):
+        buf = np.empty(ROWS * B)
         dt_min = math.inf
         worst = -1
         qwork = 0.0
         inverted = 0
         e_end = min(n_elem, (ch + 1) * CHUNK)
-        for e in range(ch * CHUNK, e_end):
-            st = status[e]
-            if st == ERODED:
-                for k in range(4):
-                    for d in range(3):
-                        elem_force[4 * e + k, d] = 0.0
+        for e0 in range(ch * CHUNK, e_end, B):
+            mk = _vector_block(elem_mat, status, e0) if e0 + B <= e_end else -1
+            if mk >= 0:
+                _load_block(x, v, conn, sdev, pressure, energy, vol, vol_eos, vol0, elem_mass,
+                            jnode, use_anp, e0, buf)
+                shear = mat_params[mk, P.G]
+                _kinematics_block(buf, half, dt, shear)
+                for i in range(B):
+                    if not buf[R_DET * B + i] > 0.0:
+                        mk = -1  # an inverted element: the scalar path counts it
+            if mk >= 0:
+                code = int(mat_params[mk, P.STRENGTH])
+                if code != P.ELASTIC:
+                    _return_block(buf, code, mat_params, mk, shear, eps_p, temperature,
+                                  yield_floor, e0)
+                _pressure_block(buf, dt, use_anp, int(mat_params[mk, P.EOS]) == P.MIE_GRUNEISEN,
+                                mat_params[mk, P.RHO0], mat_params[mk, P.K], mat_params[mk, P.C0],
+                                mat_params[mk, P.S], mat_params[mk, P.GAMMA0], shear, cq, cl)
+                bdt, bworst, bq = _store_block(sdev, pressure, q, eps_rate, energy, vol, vol_eos,
+                                               elem_force, use_anp, e0, buf)
+                qwork += bq
+                if bdt < dt_min:
+                    dt_min = bdt
+                    worst = bworst
                 continue
-            i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
-            # --- velocities and the mid-step geometry: velocity gradient L = dv/dx^{n+1/2}
-            v0x, v0y, v0z = v[i0, 0], v[i0, 1], v[i0, 2]
-            v1x, v1y, v1z = v[i1, 0], v[i1, 1], v[i1, 2]
-            v2x, v2y, v2z = v[i2, 0], v[i2, 1], v[i2, 2]
-            v3x, v3y, v3z = v[i3, 0], v[i3, 1], v[i3, 2]
-            p0x, p0y, p0z = x[i0, 0], x[i0, 1], x[i0, 2]
-            p1x, p1y, p1z = x[i1, 0], x[i1, 1], x[i1, 2]
-            p2x, p2y, p2z = x[i2, 0], x[i2, 1], x[i2, 2]
-            p3x, p3y, p3z = x[i3, 0], x[i3, 1], x[i3, 2]
-            det, a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z = _tet_gradients(
-                p0x - half * v0x, p0y - half * v0y, p0z - half * v0z,
-                p1x - half * v1x, p1y - half * v1y, p1z - half * v1z,
-                p2x - half * v2x, p2y - half * v2y, p2z - half * v2z,
-                p3x - half * v3x, p3y - half * v3y, p3z - half * v3z)
-            # velocity differences to node 0
-            w1x, w1y, w1z = v1x - v0x, v1y - v0y, v1z - v0z
-            w2x, w2y, w2z = v2x - v0x, v2y - v0y, v2z - v0z
-            w3x, w3y, w3z = v3x - v0x, v3y - v0y, v3z - v0z
-            inv = 1.0 / det if det != 0.0 else 0.0
-            # L_ij = sum_a w_a,i dN_a/dx_j
-            lxx = (w1x * a1x + w2x * a2x + w3x * a3x) * inv
-            lxy = (w1x * a1y + w2x * a2y + w3x * a3y) * inv
-            lxz = (w1x * a1z + w2x * a2z + w3x * a3z) * inv
-            lyx = (w1y * a1x + w2y * a2x + w3y * a3x) * inv
-            lyy = (w1y * a1y + w2y * a2y + w3y * a3y) * inv
-            lyz = (w1y * a1z + w2y * a2z + w3y * a3z) * inv
-            lzx = (w1z * a1x + w2z * a2x + w3z * a3x) * inv
-            lzy = (w1z * a1y + w2z * a2y + w3z * a3y) * inv
-            lzz = (w1z * a1z + w2z * a2z + w3z * a3z) * inv
-            dxy = 0.5 * (lxy + lyx)
-            dyz = 0.5 * (lyz + lzy)
-            dzx = 0.5 * (lzx + lxz)
-            wxy = 0.5 * (lxy - lyx)  # spin W = (L - L^T)/2
-            wyz = 0.5 * (lyz - lzy)
-            wzx = 0.5 * (lzx - lxz)
-            trd = lxx + lyy + lzz
-            third = trd / 3.0
-            exx, eyy, ezz = lxx - third, lyy - third, lzz - third  # deviatoric D'
-            # --- geometry at n+1: volume and force gradients
-            det1, b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z = _tet_gradients(
-                p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, p3x, p3y, p3z)
-            vnew = det1 / 6.0
-            if vnew <= 0.0:
-                inverted += 1
-                for k in range(4):
-                    for d in range(3):
-                        elem_force[4 * e + k, d] = 0.0
-                continue
-            vold = vol[e]
-            veos_old = vol_eos[e]  # the same array as vol for tet4
-            mk = elem_mat[e]
-            mass = elem_mass[e]
-            rho = mass / vnew
-            rho0 = mat_params[mk, P.RHO0]
-            shear = mat_params[mk, P.G]
-            # --- deviatoric stress: Jaumann rate s' = 2G D' + W s - s W
-            sxx, syy, szz = sdev[e, 0], sdev[e, 1], sdev[e, 2]
-            sxy, syz, szx = sdev[e, 3], sdev[e, 4], sdev[e, 5]
-            # (W s - s W) for symmetric s, skew W with W_xy = wxy, W_yz = wyz, W_zx = wzx
-            rxx = 2.0 * (wxy * sxy - wzx * szx)
-            ryy = 2.0 * (wyz * syz - wxy * sxy)
-            rzz = 2.0 * (wzx * szx - wyz * syz)
-            rxy = wxy * (syy - sxx) + wzx * syz - wyz * szx
-            ryz = wyz * (szz - syy) + wxy * szx - wzx * sxy
-            rzx = wzx * (sxx - szz) + wyz * sxy - wxy * syz
-            g2 = 2.0 * shear
-            nxx = sxx + dt * (g2 * exx + rxx)
-            nyy = syy + dt * (g2 * eyy + ryy)
-            nzz = szz + dt * (g2 * ezz + rzz)
-            nxy = sxy + dt * (g2 * dxy + rxy)
-            nyz = syz + dt * (g2 * dyz + ryz)
-            nzx = szx + dt * (g2 * dzx + rzx)
-            # effective deviatoric strain rate sqrt(2/3 D':D')
-            rate = math.sqrt((2.0 / 3.0) * (exx * exx + eyy * eyy + ezz * ezz
-                                            + 2.0 * (dxy * dxy + dyz * dyz + dzx * dzx)))
-            eps_rate[e] = rate
-            code = int(mat_params[mk, P.STRENGTH])
-            deps = 0.0
-            sy = 0.0
-            if st != 0:  # damaged or fractured: no deviatoric stress (ALGORITHMS.md 4.1)
-                nxx = nyy = nzz = nxy = nyz = nzx = 0.0
-            elif code != P.ELASTIC:
-                j2 = 0.5 * (nxx * nxx + nyy * nyy + nzz * nzz) + nxy * nxy + nyz * nyz + nzx * nzx
-                seq = math.sqrt(3.0 * j2)
-                deps, sy = radial_return(code, mat_params, mk, shear, seq, eps_p[e], rate, temperature[e])
-                if deps > 0.0:
-                    scale = sy / seq if seq > 0.0 else 0.0
-                    nxx *= scale
-                    nyy *= scale
-                    nzz *= scale
-                    nxy *= scale
-                    nyz *= scale
-                    nzx *= scale
-                    eps_p[e] += deps
-                    temperature[e] += mat_params[mk, P.TQ] * sy * deps / (rho * mat_params[mk, P.CV])
-            # deviatoric work over the step with the mid-step stress and volume
-            wdev = 0.5 * dt * (vold + vnew) * 0.5 * (
-                (sxx + nxx) * exx + (syy + nyy) * eyy + (szz + nzz) * ezz
-                + 2.0 * ((sxy + nxy) * dxy + (syz + nyz) * dyz + (szx + nzx) * dzx))
-            sdev[e, 0], sdev[e, 1], sdev[e, 2] = nxx, nyy, nzz
-            sdev[e, 3], sdev[e, 4], sdev[e, 5] = nxy, nyz, nzx
-            # --- artificial bulk viscosity and characteristic length
-            f1 = b1x * b1x + b1y * b1y + b1z * b1z
-            f2 = b2x * b2x + b2y * b2y + b2z * b2z
-            f3 = b3x * b3x + b3y * b3y + b3z * b3z
-            s0x, s0y, s0z = b1x + b2x + b3x, b1y + b2y + b3y, b1z + b2z + b3z
-            f0 = s0x * s0x + s0y * s0y + s0z * s0z
-            # |grad N_a| det = 2 * (area of the face opposite a); L = 3V / A_max = det / |g|max
-            fmax = max(max(f0, f1), max(f2, f3))
-            length = det1 / math.sqrt(fmax)
-            # --- pressure: EOS with the energy integrated implicitly (p = a + b e); the ANP tet
-            # feeds the EOS the averaged nodal volume ratio and integrates p dV with its volume
-            if use_anp:
-                veos = 0.25 * (jnode[i0] + jnode[i1] + jnode[i2] + jnode[i3]) * vol0[e]
-            else:
-                veos = vnew
-            pa, pb, c2a, c2b = eos_linear_part(int(mat_params[mk, P.EOS]), mass / veos, rho0, mat_params[mk, P.K], mat_params[mk, P.C0],
-                                               mat_params[mk, P.S], mat_params[mk, P.GAMMA0])
-            pold = pressure[e]
-            dv = veos - veos_old
-            c2 = c2a + c2b * max(pold, 0.0)
-            if c2 < 0.0:
-                c2 = 0.0
-            c = math.sqrt(c2)
-            qn = 0.0
-            if trd < 0.0 and st != FRACTURED:
-                qn = rho * length * (cq * cq * length * trd * trd - cl * c * trd)
-            ecur = energy[e]
-            base = ecur + (wdev - dv * (0.5 * pold + qn)) / mass
-            if st == FRACTURED:
-                pn = 0.0
-                enew = base
-            else:
-                # e_new = base - dv/(2 mass) * (pa + pb e_new)
-                k = 0.5 * dv / mass
-                enew = (base - k * pa) / (1.0 + k * pb)
-                pn = pa + pb * enew
-                if st == DAMAGED and pn < 0.0:
-                    pn = 0.0
-                    enew = base
-            energy[e] = enew
-            pressure[e] = pn
-            q[e] = qn
-            qwork -= qn * dv
-            vol[e] = vnew
-            vol_eos[e] = veos
-            # --- stable time step
-            c2 = c2a + c2b * max(pn, 0.0)
-            if c2 < 0.0:
-                c2 = 0.0
-            if st == 0:
-                c2 += 4.0 * shear / (3.0 * rho)
-            c = math.sqrt(c2)
-            qq = 0.0
-            if trd < 0.0:
-                qq = cl * c + cq * cq * length * (-trd)
-            dte = length / (qq + math.sqrt(qq * qq + c2)) if c2 > 0.0 or qq > 0.0 else math.inf
-            if dte < dt_min:
-                dt_min = dte
-                worst = e
-            # --- nodal forces f_a = -V sigma grad N_a, sigma = s - (p + q) I
-            ptot = pn + qn
-            txx, tyy, tzz = nxx - ptot, nyy - ptot, nzz - ptot
-            # V grad N_a = (det/6) (b_a / det) = b_a / 6
-            s6 = -1.0 / 6.0
-            f1x = s6 * (txx * b1x + nxy * b1y + nzx * b1z)
-            f1y = s6 * (nxy * b1x + tyy * b1y + nyz * b1z)
-            f1z = s6 * (nzx * b1x + nyz * b1y + tzz * b1z)
-            f2x = s6 * (txx * b2x + nxy * b2y + nzx * b2z)
-            f2y = s6 * (nxy * b2x + tyy * b2y + nyz * b2z)
-            f2z = s6 * (nzx * b2x + nyz * b2y + tzz * b2z)
-            f3x = s6 * (txx * b3x + nxy * b3y + nzx * b3z)
-            f3y = s6 * (nxy * b3x + tyy * b3y + nyz * b3z)
-            f3z = s6 * (nzx * b3x + nyz * b3y + tzz * b3z)
-            k4 = 4 * e
-            elem_force[k4, 0] = -(f1x + f2x + f3x)
-            elem_force[k4, 1] = -(f1y + f2y + f3y)
-            elem_force[k4, 2] = -(f1z + f2z + f3z)
-            elem_force[k4 + 1, 0], elem_force[k4 + 1, 1], elem_force[k4 + 1, 2] = f1x, f1y, f1z
-            elem_force[k4 + 2, 0], elem_force[k4 + 2, 1], elem_force[k4 + 2, 2] = f2x, f2y, f2z
-            elem_force[k4 + 3, 0], elem_force[k4 + 3, 1], elem_force[k4 + 3, 2] = f3x, f3y, f3z
+            for e in range(e0, min(e0 + B, e_end)):
+                dte, qw, inv = _element_scalar(
+                    e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+                    temperature, yield_floor, energy, vol, vol_eos, vol0, elem_mass, mat_params,
+                    jnode, use_anp, half, dt, cq, cl, elem_force)
+                qwork += qw
+                inverted += inv
+                if dte < dt_min:
+                    dt_min = dte
+                    worst = e
         chunk_out[ch, OUT_DT] = dt_min
         chunk_out[ch, OUT_QWORK] = qwork
         chunk_out[ch, OUT_INVERTED] = inverted
