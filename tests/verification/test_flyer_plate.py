@@ -15,14 +15,27 @@ the plane of symmetry), so it is run that way: u_p = v, p = rho0 (c0 + s v) v.
 Asymmetric impact (copper flyer onto an aluminium target, two bodies, node-face contact):
 impedance matching (Meyers sec. 4.4): the interface velocity u solves
 p_Cu(V - u) = p_Al(u) with p_X(u_p) = rho0_X (c0_X + s_X u_p) u_p; both shocks carry that
-pressure. Solved with scipy.optimize.brentq. The target is meshed at half the flyer's size, 2 x 2
-cells across: with matching meshes every flyer node lands exactly on a target node, the
-degenerate case of node-face contact (a node on the corner of the faces it hits).
+pressure. Solved with scipy.optimize.brentq (u = 555.6 m/s, p = 9.39 GPa at V = 800 m/s). The
+target is meshed at half the flyer's size, 2 x 2 cells across, so the contact surfaces do not
+match (a node of one body on an edge, not only on a corner, of the other's faces). Either way
+both columns have the same cross-section, so the nodes on their sides lie on the boundary edges
+of the faces they hit: a node pushed sideways by a nanometre misses the face.
 
 Shock fronts are where the particle velocity crosses the middle of its jump; speeds come from
-front positions at two times (start-up cancels); plateau values are medians over the shocked
-elements away from the front and the interface (node-face contact of the two columns leaves a
-disturbed band a few cells wide at the interface, which is not what is tested here).
+front positions at two times (start-up cancels). In the lab frame the target's shock leaves the
+initial interface L_TARGET at U_s (the aluminium ahead of it is at rest): at time t it is at
+L_TARGET - U_s t, U_s t - u t below the interface L_TARGET - u t; the copper's shock is at
+L_TARGET + (U_s,Cu - V) t. Plateau values are taken over the shocked material between the
+front and the interface, 5 H (2.5 mm) from each (the node-face contact leaves a disturbed
+band a few cells wide at the interface, which is not what is tested here): pressure and energy
+as medians over elements; the particle velocity as the momentum of the target's nodes there over their
+mass. That is the u_p of the jump conditions (the velocity of all the shocked material) and,
+unlike a median, it sees a line of nodes left behind: with a 1 MPa yield stress a vertical line
+of nodes sliding past its neighbours meets almost no resistance in these columns, so a node
+line that missed the flyer at the interface keeps lagging through the whole target.
+
+The asymmetric run also checks what the scene assumes: no node inside the other body
+(the contact's penetration measure) and every node still on its initial x and y (held).
 """
 
 import numpy as np
@@ -78,12 +91,18 @@ def _simulate(case, times):
     for t in times:
         while model.time < t:
             sim.step(t - model.time)
-        shots.append(_profile(model))
+        shot = _profile(model)
+        history = {}
+        for p in sim.velocity_passes:
+            history.update(p.history(model))
+        shot["penetration"] = history.get("max_penetration", 0.0)  # [m], contact's own meter
+        shots.append(shot)
     return model, shots
 
 
 def _profile(model):
-    """Mean vz per z level (sorted by initial z) and element centroids, pressure, energy, rho."""
+    """Mean vz per z level (sorted by initial z) and element centroids, pressure, energy, rho;
+    per node: current z, vz, mass, body and the largest x-y distance from the initial place."""
     z0 = np.round(model.x0[:, 2], 9)
     levels = np.unique(z0)
     z = np.array([model.x[z0 == lv, 2].mean() for lv in levels])
@@ -92,7 +111,9 @@ def _profile(model):
     rho = model.elem_mass / model.vol
     return {"time": model.time, "z": z, "vz": vz, "zc": zc, "p": model.pressure.copy(),
             "e": model.energy.copy(), "rho": rho, "body": model.elem_body.copy(),
-            "z_levels": levels}
+            "z_levels": levels, "node_z": model.x[:, 2].copy(), "node_vz": model.v[:, 2].copy(),
+            "node_mass": model.mass.copy(), "node_body": model.node_body.copy(),
+            "xy_shift": float(np.abs(model.x[:, :2] - model.x0[:, :2]).max())}
 
 
 def _front(z, vz, level):
@@ -155,6 +176,16 @@ def _interface_velocity():
     return brentq(lambda u: _hugoniot(CU, V_FLYER - u)[1] - _hugoniot(AL, u)[1], 0.0, V_FLYER)
 
 
+def _asymmetric_bands(b):
+    """(interface, target front, copper front) [m] at the time of snapshot b, lab frame (see the
+    module docstring): the target's shock runs from L_TARGET into aluminium at rest at U_s."""
+    u = _interface_velocity()
+    us_al, _ = _hugoniot(AL, u)
+    us_cu, _ = _hugoniot(CU, V_FLYER - u)
+    t = b["time"]
+    return L_TARGET - u * t, L_TARGET - us_al * t, L_TARGET + (us_cu - V_FLYER) * t
+
+
 @pytest.fixture(scope="module")
 def asymmetric():
     text = ("[run]\nend_time = 1.0\n[contact]\npasses = [\"node-face\"]\n"
@@ -164,8 +195,31 @@ def asymmetric():
     case = _confine(load_case_text(text))
     u = _interface_velocity()
     us_al, _ = _hugoniot(AL, u)
-    # the target shock (moving down from the interface at us_al) at 8 mm and 18 mm
+    # the target shock (leaving L_TARGET at us_al into aluminium at rest) 8 mm and 18 mm down
     return _simulate(case, [0.008 / us_al, 0.018 / us_al])
+
+
+# Measured at 95bec91 (H/2 target, C_cfl = 0.5, t = 2.97 us): the boundary-conditions pass sets
+# vx = vy = 0 before contact, then the contact impulses act along the normals of faces that tilt
+# slightly (the nodes of a face have unequal lumped masses) and give held nodes sideways
+# velocities. A target node on the edge of a flyer face then lies outside it at the crossing
+# (third step: barycentric weight -6.2e-6 against the tolerance -1e-6) and is not caught; over the
+# run held nodes move 22 um sideways and target nodes end up to 185 um inside the flyer. With
+# matching meshes (1 x 1 cells) the flyer goes through the target. Re-applying the boundary
+# conditions after contact stops the drift but not the misses within a step; contact impulses
+# that leave prescribed velocity components alone (a prescribed component as an infinite mass)
+# fix both, and all of this file then passes.
+CONSTRAINTS_IGNORED = ("contact impulses change the x-y velocity of nodes held in x and y "
+                       "(boundary conditions run before contact): held nodes move 22 um "
+                       "sideways, target nodes miss the flyer's faces and end 185 um inside it")
+
+
+@pytest.mark.xfail(strict=True, reason=CONSTRAINTS_IGNORED)
+def test_contact_holds_the_interface_and_the_columns_stay_uniaxial(asymmetric):
+    _, shots = asymmetric
+    for s in shots:
+        assert s["penetration"] < 1e-6  # [m], as the other contact verification scenes
+        assert s["xy_shift"] < 1e-6 * H  # held in x and y: the scene is uniaxial strain
 
 
 def test_impedance_match_pressure_on_both_sides(asymmetric):
@@ -173,31 +227,31 @@ def test_impedance_match_pressure_on_both_sides(asymmetric):
     u = _interface_velocity()
     _, p = _hugoniot(AL, u)
     assert p == pytest.approx(_hugoniot(CU, V_FLYER - u)[1], rel=1e-9)
-    us_al, _ = _hugoniot(AL, u)
-    us_cu, _ = _hugoniot(CU, V_FLYER - u)
-    interface = L_TARGET - u * b["time"]
-    target_front = interface - us_al * b["time"]
+    interface, target_front, cu_front = _asymmetric_bands(b)
     # the shocked region of each body, away from the fronts and the interface
     al = (b["body"] == 0) & (b["zc"] > target_front + 5 * H) & (b["zc"] < interface - 5 * H)
-    cu_front = interface + (us_cu - (V_FLYER - u)) * b["time"]  # copper shock, lab frame
     cu = (b["body"] == 1) & (b["zc"] > interface + 3 * H) & (b["zc"] < cu_front - 3 * H)
     assert al.sum() > 50 and cu.sum() > 10
     assert np.median(b["p"][al]) == pytest.approx(p, rel=0.04)
     assert np.median(b["p"][cu]) == pytest.approx(p, rel=0.06)  # a short, noisier plateau
 
 
-@pytest.mark.xfail(strict=True, reason="two-body node-face contact: the target's particle "
-                   "velocity behind the shock is 507 m/s against 556 from impedance matching "
-                   "(pressure and shock speed agree); the band at the interface is disturbed")
+@pytest.mark.xfail(strict=True, reason=CONSTRAINTS_IGNORED + ": the node line at the target's "
+                   "corner that missed lags at 123 m/s, and the shocked target's momentum over "
+                   "its mass is 524 m/s against 555.6 from impedance matching (median node "
+                   "562, pressure 9.65 GPa against 9.39, energy 165 kJ/kg against 154)")
 def test_impedance_match_particle_velocity_and_energy(asymmetric):
+    """The target's particle velocity behind its shock: momentum over mass of the target nodes
+    between the shock front and the interface (5 H from each), against -u; and the specific
+    internal energy jump u^2 / 2 (median over the elements there)."""
     model, (_, b) = asymmetric
     u = _interface_velocity()
-    us_al, _ = _hugoniot(AL, u)
-    interface = L_TARGET - u * b["time"]
-    target_front = interface - us_al * b["time"]
-    zl = b["z"]
-    moving = (zl > target_front + 5 * H) & (zl < interface - 5 * H)
-    assert np.median(b["vz"][moving]) == pytest.approx(-u, rel=0.03)
+    interface, target_front, _ = _asymmetric_bands(b)
+    z = b["node_z"]
+    moving = (b["node_body"] == 0) & (z > target_front + 5 * H) & (z < interface - 5 * H)
+    assert moving.sum() > 100
+    mass = b["node_mass"][moving]
+    assert (mass * b["node_vz"][moving]).sum() / mass.sum() == pytest.approx(-u, rel=0.03)
     al = (b["body"] == 0) & (b["zc"] > target_front + 5 * H) & (b["zc"] < interface - 5 * H)
     assert np.median(b["e"][al]) == pytest.approx(0.5 * u**2, rel=0.06)
 
