@@ -15,8 +15,8 @@ on the number of threads). Inside a chunk, blocks of B elements go down one of t
   (`_load_block`), the arithmetic runs as loops over the B lanes that LLVM turns into packed
   SIMD instructions (`_kinematics_block`: velocity gradient, geometry, trial stress;
   `_pressure_block`: EOS, energy, viscosity, time step, forces), only the radial return is
-  scalar (`_return_block`, and only for lanes whose trial stress exceeds the element's cached
-  yield floor), and the results are copied back (`_store_block`);
+  scalar (`_return_block`, and only for lanes whose trial stress exceeds the rate-independent
+  lower bound of their yield stress, cached per element), and the results are copied back (`_store_block`);
 - the scalar path (`_element_scalar`), one element at a time with every branch: damaged,
   fractured and eroded elements, blocks that mix materials, the partial block at the end of
   the mesh, and a block with an inverted element.
@@ -38,11 +38,14 @@ import numba
 import numpy as np
 
 from impactsim.materials import params as P
-from impactsim.materials.laws import eos_linear_part, radial_return, yield_floor
+from impactsim.materials.laws import (eos_linear_part, hardening, radial_return,
+                                      rate_independent_floor, thermal_factor)
 from impactsim.model import DAMAGED, ERODED, FRACTURED
+from impactsim.solver import vecmath as VM
+from impactsim.solver.vecmath import vexp, vlog
 
 CHUNK = 512
-B = 32  # lanes of a block; the buffer (ROWS x B doubles, 20 kB) stays in the L1 cache
+B = VM.B  # lanes of a block; the buffer (ROWS x B doubles, 24 kB) stays in the L1 cache
 # IEEE semantics are kept (no nnan/ninf: inf marks "no limit"); numpy's error model drops the
 # zero-division checks that Python semantics would put on every division.
 FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
@@ -74,7 +77,23 @@ R_EN1 = 64  # specific internal energy at n+1
 R_DTE = 65  # stable time step
 R_F = 66  # 12 rows: forces on corners 0..3
 R_QW = 78  # viscous work of the step
-ROWS = 79
+# rows of the vector Johnson-Cook return (`_jc_return_block`)
+R_EP = 79  # plastic strain (in), updated
+R_TEMP = 80  # temperature (in), updated
+R_HARD = 81  # hardening term A + B eps_p^n (in), updated
+R_THERM = 82  # thermal factor 1 - T*^m (in), updated
+R_ACT = 83  # 1 where the trial stress exceeds the yield stress at the step's rate
+R_RT = 84  # rate factor x thermal factor
+R_DEPS = 85  # plastic strain increment (Newton iterate)
+R_LO = 86  # bracket of the increment
+R_HI = 87
+R_DONE = 88  # 1 converged (or elastic), 0 iterating, -1 stalled (the scalar return redoes it)
+R_SY = 89  # yield stress at the end of the return
+R_HN = 90  # hardening term at the end of the return
+R_ARG = 91  # argument of ln
+R_LN = 92  # ln, then the exponent of exp
+R_POW = 93  # the power
+ROWS = 94
 
 
 def n_chunks(n_elem: int) -> int:
@@ -101,29 +120,42 @@ def _tet_gradients(x0, y0, z0, x1, y1, z1, x2, y2, z2, x3, y3, z3):
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
-def _return_map(code, mat_params, mk, shear, seq, rate, eps_p, temperature, floor, e, rho):
+def _return_map(code, mat_params, mk, shear, seq, rate, eps_p, temperature, hard, thermal, e,
+                rho):
     """Radial return of element e with its trial stress seq; updates eps_p, temperature and the
-    cached yield floor of the element. Returns (d eps_p, yield stress); (0, .) when elastic.
+    element's cached hardening term and thermal factor. Returns (d eps_p, yield stress); d eps_p
+    = 0 when elastic.
 
-    The floor is a rate-independent lower bound of the yield stress (`laws.yield_floor`): a
-    trial stress at or below it is elastic, and the return (a log and up to two pows for
-    Johnson-Cook) is skipped. 0 in the cache means "not computed yet".
+    hard x thermal is a rate-independent lower bound of the yield stress (the rate factor is
+    >= 1): a trial stress at or below it is elastic, and the return (a log and a power for
+    Johnson-Cook) is skipped. The caches change only here, with eps_p and the temperature.
     """
-    if seq <= floor[e]:
+    if seq <= hard[e] * thermal[e] and rate_independent_floor(code, mat_params, mk):
         return 0.0, 0.0
-    deps, sy = radial_return(code, mat_params, mk, shear, seq, eps_p[e], rate, temperature[e])
+    deps, sy, hnew = radial_return(code, mat_params, mk, shear, seq, eps_p[e], rate, hard[e],
+                                   thermal[e])
     if deps > 0.0:
         eps_p[e] += deps
         temperature[e] += mat_params[mk, P.TQ] * sy * deps / (rho * mat_params[mk, P.CV])
-        floor[e] = yield_floor(code, mat_params, mk, eps_p[e], temperature[e])
-    elif floor[e] == 0.0:
-        floor[e] = yield_floor(code, mat_params, mk, eps_p[e], temperature[e])
+        hard[e] = hnew
+        thermal[e] = thermal_factor(code, mat_params, mk, temperature[e])
     return deps, sy
+
+
+@numba.njit(cache=True, parallel=True)
+def yield_cache(elem_mat, mat_params, eps_p, temperature, hard, thermal):
+    """Fill the element kernel's caches: hardening term and thermal factor of every element at
+    its plastic strain and temperature (`laws.hardening`, `laws.thermal_factor`)."""
+    for e in numba.prange(elem_mat.shape[0]):
+        mk = elem_mat[e]
+        code = int(mat_params[mk, P.STRENGTH])
+        hard[e] = hardening(code, mat_params, mk, eps_p[e])
+        thermal[e] = thermal_factor(code, mat_params, mk, temperature[e])
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
 def _element_scalar(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
-                    temperature, yield_floor, energy, vol, vol_eos, vol0, elem_mass, mat_params,
+                    temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
                     jnode, use_anp, half, dt, cq, cl, elem_force):
     """The whole update of element e with every branch (the scalar path).
 
@@ -220,7 +252,7 @@ def _element_scalar(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, e
         j2 = 0.5 * (nxx * nxx + nyy * nyy + nzz * nzz) + nxy * nxy + nyz * nyz + nzx * nzx
         seq = math.sqrt(3.0 * j2)
         deps, sy = _return_map(code, mat_params, mk, shear, seq, rate, eps_p, temperature,
-                               yield_floor, e, rho)
+                               hard, thermal, e, rho)
         if deps > 0.0:
             scale = sy / seq if seq > 0.0 else 0.0
             nxx *= scale
@@ -467,17 +499,179 @@ def _kinematics_block(buf, half, dt, shear):
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
-def _return_block(buf, code, mat_params, mk, shear, eps_p, temperature, yield_floor, e0):
+def _return_block(buf, code, mat_params, mk, shear, eps_p, temperature, hard, thermal, e0):
     """Radial return of the lanes whose trial stress exceeds their yield floor (scalar)."""
     for i in range(B):
         seq = buf[R_SEQ * B + i]
         rho = buf[R_MASS * B + i] / (buf[R_DET * B + i] * (1.0 / 6.0))
         deps, sy = _return_map(code, mat_params, mk, shear, seq, buf[R_RATE * B + i], eps_p,
-                               temperature, yield_floor, e0 + i, rho)
+                               temperature, hard, thermal, e0 + i, rho)
         if deps > 0.0:
             scale = sy / seq if seq > 0.0 else 0.0
             for c in range(6):
                 buf[(R_SN + c) * B + i] *= scale
+
+
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def _jc_start(buf, a0, b0, n, c, inv_rate0, g3):
+    """Rate factor from ln(max(rate/rate0, 1)) in R_LN; the trial check at the step's rate and the
+    Newton start of `laws.radial_return` (linearised return, bracket [0, (seq - sy)/3G])."""
+    for i in range(B):
+        seq = buf[R_SEQ * B + i]
+        ep = buf[R_EP * B + i]
+        hard = buf[R_HARD * B + i]
+        rt = (1.0 + c * buf[R_LN * B + i]) * buf[R_THERM * B + i]
+        sy = hard * rt
+        act = seq > sy
+        hi = (seq - sy) / g3
+        d = (seq - sy) / (g3 + n * (hard - a0) * rt / ep) if ep > 0.0 else hi
+        d = d if act else 0.0
+        buf[R_RT * B + i] = rt
+        buf[R_ACT * B + i] = 1.0 if act else 0.0
+        buf[R_DONE * B + i] = 0.0 if act else 1.0
+        buf[R_DEPS * B + i] = d
+        buf[R_LO * B + i] = 0.0
+        buf[R_HI * B + i] = hi if act else 0.0
+        buf[R_SY * B + i] = sy
+        buf[R_HN * B + i] = hard
+        buf[R_ARG * B + i] = ep + d if act else 1.0
+
+
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def _rate_arg(buf, inv_rate0):
+    for i in range(B):
+        buf[R_ARG * B + i] = max(buf[R_RATE * B + i] * inv_rate0, 1.0)
+
+
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def _scale_ln(buf, n):
+    for i in range(B):
+        buf[R_LN * B + i] *= n
+
+
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def _jc_newton(buf, a0, b0, n, g3):
+    """One safeguarded Newton iteration of `laws.radial_return` on every lane still iterating,
+    with (eps_p + d)^n in R_POW. Returns the number of lanes still iterating."""
+    left = 0
+    for i in range(B):
+        done = buf[R_DONE * B + i]
+        seq = buf[R_SEQ * B + i]
+        ep0 = buf[R_EP * B + i]
+        rt = buf[R_RT * B + i]
+        d = buf[R_DEPS * B + i]
+        lo = buf[R_LO * B + i]
+        hi = buf[R_HI * B + i]
+        pw = buf[R_POW * B + i]
+        a = a0 * rt
+        b = b0 * rt
+        ep = ep0 + d
+        sy = a + b * pw
+        f = seq - g3 * d - sy
+        conv = abs(f) <= 1e-12 * seq
+        lo2 = d if f > 0.0 else lo
+        hi2 = hi if f > 0.0 else d
+        dn = d + f / (g3 + b * n * pw / ep)
+        dn = 0.5 * (lo2 + hi2) if (dn <= lo2 or dn >= hi2) else dn
+        stall = hi2 - lo2 <= 1e-15 * (1.0 + ep0)
+        iterating = done == 0.0
+        going = iterating and not conv
+        buf[R_DONE * B + i] = (1.0 if conv else (-1.0 if stall else 0.0)) if iterating else done
+        buf[R_SY * B + i] = sy if iterating and conv else buf[R_SY * B + i]
+        buf[R_HN * B + i] = a0 + b0 * pw if iterating and conv else buf[R_HN * B + i]
+        buf[R_LO * B + i] = lo2 if going else lo
+        buf[R_HI * B + i] = hi2 if going else hi
+        buf[R_DEPS * B + i] = dn if going else d
+        buf[R_ARG * B + i] = ep0 + dn if going else 1.0
+        left += 1 if going and not stall else 0
+    return left
+
+
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def _jc_finish(buf, tq_cv, t_room, inv_t_range):
+    """Plastic strain, adiabatic heating and the returned deviator of the yielded lanes; the
+    homologous temperature T* to R_ARG for the thermal factor (0.5 where it is not needed)."""
+    for i in range(B):
+        upd = buf[R_ACT * B + i] > 0.0 and buf[R_DEPS * B + i] > 0.0
+        deps = buf[R_DEPS * B + i]
+        sy = buf[R_SY * B + i]
+        seq = buf[R_SEQ * B + i]
+        rho = buf[R_MASS * B + i] / (buf[R_DET * B + i] * (1.0 / 6.0))
+        temp = buf[R_TEMP * B + i] + tq_cv * sy * deps / rho
+        scale = sy / seq if upd else 1.0
+        for c in range(6):
+            buf[(R_SN + c) * B + i] *= scale
+        buf[R_EP * B + i] = buf[R_EP * B + i] + deps if upd else buf[R_EP * B + i]
+        buf[R_TEMP * B + i] = temp if upd else buf[R_TEMP * B + i]
+        buf[R_HARD * B + i] = buf[R_HN * B + i] if upd else buf[R_HARD * B + i]
+        t_star = (temp - t_room) * inv_t_range
+        buf[R_ACT * B + i] = t_star if upd else -1.0  # reused: T* of the lanes to update
+        buf[R_ARG * B + i] = t_star if (upd and t_star > 0.0 and t_star < 1.0) else 0.5
+
+
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def _jc_thermal(buf):
+    """Thermal factor 1 - T*^m (T*^m in R_POW) of the yielded lanes (T* in R_ACT, -1 elsewhere)."""
+    for i in range(B):
+        t_star = buf[R_ACT * B + i]
+        th = 0.0 if t_star >= 1.0 else (1.0 - buf[R_POW * B + i] if t_star > 0.0 else 1.0)
+        buf[R_THERM * B + i] = th if t_star != -1.0 else buf[R_THERM * B + i]
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _jc_return_block(buf, ibuf, kbuf, mat_params, mk, shear, eps_p, temperature, hard, thermal,
+                     e0):
+    """The Johnson-Cook radial return of a block as vector loops: `laws.radial_return` and the
+    caches' update of `_return_map`, lane by lane the same iteration (ln and exp from
+    `vecmath`); a lane whose iteration stalls or runs out is redone by the scalar return.
+    Requires C >= 0 (hard x thermal is then a lower bound: lanes below it skip, and a block
+    with no lane above it costs one comparison per lane)."""
+    any_active = False
+    for i in range(B):
+        if buf[R_SEQ * B + i] > hard[e0 + i] * thermal[e0 + i]:
+            any_active = True
+            break
+    if not any_active:
+        return
+    for i in range(B):
+        buf[R_EP * B + i] = eps_p[e0 + i]
+        buf[R_TEMP * B + i] = temperature[e0 + i]
+        buf[R_HARD * B + i] = hard[e0 + i]
+        buf[R_THERM * B + i] = thermal[e0 + i]
+    a0, b0, n = mat_params[mk, P.JC_A], mat_params[mk, P.JC_B], mat_params[mk, P.JC_N]
+    g3 = 3.0 * shear
+    inv_rate0 = 1.0 / mat_params[mk, P.EPSDOT0]
+    _rate_arg(buf, inv_rate0)
+    vlog(buf, ibuf, R_ARG, R_LN, kbuf)
+    _jc_start(buf, a0, b0, n, mat_params[mk, P.JC_C], inv_rate0, g3)
+    for _ in range(30):
+        vlog(buf, ibuf, R_ARG, R_LN, kbuf)
+        _scale_ln(buf, n)
+        vexp(buf, R_LN, R_POW)
+        if _jc_newton(buf, a0, b0, n, g3) == 0:
+            break
+    for i in range(B):
+        if buf[R_DONE * B + i] != 1.0:  # stalled or out of iterations: the scalar return
+            deps, sy, hnew = radial_return(P.JOHNSON_COOK, mat_params, mk, shear,
+                                           buf[R_SEQ * B + i], buf[R_EP * B + i],
+                                           buf[R_RATE * B + i], buf[R_HARD * B + i],
+                                           buf[R_THERM * B + i])
+            buf[R_DEPS * B + i] = deps
+            buf[R_SY * B + i] = sy
+            buf[R_HN * B + i] = hnew
+    t_room = mat_params[mk, P.T_ROOM]
+    _jc_finish(buf, mat_params[mk, P.TQ] / mat_params[mk, P.CV], t_room,
+               1.0 / (mat_params[mk, P.T_MELT] - t_room))
+    vlog(buf, ibuf, R_ARG, R_LN, kbuf)
+    _scale_ln(buf, mat_params[mk, P.JC_M])
+    vexp(buf, R_LN, R_POW)
+    _jc_thermal(buf)
+    for i in range(B):
+        eps_p[e0 + i] = buf[R_EP * B + i]
+        temperature[e0 + i] = buf[R_TEMP * B + i]
+        hard[e0 + i] = buf[R_HARD * B + i]
+        thermal[e0 + i] = buf[R_THERM * B + i]
+
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
@@ -623,13 +817,13 @@ def _vector_block(elem_mat, status, e0):
 
 @numba.njit(cache=True, parallel=True, error_model="numpy", fastmath=FAST)
 def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
-                   yield_floor, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp,
-                   dt, cq, cl, elem_force, chunk_out):
+                   hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
+                   use_anp, dt, cq, cl, elem_force, chunk_out):
     """Advance every element from step n to n+1 and compute its nodal forces at n+1.
 
     x (n,3) positions x^{n+1}; v (n,3) velocities U^{n+1} (the step's velocity); dt the step.
-    yield_floor (n_elem,) the per-element cache of `laws.yield_floor` (start with zeros; the
-    kernel keeps it current). jnode (n,) nodal volume ratios of the averaged-nodal-pressure tet
+    hard, thermal (n_elem,) the per-element caches of the hardening term and the thermal factor
+    of the yield stress (fill them with `yield_cache`; the kernel keeps them current). jnode (n,) nodal volume ratios of the averaged-nodal-pressure tet
     (Bonet & Burton 1998), read only when use_anp: then the EOS sees the element's mean of its
     nodes' ratios instead of its own V/V0, which removes volumetric locking of the linear tet in
     nearly incompressible flow. Writes sdev, pressure, q, eps_p, eps_rate, temperature, energy,
@@ -643,6 +837,8 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     half = 0.5 * dt
     for ch in numba.prange(nch):
         buf = np.empty(ROWS * B)
+        ibuf = buf.view(np.int64)
+        kbuf = np.empty(B, np.int64)
         dt_min = math.inf
         worst = -1
         qwork = 0.0
@@ -660,9 +856,12 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
                         mk = -1  # an inverted element: the scalar path counts it
             if mk >= 0:
                 code = int(mat_params[mk, P.STRENGTH])
-                if code != P.ELASTIC:
+                if code == P.JOHNSON_COOK and mat_params[mk, P.JC_C] >= 0.0:
+                    _jc_return_block(buf, ibuf, kbuf, mat_params, mk, shear, eps_p, temperature,
+                                     hard, thermal, e0)
+                elif code != P.ELASTIC:
                     _return_block(buf, code, mat_params, mk, shear, eps_p, temperature,
-                                  yield_floor, e0)
+                                  hard, thermal, e0)
                 _pressure_block(buf, dt, use_anp, int(mat_params[mk, P.EOS]) == P.MIE_GRUNEISEN,
                                 mat_params[mk, P.RHO0], mat_params[mk, P.K], mat_params[mk, P.C0],
                                 mat_params[mk, P.S], mat_params[mk, P.GAMMA0], shear, cq, cl)
@@ -676,7 +875,7 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
             for e in range(e0, min(e0 + B, e_end)):
                 dte, qw, inv = _element_scalar(
                     e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
-                    temperature, yield_floor, energy, vol, vol_eos, vol0, elem_mass, mat_params,
+                    temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
                     jnode, use_anp, half, dt, cq, cl, elem_force)
                 qwork += qw
                 inverted += inv

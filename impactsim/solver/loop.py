@@ -52,7 +52,10 @@ class Simulation:
         self.jnode = np.ones(nn)
         self.vol_now = np.zeros(ne)
         self.vol_eos = model.vol.copy() if self.use_anp else model.vol
-        self.yield_floor = np.zeros(ne)  # the element kernel's cache of laws.yield_floor
+        # the element kernel's caches: hardening term and thermal factor of the yield stress
+        self.hardening, self.thermal = np.zeros(ne), np.zeros(ne)
+        E.yield_cache(model.elem_mat, model.mat_params, model.eps_p, model.temperature,
+                      self.hardening, self.thermal)
         for p in passes:  # passes that need the integrator's buffers (fracture: elem_force)
             if hasattr(p, "attach"):
                 p.attach(self)
@@ -121,7 +124,7 @@ class Simulation:
             element_volumes(m.x, m.conn, m.status, self.vol_now)
             nodal_volume_ratio(self.vol_now, m.vol0, m.status, m.n2e_ptr, m.n2e, self.jnode)
         E.element_update(m.x, m.v, m.conn, m.elem_mat, m.status, m.sdev, m.pressure, m.q, m.eps_p,
-                         m.eps_rate, m.temperature, self.yield_floor, m.energy, m.vol, self.vol_eos, m.vol0,
+                         m.eps_rate, m.temperature, self.hardening, self.thermal, m.energy, m.vol, self.vol_eos, m.vol0,
                          m.elem_mass, m.mat_params, self.jnode, self.use_anp, dt, self.cq,
                          self.cl, self.elem_force, self.chunk_out)
         out = self.chunk_out

@@ -7,7 +7,8 @@ import pytest
 
 from impactsim.case.schema import EOS, Strength
 from impactsim.materials import params as P
-from impactsim.materials.laws import eos_linear_part, flow_stress, radial_return
+from impactsim.materials.laws import (eos_linear_part, flow_stress, hardening, radial_return,
+                                      thermal_factor)
 from impactsim.solver.loop import Simulation
 from tests.builders import box_model, material
 
@@ -88,8 +89,11 @@ def test_radial_return_lands_on_yield_surface():
     mp = P.material_row(mat)[None, :]
     G = mat.shear_modulus
     for seq_trial, eps0 in [(5e8, 0.0), (2e9, 0.1), (1e8, 0.5)]:
-        deps, sy = radial_return(P.JOHNSON_COOK, mp, 0, G, seq_trial, eps0, 1e3, 300.0)
+        deps, sy, hard = radial_return(P.JOHNSON_COOK, mp, 0, G, seq_trial, eps0, 1e3,
+                                       hardening(P.JOHNSON_COOK, mp, 0, eps0),
+                                       thermal_factor(P.JOHNSON_COOK, mp, 0, 300.0))
         sy_check, _ = flow_stress(P.JOHNSON_COOK, mp, 0, eps0 + deps, 1e3, 300.0)
+        assert hard == pytest.approx(hardening(P.JOHNSON_COOK, mp, 0, eps0 + deps), rel=1e-14)
         if deps > 0:
             assert seq_trial - 3 * G * deps == pytest.approx(sy_check, rel=1e-10)
             assert sy == pytest.approx(sy_check, rel=1e-12)
@@ -98,7 +102,7 @@ def test_radial_return_lands_on_yield_surface():
     # ideal plasticity: exactly Y0
     mp[0, P.STRENGTH] = P.IDEAL_PLASTIC
     mp[0, P.Y0] = 3e8
-    deps, sy = radial_return(P.IDEAL_PLASTIC, mp, 0, G, 9e8, 0.0, 0.0, 300.0)
+    deps, sy, _ = radial_return(P.IDEAL_PLASTIC, mp, 0, G, 9e8, 0.0, 0.0, 3e8, 1.0)
     assert sy == 3e8 and deps == pytest.approx(6e8 / (3 * G))
 
 

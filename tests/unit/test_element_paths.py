@@ -25,13 +25,13 @@ COPPER = material(name="cu", density=8930.0, shear_modulus=46e9, bulk_modulus=13
 
 @numba.njit
 def _scalar_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
-                   floor, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp, dt,
+                   hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp, dt,
                    cq, cl, elem_force):
     """Every element through E._element_scalar; returns (min dt, its element, q work, inverted)."""
     dt_min, worst, qwork, inverted = np.inf, -1, 0.0, 0
     for e in range(conn.shape[0]):
         dte, qw, inv = E._element_scalar(e, x, v, conn, elem_mat, status, sdev, pressure, q,
-                                         eps_p, eps_rate, temperature, floor, energy, vol,
+                                         eps_p, eps_rate, temperature, hard, thermal, energy, vol,
                                          vol_eos, vol0, elem_mass, mat_params, jnode, use_anp,
                                          0.5 * dt, dt, cq, cl, elem_force)
         qwork += qw
@@ -71,7 +71,6 @@ def _mixed_model(seed=3):
 def test_vector_and_scalar_paths_agree(element):
     model = _mixed_model()
     sim = Simulation(model, [], element=element)  # one update at dt = 0
-    sim.yield_floor[::3] = 0.0  # some floors not yet known, the rest as the kernel left them
     dt = 2e-9
     from impactsim.solver.nodal import move
     move(model.x, model.v, dt)
@@ -83,13 +82,14 @@ def test_vector_and_scalar_paths_agree(element):
     names = ["sdev", "pressure", "q", "eps_p", "eps_rate", "temperature", "energy", "vol"]
     ep0 = model.eps_p.copy()
     ref = {k: getattr(model, k).copy() for k in names}
-    ref["floor"] = sim.yield_floor.copy()
+    ref["hard"], ref["thermal"] = sim.hardening.copy(), sim.thermal.copy()
     ref["vol_eos"] = sim.vol_eos.copy() if sim.use_anp else ref["vol"]
     ref["force"] = np.zeros_like(sim.elem_force)
     m = model
     dt_min, worst, qwork, inverted = _scalar_update(
         m.x, m.v, m.conn, m.elem_mat, m.status, ref["sdev"], ref["pressure"], ref["q"],
-        ref["eps_p"], ref["eps_rate"], ref["temperature"], ref["floor"], ref["energy"],
+        ref["eps_p"], ref["eps_rate"], ref["temperature"], ref["hard"], ref["thermal"],
+        ref["energy"],
         ref["vol"], ref["vol_eos"], m.vol0, m.elem_mass, m.mat_params, sim.jnode, sim.use_anp,
         dt, sim.cq, sim.cl, ref["force"])
     sim._update_elements(dt)
@@ -99,7 +99,8 @@ def test_vector_and_scalar_paths_agree(element):
     for k in names:
         a, b = getattr(m, k), ref[k]
         np.testing.assert_allclose(a, b, rtol=0, atol=1e-12 * np.abs(b).max(), err_msg=k)
-    np.testing.assert_allclose(sim.yield_floor, ref["floor"], rtol=1e-14)
+    np.testing.assert_allclose(sim.hardening, ref["hard"], rtol=1e-14)
+    np.testing.assert_allclose(sim.thermal, ref["thermal"], rtol=1e-14)
     np.testing.assert_allclose(sim.elem_force, ref["force"], rtol=0,
                                atol=1e-12 * np.abs(ref["force"]).max())
     assert sim.dt_stable == pytest.approx(dt_min, rel=1e-13)
@@ -109,25 +110,27 @@ def test_vector_and_scalar_paths_agree(element):
     assert out[:, E.OUT_QWORK].sum() == pytest.approx(qwork, rel=1e-12)
 
 
-def test_yield_floor_cache_is_a_current_lower_bound():
-    """After updates the cached floor of every Johnson-Cook element that has one equals
-    laws.yield_floor at its current plastic strain and temperature, and no strain rate gives a
-    lower yield stress: the cache never goes stale and never skips a return that was due."""
-    from impactsim.materials.laws import flow_stress, yield_floor
+def test_yield_caches_stay_current():
+    """After plastic steps the kernel's cached hardening term and thermal factor of every element
+    equal laws.hardening and laws.thermal_factor at its current plastic strain and temperature
+    (the caches never go stale, so the skip below them never misses a return that was due),
+    and their product is a lower bound of the yield stress at any rate."""
+    from impactsim.materials.laws import flow_stress, hardening, thermal_factor
 
     model = _mixed_model(seed=5)
+    ep0 = model.eps_p.copy()
     sim = Simulation(model, [])
     for _ in range(3):
         sim._update_elements(2e-9)
     mp = model.mat_params
-    cu = np.nonzero((model.elem_mat == 0) & (model.status == 0))[0]
-    known = cu[sim.yield_floor[cu] > 0]
-    assert len(known) > len(cu) // 2
-    for e in known:
-        floor = sim.yield_floor[e]
+    cu = np.nonzero(model.elem_mat == 0)[0]
+    assert (model.eps_p[cu] > ep0[cu]).sum() > 20
+    for e in cu:
         ep, temp = model.eps_p[e], model.temperature[e]
-        assert floor == pytest.approx(yield_floor.py_func(P.JOHNSON_COOK, mp, 0, ep, temp),
-                                      rel=1e-14)
+        hard = hardening.py_func(P.JOHNSON_COOK, mp, 0, ep)
+        thermal = thermal_factor.py_func(P.JOHNSON_COOK, mp, 0, temp)
+        assert sim.hardening[e] == pytest.approx(hard, rel=1e-14)
+        assert sim.thermal[e] == pytest.approx(thermal, rel=1e-14)
         for rate in (0.0, 1.0, 1e3, 1e6):
             sy, _ = flow_stress.py_func(P.JOHNSON_COOK, mp, 0, ep, rate, temp)
-            assert floor <= sy * (1 + 1e-14)
+            assert hard * thermal <= sy * (1 + 1e-14)
