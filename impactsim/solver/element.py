@@ -94,6 +94,10 @@ R_ARG = 91  # argument of ln
 R_LN = 92  # ln, then the exponent of exp
 R_POW = 93  # the power
 ROWS = 94
+# Newton iterations of the vector return; a lane not converged by then (a few per thousand
+# yielding elements) is redone by the scalar return, so that one slow lane does not make the
+# whole block iterate
+VECTOR_ITERATIONS = 5
 
 
 def n_chunks(n_elem: int) -> int:
@@ -644,14 +648,14 @@ def _jc_return_block(buf, ibuf, kbuf, mat_params, mk, shear, eps_p, temperature,
     _rate_arg(buf, inv_rate0)
     vlog(buf, ibuf, R_ARG, R_LN, kbuf)
     _jc_start(buf, a0, b0, n, mat_params[mk, P.JC_C], inv_rate0, g3)
-    for _ in range(30):
+    for _ in range(VECTOR_ITERATIONS):
         vlog(buf, ibuf, R_ARG, R_LN, kbuf)
         _scale_ln(buf, n)
         vexp(buf, R_LN, R_POW)
         if _jc_newton(buf, a0, b0, n, g3) == 0:
             break
     for i in range(B):
-        if buf[R_DONE * B + i] != 1.0:  # stalled or out of iterations: the scalar return
+        if buf[R_DONE * B + i] != 1.0:  # stalled or slow: the scalar return from the start
             deps, sy, hnew = radial_return(P.JOHNSON_COOK, mat_params, mk, shear,
                                            buf[R_SEQ * B + i], buf[R_EP * B + i],
                                            buf[R_RATE * B + i], buf[R_HARD * B + i],
