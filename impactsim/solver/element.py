@@ -518,7 +518,7 @@ def _return_block(buf, code, mat_params, mk, shear, eps_p, temperature, hard, th
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
-def _jc_start(buf, a0, b0, n, c, inv_rate0, g3):
+def _jc_start(buf, a0, n, c, g3):
     """Rate factor from ln(max(rate/rate0, 1)) in R_LN; the trial check at the step's rate and the
     Newton start of `laws.radial_return` (linearised return, bracket [0, (seq - sy)/3G])."""
     for i in range(B):
@@ -645,10 +645,9 @@ def _jc_return_block(buf, ibuf, kbuf, mat_params, mk, shear, eps_p, temperature,
         buf[R_THERM * B + i] = thermal[e0 + i]
     a0, b0, n = mat_params[mk, P.JC_A], mat_params[mk, P.JC_B], mat_params[mk, P.JC_N]
     g3 = 3.0 * shear
-    inv_rate0 = 1.0 / mat_params[mk, P.EPSDOT0]
-    _rate_arg(buf, inv_rate0)
+    _rate_arg(buf, 1.0 / mat_params[mk, P.EPSDOT0])
     vlog(buf, ibuf, R_ARG, R_LN, kbuf)
-    _jc_start(buf, a0, b0, n, mat_params[mk, P.JC_C], inv_rate0, g3)
+    _jc_start(buf, a0, n, mat_params[mk, P.JC_C], g3)
     for _ in range(VECTOR_ITERATIONS):
         vlog(buf, ibuf, R_ARG, R_LN, kbuf)
         _scale_ln(buf, n)
