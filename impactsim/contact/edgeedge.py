@@ -30,6 +30,10 @@ for an overlap (g < 0) -restore * g / tau (restore = 1: undone in one step; a co
 impulse, never a pull).
 Parallel edges (|(b-a) x (f-e)| <= 1e-6 |b-a| |f-e|) have no crossing point; they are skipped
 (the node-face pass covers them).
+
+A corrected pair keeps alpha, beta, n and its gap term as a constraint row with its accumulated
+impulse, as in the node-face pass: later sweeps push it through that row
+(``edge_edge_relax``), the projected rounds of ``impactsim.contact.rows`` may take impulse back.
 """
 
 from __future__ import annotations
@@ -38,11 +42,15 @@ import math
 
 import numba
 
+import numpy as np
+
 from impactsim.contact.cubic import cubic_coefficients, cubic_roots_in
 
 PARALLEL_SIN = 1e-6  # edges closer to parallel than this (sine of the angle) are skipped
 SEGMENT_EPS = 1e-9  # tolerance of 0 <= alpha, beta <= 1
 NU_RELIABLE = 0.2  # nu orients n only when |n . nu| >= this * |nu|
+GEO_COLS = 7  # a constraint row: lam, alpha, beta, nx, ny, nz, gap / tau
+VEL_TOL = 1e-12  # a row is satisfied when its velocity error is below this share of the speeds
 
 
 @numba.njit(cache=True)
@@ -64,8 +72,44 @@ def line_parameters(ax, ay, az, d1x, d1y, d1z, ex, ey, ez, d2x, d2y, d2z):
 
 
 @numba.njit(cache=True)
+def _apply(J, mu, S, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass):
+    """The corrections of [D19 eq. 12] for the normal impulse J = tau N_c > 0 (m_b in the last
+    one, ALGORITHMS.md 3.2 [note]), then optional Coulomb friction. S: the sum of the weighted
+    inverse masses of [D19 eq. 11]."""
+    ma = mass[ia]
+    mb = mass[ib]
+    me = mass[ie]
+    mf = mass[jf]
+    # [D19 eq. 12], m_b in the last correction (ALGORITHMS.md 3.2 [note])
+    for d in range(3):
+        nd = nx if d == 0 else (ny if d == 1 else nz)
+        v[ie, d] += (1.0 - be) * J / me * nd
+        v[jf, d] += be * J / mf * nd
+        v[ia, d] -= (1.0 - al) * J / ma * nd
+        v[ib, d] -= al * J / mb * nd
+    if mu > 0.0:
+        # Coulomb friction: relative tangential velocity of body 1's point d over body 2's c
+        vx = ((1.0 - al) * v[ia, 0] + al * v[ib, 0]) - ((1.0 - be) * v[ie, 0] + be * v[jf, 0])
+        vy = ((1.0 - al) * v[ia, 1] + al * v[ib, 1]) - ((1.0 - be) * v[ie, 1] + be * v[jf, 1])
+        vz = ((1.0 - al) * v[ia, 2] + al * v[ib, 2]) - ((1.0 - be) * v[ie, 2] + be * v[jf, 2])
+        vn = vx * nx + vy * ny + vz * nz
+        vx -= vn * nx
+        vy -= vn * ny
+        vz -= vn * nz
+        vt = math.sqrt(vx * vx + vy * vy + vz * vz)
+        if vt > 0.0:
+            Jt = min(vt / S, mu * J)
+            for d in range(3):
+                td = (vx if d == 0 else (vy if d == 1 else vz)) / vt
+                v[ie, d] += (1.0 - be) * Jt / me * td
+                v[jf, d] += be * Jt / mf * td
+                v[ia, d] -= (1.0 - al) * Jt / ma * td
+                v[ib, d] -= al * Jt / mb * td
+
+
+@numba.njit(cache=True)
 def _edge_edge_at(t, force_nu, band, restore, ia, ib, ie, jf, x, v, mass, tau, mu, nu_x, nu_y,
-                  nu_z):
+                  nu_z, geo, k):
     """Crossing of edges [ia, ib] (body 1) and [ie, jf] (body 2) at time t (ALGORITHMS.md 3.2).
 
     n is oriented by the material points d, c at t = 0 (d -> c), unless ``force_nu`` (edges
@@ -73,7 +117,8 @@ def _edge_edge_at(t, force_nu, band, restore, ia, ib, ie, jf, x, v, mass, tau, m
     (outward normals), if nu is not nearly perpendicular to n. Touching edges (``force_nu``) keep
     their gap g = (c - d) . n (or undo ``restore`` of an overlap) by the end of the step: N_c
     uses the approach speed minus g / tau (restore * g / tau for g < 0). Returns -1 when not a
-    valid crossing, 0 when valid but needing no impulse, else tau N_c [N s]."""
+    valid crossing, 0 when valid but needing no impulse, else tau N_c [N s], and then row k of
+    ``geo`` holds the constraint (``edge_edge_relax``)."""
     ax = x[ia, 0] + t * v[ia, 0]
     ay = x[ia, 1] + t * v[ia, 1]
     az = x[ia, 2] + t * v[ia, 2]
@@ -138,42 +183,33 @@ def _edge_edge_at(t, force_nu, band, restore, ia, ib, ie, jf, x, v, mass, tau, m
     if not Nc > 0.0:
         return 0.0
     J = tau * Nc
-    # [D19 eq. 12], m_b in the last correction (ALGORITHMS.md 3.2 [note])
-    for d in range(3):
-        nd = nx if d == 0 else (ny if d == 1 else nz)
-        v[ie, d] += (1.0 - be) * J / me * nd
-        v[jf, d] += be * J / mf * nd
-        v[ia, d] -= (1.0 - al) * J / ma * nd
-        v[ib, d] -= al * J / mb * nd
-    if mu > 0.0:
-        # Coulomb friction: relative tangential velocity of body 1's point d over body 2's c
-        vx = ((1.0 - al) * v[ia, 0] + al * v[ib, 0]) - ((1.0 - be) * v[ie, 0] + be * v[jf, 0])
-        vy = ((1.0 - al) * v[ia, 1] + al * v[ib, 1]) - ((1.0 - be) * v[ie, 1] + be * v[jf, 1])
-        vz = ((1.0 - al) * v[ia, 2] + al * v[ib, 2]) - ((1.0 - be) * v[ie, 2] + be * v[jf, 2])
-        vn = vx * nx + vy * ny + vz * nz
-        vx -= vn * nx
-        vy -= vn * ny
-        vz -= vn * nz
-        vt = math.sqrt(vx * vx + vy * vy + vz * vz)
-        if vt > 0.0:
-            Jt = min(vt / S, mu * J)
-            for d in range(3):
-                td = (vx if d == 0 else (vy if d == 1 else vz)) / vt
-                v[ie, d] += (1.0 - be) * Jt / me * td
-                v[jf, d] += be * Jt / mf * td
-                v[ia, d] -= (1.0 - al) * Jt / ma * td
-                v[ib, d] -= al * Jt / mb * td
+    _apply(J, mu, S, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass)
+    geo[k, 0] = J
+    geo[k, 1] = al
+    geo[k, 2] = be
+    geo[k, 3] = nx
+    geo[k, 4] = ny
+    geo[k, 5] = nz
+    geo[k, 6] = gap / tau
     return J
 
 
 @numba.njit(cache=True)
 def edge_edge_correct(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, nu_y, nu_z):
+    """One edge-edge pair, see ``edge_edge_detect`` (the constraint row is not kept)."""
+    return edge_edge_detect(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, nu_y,
+                            nu_z, np.empty((1, GEO_COLS)), 0)
+
+
+@numba.njit(cache=True)
+def edge_edge_detect(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, nu_y, nu_z, geo,
+                     k):
     """One edge-edge pair (ALGORITHMS.md 3.2): the cubic, root selection in [0, tau], segment
     test, alpha, beta, the normal, N_c [D19 eq. 11] and the corrections [D19 eq. 12]. Corrects v
     in place; returns the normal impulse tau N_c [N s] (0 when nothing was done).
     (nu_x, nu_y, nu_z) = nu_1 - nu_2, the difference of the bodies' outward normals at the two
     edges, orients n only for touching edges (``band``, ``restore``: see the module
-    docstring)."""
+    docstring). An applied impulse leaves its constraint row in row k of ``geo (*, GEO_COLS)``."""
     ax = x[ia, 0]
     ay = x[ia, 1]
     az = x[ia, 2]
@@ -193,7 +229,7 @@ def edge_edge_correct(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, 
             gz = x[ie, 2] + be * d2z - az - al * d1z
             if gx * gx + gy * gy + gz * gz <= band * band:
                 J = _edge_edge_at(0.0, True, band, restore, ia, ib, ie, jf, x, v, mass, tau, mu,
-                                  nu_x, nu_y, nu_z)
+                                  nu_x, nu_y, nu_z, geo, k)
                 if J > 0.0:
                     return J
     a, b, c, d = cubic_coefficients(
@@ -204,13 +240,44 @@ def edge_edge_correct(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, 
         v[ie, 0] - v[ia, 0], v[ie, 1] - v[ia, 1], v[ie, 2] - v[ia, 2],
         v[jf, 0] - v[ia, 0], v[jf, 1] - v[ia, 1], v[jf, 2] - v[ia, 2])
     n, r0, r1, r2 = cubic_roots_in(a, b, c, d, tau)
-    for k in range(n):
-        t = r0 if k == 0 else (r1 if k == 1 else r2)
+    for i in range(n):
+        t = r0 if i == 0 else (r1 if i == 1 else r2)
         J = _edge_edge_at(t, False, band, restore, ia, ib, ie, jf, x, v, mass, tau, mu, nu_x,
-                          nu_y, nu_z)
+                          nu_y, nu_z, geo, k)
         if J > 0.0:
             return J
     return 0.0
+
+
+@numba.njit(cache=True)
+def edge_edge_relax(ia, ib, ie, jf, v, mass, mu, geo, k, slack):
+    """A later visit of an edge pair that got an impulse earlier in the step (row k of ``geo``):
+    with its stored alpha, beta, n and gap term, the push tau N_c of [D19 eq. 11, 12] (with
+    friction), added to the row's impulse, when the approach exceeds its target by more than
+    ``slack`` [m/s]. Never a release (that is ``impactsim.contact.rows``). Returns the impulse
+    [N s] (0 when nothing was done)."""
+    lam = geo[k, 0]
+    al = geo[k, 1]
+    be = geo[k, 2]
+    nx = geo[k, 3]
+    ny = geo[k, 4]
+    nz = geo[k, 5]
+    gt = geo[k, 6]
+    una = v[ia, 0] * nx + v[ia, 1] * ny + v[ia, 2] * nz
+    unb = v[ib, 0] * nx + v[ib, 1] * ny + v[ib, 2] * nz
+    une = v[ie, 0] * nx + v[ie, 1] * ny + v[ie, 2] * nz
+    unf = v[jf, 0] * nx + v[jf, 1] * ny + v[jf, 2] * nz
+    err = (1.0 - al) * una + al * unb - (1.0 - be) * une - be * unf - gt
+    scale = ((1.0 - al) * abs(una) + al * abs(unb) + (1.0 - be) * abs(une) + be * abs(unf)
+             + abs(gt))
+    if not (err > slack and err > VEL_TOL * scale):
+        return 0.0
+    S = ((1.0 - be) ** 2 / mass[ie] + be * be / mass[jf] + (1.0 - al) ** 2 / mass[ia]
+         + al * al / mass[ib])
+    J = err / S
+    _apply(J, mu, S, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass)
+    geo[k, 0] = lam + J
+    return J
 
 
 @numba.njit(cache=True)
@@ -247,14 +314,16 @@ def edge_normals(x, faces, face_edges, out):
 
 @numba.njit(cache=True)
 def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band, restore, active, stamp,
-                    sweep, since):
+                    sweep, since, geo, slack):
     """Gauss-Seidel sweep over candidate edge pairs (ALGORITHMS.md 3.2): sequentially, in the
     given (sorted) order, each pair seeing the velocities already corrected. ``pairs (k, 2)``
     rows of indices into ``edges`` (body 1 edge, body 2 edge); ``normals (g, 3)`` from
-    ``edge_normals``; ``active (k,)`` uint8 set to 1 for every pair that got an impulse;
+    ``edge_normals``; ``active (k,)`` uint8 set to 1 for every pair that got an impulse, whose
+    constraint row is then row k of ``geo (k, GEO_COLS)``: later visits in the same step update
+    that row (``edge_edge_relax``, projected Gauss-Seidel) instead of testing the crossing again.
     ``stamp``, ``sweep``, ``since``: the skipping of unchanged pairs in repeated sweeps, as in
-    ``nodeface.node_face_sweep``. Returns (pairs corrected in this sweep, sum of normal impulses
-    [N s], largest velocity change of a corrected node [m/s])."""
+    ``nodeface.node_face_sweep``. Returns (pairs corrected in this sweep, sum of the normal
+    impulse changes [N s], largest velocity change of a corrected node [m/s])."""
     applied = 0
     total = 0.0
     jump = 0.0
@@ -267,18 +336,25 @@ def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band, restore, a
         jf = edges[g2, 1]
         if max(max(stamp[ia], stamp[ib]), max(stamp[ie], stamp[jf])) < since:
             continue
-        J = edge_edge_correct(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore,
-                              normals[g1, 0] - normals[g2, 0], normals[g1, 1] - normals[g2, 1],
-                              normals[g1, 2] - normals[g2, 2])
-        if J > 0.0:
+        if active[k]:
+            J = edge_edge_relax(ia, ib, ie, jf, v, mass, mu, geo, k, slack)
+        else:
+            J = edge_edge_detect(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore,
+                                 normals[g1, 0] - normals[g2, 0],
+                                 normals[g1, 1] - normals[g2, 1],
+                                 normals[g1, 2] - normals[g2, 2], geo, k)
+            if J > 0.0:
+                active[k] = 1
+            else:
+                J = 0.0
+        if J != 0.0:
             applied += 1
             total += J
-            active[k] = 1
             stamp[ia] = sweep
             stamp[ib] = sweep
             stamp[ie] = sweep
             stamp[jf] = sweep
             for m in (mass[ia], mass[ib], mass[ie], mass[jf]):
-                if J / m > jump:
-                    jump = J / m
+                if abs(J) / m > jump:
+                    jump = abs(J) / m
     return applied, total, jump

@@ -25,6 +25,13 @@ counts as touching at t = 0; it is held with a relative normal velocity of at le
 restore * g / tau away from the face (restore = 1: back on the plane at the end of the step;
 still a compressive impulse, never a pull). Deeper nodes are left alone (the penetration
 diagnostic reports them).
+
+A pair that gets an impulse keeps it as a constraint row (``geo``: the accumulated impulse,
+weights, normal and target velocity of its crossing): later sweeps of the step push it again
+through that row when it approaches again (``node_face_relax``), and the projected rounds of
+``impactsim.contact.rows`` may take impulse back from it when corrections of other pairs have
+pushed it apart (departure from [D19], see ``impactsim.contact.passes`` and docs/physics.md,
+"Contact energy").
 """
 
 from __future__ import annotations
@@ -33,17 +40,23 @@ import math
 
 import numba
 
+import numpy as np
+
 from impactsim.contact.cubic import cubic_coefficients, cubic_roots_in
+
+GEO_COLS = 8  # a constraint row: lam, wa, wb, wc, nx, ny, nz, vmin
+VEL_TOL = 1e-12  # a row is satisfied when its velocity error is below this share of the speeds
 
 
 @numba.njit(cache=True)
-def _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary, vmin):
+def _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary, vmin, geo, k):
     """Contact of node p with face (ia, ib, ic) at time t of the step (ALGORITHMS.md 3.1).
 
     The node's normal velocity relative to the face point must be at least ``vmin`` (0 at a
     crossing: equal normal velocities). Returns -1 when the node is not inside the triangle at t
     (or the face is degenerate), 0 when it is inside but needs no impulse, else the normal
-    impulse J [N s] it applied to v."""
+    impulse J [N s] it applied to v, and then row k of ``geo`` holds the constraint (see
+    ``node_face_relax``)."""
     ax = x[ia, 0] + t * v[ia, 0]
     ay = x[ia, 1] + t * v[ia, 1]
     az = x[ia, 2] + t * v[ia, 2]
@@ -77,8 +90,20 @@ def _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary, vmin):
     wb /= ws
     wc /= ws
     inv = 1.0 / math.sqrt(nn)
-    return point_face_impulse(v, p, mass[p], v, mass, ia, ib, ic, wa, wb, wc, nx * inv,
-                              ny * inv, nz * inv, vmin, mu)
+    nx *= inv
+    ny *= inv
+    nz *= inv
+    J = point_face_impulse(v, p, mass[p], v, mass, ia, ib, ic, wa, wb, wc, nx, ny, nz, vmin, mu)
+    if J > 0.0:
+        geo[k, 0] = J
+        geo[k, 1] = wa
+        geo[k, 2] = wb
+        geo[k, 3] = wc
+        geo[k, 4] = nx
+        geo[k, 5] = ny
+        geo[k, 6] = nz
+        geo[k, 7] = vmin
+    return J
 
 
 @numba.njit(cache=True)
@@ -142,6 +167,14 @@ def node_face_correct(p, ia, ib, ic, x, v, mass, tau, mu, band, eps_bary, restor
     (0 when nothing was done). ``band`` [m]: a node at most this far behind the face's plane at
     t = 0 is treated as touching, and ``restore`` of its depth is undone in the step (see the
     module docstring)."""
+    return node_face_detect(p, ia, ib, ic, x, v, mass, tau, mu, band, eps_bary, restore,
+                            np.empty((1, GEO_COLS)), 0)
+
+
+@numba.njit(cache=True)
+def node_face_detect(p, ia, ib, ic, x, v, mass, tau, mu, band, eps_bary, restore, geo, k):
+    """``node_face_correct`` that also stores the constraint row of an applied impulse in row k
+    of ``geo (*, GEO_COLS)``: accumulated impulse, weights, unit normal, target velocity."""
     e1x = x[ib, 0] - x[ia, 0]
     e1y = x[ib, 1] - x[ia, 1]
     e1z = x[ib, 2] - x[ia, 2]
@@ -166,33 +199,68 @@ def node_face_correct(p, ia, ib, ic, x, v, mass, tau, mu, band, eps_bary, restor
     if dist0 < -band:
         return 0.0
     if dist0 < 0.0:
-        J = _node_face_at(0.0, p, ia, ib, ic, x, v, mass, mu, eps_bary, -restore * dist0 / tau)
+        J = _node_face_at(0.0, p, ia, ib, ic, x, v, mass, mu, eps_bary, -restore * dist0 / tau,
+                          geo, k)
         if J > 0.0:
             return J
     n, r0, r1, r2 = cubic_roots_in(a, b, c, d, tau)
-    for k in range(n):
-        t = r0 if k == 0 else (r1 if k == 1 else r2)
-        J = _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary, 0.0)
+    for i in range(n):
+        t = r0 if i == 0 else (r1 if i == 1 else r2)
+        J = _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary, 0.0, geo, k)
         if J > 0.0:
             return J
     return 0.0
 
 
 @numba.njit(cache=True)
+def node_face_relax(p, ia, ib, ic, v, mass, mu, geo, k, slack):
+    """A later visit of a pair that got an impulse earlier in the step (row k of ``geo``): with
+    its stored weights, normal and target vmin, the push that brings the node's relative normal
+    velocity u back to vmin through ``point_face_impulse`` (with friction), added to the row's
+    impulse, when u falls short of vmin by more than ``slack`` [m/s]. Never a release (that is
+    ``impactsim.contact.rows``). Returns the impulse [N s] (0 when nothing was done)."""
+    lam = geo[k, 0]
+    wa = geo[k, 1]
+    wb = geo[k, 2]
+    wc = geo[k, 3]
+    nx = geo[k, 4]
+    ny = geo[k, 5]
+    nz = geo[k, 6]
+    vmin = geo[k, 7]
+    up = v[p, 0] * nx + v[p, 1] * ny + v[p, 2] * nz
+    ua = v[ia, 0] * nx + v[ia, 1] * ny + v[ia, 2] * nz
+    ub = v[ib, 0] * nx + v[ib, 1] * ny + v[ib, 2] * nz
+    uc = v[ic, 0] * nx + v[ic, 1] * ny + v[ic, 2] * nz
+    err = vmin - (up - wa * ua - wb * ub - wc * uc)
+    if not (err > slack and err > VEL_TOL * (abs(up) + wa * abs(ua) + wb * abs(ub)
+                                             + wc * abs(uc) + abs(vmin))):
+        return 0.0
+    J = point_face_impulse(v, p, mass[p], v, mass, ia, ib, ic, wa, wb, wc, nx, ny, nz, vmin, mu)
+    if J > 0.0:
+        geo[k, 0] = lam + J
+        return J
+    return 0.0
+
+
+@numba.njit(cache=True)
 def node_face_sweep(pairs, nodes, faces, x, v, mass, tau, mu, band, eps_bary, restore, active,
-                    stamp, sweep, since):
+                    stamp, sweep, since, geo, slack):
     """Gauss-Seidel sweep over candidate pairs (ALGORITHMS.md 3.1 with the sequential rule of
     3.2): pair after pair in the given (sorted) order, each seeing the velocities corrected by the
     previous ones. ``pairs (k, 2)`` rows (index into nodes, index into faces); ``active (k,)``
-    uint8 is set to 1 for every pair that got an impulse.
+    uint8 is set to 1 for every pair that got an impulse, and then row k of ``geo (k, GEO_COLS)``
+    is its constraint row: later visits (of this sweep's repetitions in the same step) do not
+    test the crossing again but update the row (``node_face_relax``: projected Gauss-Seidel,
+    the accumulated impulse geo[k, 0] stays >= 0 but can shrink). The caller zeroes ``active``
+    at the start of each step.
 
     ``stamp (n_node,)`` int64 holds the number of the sweep that last changed each node's
     velocity (numbers only grow); corrected nodes get ``sweep``. Pairs none of whose nodes has a
     stamp >= ``since`` are skipped: a repeated sweep passes the previous sweep's number, and a
     pair whose nodes did not change since then would repeat its last answer (no impulse), so the
     result is the same as visiting it. The first sweep passes since = 0 and visits every pair.
-    Returns (pairs corrected in this sweep, sum of normal impulses [N s], largest velocity
-    change of a corrected node J / m_node [m/s])."""
+    Returns (pairs corrected in this sweep, sum of the normal impulse changes [N s], largest
+    velocity change of a corrected node |dJ| / m_node [m/s])."""
     applied = 0
     total = 0.0
     jump = 0.0
@@ -204,15 +272,22 @@ def node_face_sweep(pairs, nodes, faces, x, v, mass, tau, mu, band, eps_bary, re
         c = faces[f, 2]
         if max(max(stamp[p], stamp[a]), max(stamp[b], stamp[c])) < since:
             continue
-        J = node_face_correct(p, a, b, c, x, v, mass, tau, mu, band, eps_bary, restore)
-        if J > 0.0:
+        if active[k]:
+            J = node_face_relax(p, a, b, c, v, mass, mu, geo, k, slack)
+        else:
+            J = node_face_detect(p, a, b, c, x, v, mass, tau, mu, band, eps_bary, restore,
+                                 geo, k)
+            if J > 0.0:
+                active[k] = 1
+            else:
+                J = 0.0
+        if J != 0.0:
             applied += 1
             total += J
-            active[k] = 1
             stamp[p] = sweep
             stamp[a] = sweep
             stamp[b] = sweep
             stamp[c] = sweep
-            if J / mass[p] > jump:
-                jump = J / mass[p]
+            if abs(J) / mass[p] > jump:
+                jump = abs(J) / mass[p]
     return applied, total, jump

@@ -158,7 +158,7 @@ def test_sweep_is_gauss_seidel_and_bit_identical():
         active = np.zeros(2, np.uint8)
         stamp = np.zeros(6, np.int64)
         out.append((edge_edge_sweep(pairs, edges, normals, x, vv, m, TAU, 0.0, 0.0, 1.0, active,
-                                    stamp, 1, 0), vv))
+                                    stamp, 1, 0, np.zeros((2, 7)), 0.0), vv))
     assert out[0][0] == out[1][0] and np.array_equal(out[0][1], out[1][1])
     applied, total, jump = out[0][0]
     assert applied == 2  # the second pair sees the first correction, and still approaches
@@ -169,7 +169,7 @@ def test_sweep_is_gauss_seidel_and_bit_identical():
     for k in range(2):
         vk = v.copy()
         edge_edge_sweep(pairs[k:k + 1], edges, normals, x, vk, m, TAU, 0.0, 0.0, 1.0,
-                        np.zeros(1, np.uint8), np.zeros(6, np.int64), 1, 0)
+                        np.zeros(1, np.uint8), np.zeros(6, np.int64), 1, 0, np.zeros((1, 7)), 0.0)
         vj += vk - v
     assert not np.allclose(vj, out[0][1])
 
