@@ -18,10 +18,12 @@ their pairs) and sets each to its target, u = t, with lam >= 0: an impulse may b
 to 0 (never a pull). Two rows that hold nearly the same nodes apart along nearly the same
 direction (the mirror rows of the symmetric node-face pass at two coincident vertices; a
 node-face row and an edge-edge row at a vertex) undo each other's updates, and scalar rounds
-reduce their error only by a factor rho^2 per round, rho their normalised coupling; such rows (mutual
-strongest partners with rho > RHO_BLOCK) are solved together, exactly, as a 2 x 2
-complementarity problem (``_block``). Rounds are frictionless; with friction the passes do not
-call them (``passes`` module docstring).
+reduce their error only by a factor rho^2 per round, rho their normalised coupling; such rows
+(mutual strongest partners with rho > RHO_BLOCK) are solved together, exactly, as a 2 x 2
+complementarity problem (``_block``). Only helping couplings pair up (pushing one row opens the
+other): two rows with opposite demands (a node of each body on the other's coplanar side face)
+would get a pair of huge, cancelling impulses. Rounds are frictionless; with friction the
+passes do not call them (``passes`` module docstring).
 """
 
 from __future__ import annotations
