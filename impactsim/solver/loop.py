@@ -63,21 +63,29 @@ class Simulation:
         for p in passes:
             self.timings[p.name] = 0.0
         self.dt = 0.0  # the last step taken [s]
+        self.dt_free = 0.0  # the last step not shortened to meet a time limit [s]
         self.dt_stable = math.inf  # min stable element step at the current state [s]
         self.dt_first = None
         self.worst_element = -1
         self._update_elements(0.0)  # forces and stable step of the initial state
 
     def next_dt(self, limit: float = math.inf) -> float:
+        """The next step: C_cfl times the stable step, at most DT_GROWTH times the last step that
+        was not shortened to meet a limit (a frame time), and not beyond `limit`. When the limit
+        is between one and two steps away it is reached in two equal steps, so that no sliver
+        step is left before it."""
         dt = self.cfl * self.dt_stable
-        if self.dt > 0.0:
-            dt = min(dt, DT_GROWTH * self.dt)
+        if self.dt_free > 0.0:
+            dt = min(dt, DT_GROWTH * self.dt_free)
+        if dt < limit < 2.0 * dt:
+            return 0.5 * limit
         return min(dt, limit)
 
     def step(self, limit: float = math.inf) -> float:
         """Advance one step, not beyond `limit` seconds; returns the step taken [s]."""
         m = self.model
         dt = self.next_dt(limit)
+        free = self.next_dt()  # the step without the limit
         if not (dt > 0.0 and math.isfinite(dt)):
             raise SimulationStopped(f"non-finite or zero time step ({dt!r}) at t = {m.time:.6g} s")
         if self.dt_first is None:
@@ -113,6 +121,8 @@ class Simulation:
             self.timings[p.name] += t2 - t1
             t1 = t2
         self.dt = dt
+        if dt >= free:
+            self.dt_free = dt
         m.time += dt
         m.step += 1
         return dt
