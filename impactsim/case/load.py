@@ -179,6 +179,7 @@ def _output(r: Reader, run: Run) -> Output:
         times=times,
         history_every=int(positive(r.get("history_every"), r.at("history_every"))),
         fields=fields,
+        compression=r.get("compression"),
     )
 
 

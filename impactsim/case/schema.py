@@ -139,6 +139,7 @@ class Output:
     times: list[float] | None = None  # [s] explicit frame times
     history_every: int = 1  # write a history row every N steps
     fields: list[str] | None = None  # None = all fields
+    compression: str = "zlib"  # VTU data blocks: "zlib" or "none"
 
 
 @dataclass

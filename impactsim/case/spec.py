@@ -309,6 +309,9 @@ OUTPUT = Table("output", "What is written, and where.", (
     Key("history_every", "int", "Write a history.csv row every N steps (>= 1).",
         _d(schema.Output, "history_every")),
     Key("fields", "string-list", "Fields written to the frames.", None, default_doc="all"),
+    Key("compression", "choice", "Compression of the frames' data: zlib (measured on a "
+        "sphere-plate frame of 164k tets: 19 MB, 1.1 s to write) or none (34 MB, 0.2 s).",
+        _d(schema.Output, "compression"), choices=("zlib", "none")),
 ))
 
 CONTACT = Table("contact", "Contact between bodies. Contact passes run only with two or more "

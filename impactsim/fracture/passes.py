@@ -51,6 +51,7 @@ class FractureState:
     def __init__(self, case, model):
         self.boundary = Boundary.from_model(model)
         self.surface_only = case.fracture.erosion_region != "anywhere"
+        self.compression = case.output.compression  # of the particles' frames
         self.n_per = int(case.fracture.particles_per_element)
         self.collisions = bool(case.fracture.particle_collisions)
         self.particles = Particles()
@@ -237,7 +238,8 @@ class ParticlePass(Pass):
         from impactsim.output.series import SeriesWriter
 
         if getattr(self, "_series", None) is None or self._series_dir != out_dir:
-            self._series = SeriesWriter(out_dir, prefix="particles", pvd_name="particles.pvd")
+            self._series = SeriesWriter(out_dir, prefix="particles", pvd_name="particles.pvd",
+                                        compression=self.s.compression)
             self._series_dir = out_dir
         pa = self.s.particles
         n = pa.n

@@ -121,7 +121,7 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
                      dt_collapse=case.run.dt_collapse)
     timings["setup"] = wallclock.perf_counter() - start - timings["meshing"]
 
-    series = SeriesWriter(out)
+    series = SeriesWriter(out, compression=case.output.compression)
     fields = case.output.fields
     columns = CORE_COLUMNS + [k for p in passes for k in p.history(model)]
     history = HistoryWriter(out / "history.csv", list(dict.fromkeys(columns)))

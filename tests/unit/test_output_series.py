@@ -26,12 +26,15 @@ def _frame_data(rng):
     return point_data, cell_data
 
 
-def test_vtu_round_trip(tmp_path):
+@pytest.mark.parametrize("compression", ["zlib", "none"])
+def test_vtu_round_trip(tmp_path, compression):
     rng = np.random.default_rng(1)
     point_data, cell_data = _frame_data(rng)
-    path = SeriesWriter(tmp_path).write(0.0, POINTS, TETS, point_data, cell_data)
+    path = SeriesWriter(tmp_path, compression=compression).write(0.0, POINTS, TETS, point_data,
+                                                                 cell_data)
     assert path == tmp_path / "frame_00000.vtu"
-    assert b'compressor="vtkZLibDataCompressor"' in path.read_bytes()[:400]
+    zlib = b'compressor="vtkZLibDataCompressor"' in path.read_bytes()[:400]
+    assert zlib == (compression == "zlib")
 
     mesh = meshio.read(path)
     np.testing.assert_array_equal(mesh.points, POINTS)
@@ -118,3 +121,8 @@ def test_shape_errors_name_the_field(tmp_path):
     with pytest.raises(ValueError, match="keep"):
         writer.write(0.0, POINTS, TETS, keep=np.ones(3, dtype=int))
     assert writer.frames == [] and not (tmp_path / "series.pvd").exists()
+
+
+def test_unknown_compression_is_refused(tmp_path):
+    with pytest.raises(ValueError, match="compression"):
+        SeriesWriter(tmp_path, compression="gzip")
