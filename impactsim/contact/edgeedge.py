@@ -45,6 +45,7 @@ import numba
 import numpy as np
 
 from impactsim.contact.cubic import cubic_coefficients, cubic_roots_in
+from impactsim.contact.nodeface import NO_LOCK
 
 PARALLEL_SIN = 1e-6  # edges closer to parallel than this (sine of the angle) are skipped
 SEGMENT_EPS = 1e-9  # tolerance of 0 <= alpha, beta <= 1
@@ -108,8 +109,62 @@ def _apply(J, mu, S, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass):
 
 
 @numba.njit(cache=True)
+def _locked_sum(al, be, nx, ny, nz, ia, ib, ie, jf, mass, lock):
+    """The sum of the weighted inverse masses of [D19 eq. 11] with prescribed velocity
+    components (``lock``, see ``nodeface.locked_point_face_impulse``): each node's 1/m_k
+    along direction n counts only its free axes, s_k / m_k with s_k = sum_d lock_k,d n_d^2."""
+    qx = nx * nx
+    qy = ny * ny
+    qz = nz * nz
+    return ((1.0 - be) ** 2 * (lock[ie, 0] * qx + lock[ie, 1] * qy + lock[ie, 2] * qz) / mass[ie]
+            + be * be * (lock[jf, 0] * qx + lock[jf, 1] * qy + lock[jf, 2] * qz) / mass[jf]
+            + (1.0 - al) ** 2 * (lock[ia, 0] * qx + lock[ia, 1] * qy + lock[ia, 2] * qz)
+            / mass[ia]
+            + al * al * (lock[ib, 0] * qx + lock[ib, 1] * qy + lock[ib, 2] * qz) / mass[ib])
+
+
+@numba.njit(cache=True)
+def _apply_locked(J, mu, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass, lock):
+    """``_apply`` with prescribed velocity components: each node's velocity changes only along
+    its free axes (the constraint takes the rest of the impulse); friction with the effective
+    mass along the sliding direction (``_locked_sum``)."""
+    ma = mass[ia]
+    mb = mass[ib]
+    me = mass[ie]
+    mf = mass[jf]
+    for d in range(3):
+        nd = nx if d == 0 else (ny if d == 1 else nz)
+        v[ie, d] += (1.0 - be) * J / me * nd * lock[ie, d]
+        v[jf, d] += be * J / mf * nd * lock[jf, d]
+        v[ia, d] -= (1.0 - al) * J / ma * nd * lock[ia, d]
+        v[ib, d] -= al * J / mb * nd * lock[ib, d]
+    if mu > 0.0:
+        vx = ((1.0 - al) * v[ia, 0] + al * v[ib, 0]) - ((1.0 - be) * v[ie, 0] + be * v[jf, 0])
+        vy = ((1.0 - al) * v[ia, 1] + al * v[ib, 1]) - ((1.0 - be) * v[ie, 1] + be * v[jf, 1])
+        vz = ((1.0 - al) * v[ia, 2] + al * v[ib, 2]) - ((1.0 - be) * v[ie, 2] + be * v[jf, 2])
+        vn = vx * nx + vy * ny + vz * nz
+        vx -= vn * nx
+        vy -= vn * ny
+        vz -= vn * nz
+        vt = math.sqrt(vx * vx + vy * vy + vz * vz)
+        if vt > 0.0:
+            tx = vx / vt
+            ty = vy / vt
+            tz = vz / vt
+            St = _locked_sum(al, be, tx, ty, tz, ia, ib, ie, jf, mass, lock)
+            if St > 0.0:
+                Jt = min(vt / St, mu * J)
+                for d in range(3):
+                    td = tx if d == 0 else (ty if d == 1 else tz)
+                    v[ie, d] += (1.0 - be) * Jt / me * td * lock[ie, d]
+                    v[jf, d] += be * Jt / mf * td * lock[jf, d]
+                    v[ia, d] -= (1.0 - al) * Jt / ma * td * lock[ia, d]
+                    v[ib, d] -= al * Jt / mb * td * lock[ib, d]
+
+
+@numba.njit(cache=True)
 def _edge_edge_at(t, force_nu, band, restore, ia, ib, ie, jf, x, v, mass, tau, mu, nu_x, nu_y,
-                  nu_z, geo, k):
+                  nu_z, geo, k, lock):
     """Crossing of edges [ia, ib] (body 1) and [ie, jf] (body 2) at time t (ALGORITHMS.md 3.2).
 
     n is oriented by the material points d, c at t = 0 (d -> c), unless ``force_nu`` (edges
@@ -177,13 +232,21 @@ def _edge_edge_at(t, force_nu, band, restore, ia, ib, ie, jf, x, v, mass, tau, m
     mf = mass[jf]
     if not (ma > 0.0 and mb > 0.0 and me > 0.0 and mf > 0.0):
         return -1.0  # a massless node (orphaned by erosion) takes no impulse
-    S = ((1.0 - be) ** 2 / me + be * be / mf + (1.0 - al) ** 2 / ma + al * al / mb)
+    if lock.shape[0] == 0:
+        S = ((1.0 - be) ** 2 / me + be * be / mf + (1.0 - al) ** 2 / ma + al * al / mb)
+    else:
+        S = _locked_sum(al, be, nx, ny, nz, ia, ib, ie, jf, mass, lock)
+        if not S > 0.0:
+            return 0.0  # every node is held along n: the constraints take it all
     # [D19 eq. 11] (with the gap term for touching edges, see the docstring)
     Nc = ((1.0 - al) * una + al * unb - (1.0 - be) * une - be * unf - gap / tau) / (tau * S)
     if not Nc > 0.0:
         return 0.0
     J = tau * Nc
-    _apply(J, mu, S, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass)
+    if lock.shape[0] == 0:
+        _apply(J, mu, S, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass)
+    else:
+        _apply_locked(J, mu, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass, lock)
     geo[k, 0] = J
     geo[k, 1] = al
     geo[k, 2] = be
@@ -195,21 +258,24 @@ def _edge_edge_at(t, force_nu, band, restore, ia, ib, ie, jf, x, v, mass, tau, m
 
 
 @numba.njit(cache=True)
-def edge_edge_correct(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, nu_y, nu_z):
+def edge_edge_correct(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, nu_y, nu_z,
+                      lock=NO_LOCK):
     """One edge-edge pair, see ``edge_edge_detect`` (the constraint row is not kept)."""
     return edge_edge_detect(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, nu_y,
-                            nu_z, np.empty((1, GEO_COLS)), 0)
+                            nu_z, np.empty((1, GEO_COLS)), 0, lock)
 
 
 @numba.njit(cache=True)
 def edge_edge_detect(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, nu_y, nu_z, geo,
-                     k):
+                     k, lock):
     """One edge-edge pair (ALGORITHMS.md 3.2): the cubic, root selection in [0, tau], segment
     test, alpha, beta, the normal, N_c [D19 eq. 11] and the corrections [D19 eq. 12]. Corrects v
     in place; returns the normal impulse tau N_c [N s] (0 when nothing was done).
     (nu_x, nu_y, nu_z) = nu_1 - nu_2, the difference of the bodies' outward normals at the two
     edges, orients n only for touching edges (``band``, ``restore``: see the module
-    docstring). An applied impulse leaves its constraint row in row k of ``geo (*, GEO_COLS)``."""
+    docstring). An applied impulse leaves its constraint row in row k of ``geo (*, GEO_COLS)``.
+    ``lock``: prescribed velocity components, left alone by the impulse (``_apply_locked``; an
+    empty array when there are none)."""
     ax = x[ia, 0]
     ay = x[ia, 1]
     az = x[ia, 2]
@@ -229,7 +295,7 @@ def edge_edge_detect(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, n
             gz = x[ie, 2] + be * d2z - az - al * d1z
             if gx * gx + gy * gy + gz * gz <= band * band:
                 J = _edge_edge_at(0.0, True, band, restore, ia, ib, ie, jf, x, v, mass, tau, mu,
-                                  nu_x, nu_y, nu_z, geo, k)
+                                  nu_x, nu_y, nu_z, geo, k, lock)
                 if J > 0.0:
                     return J
     a, b, c, d = cubic_coefficients(
@@ -243,14 +309,14 @@ def edge_edge_detect(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, n
     for i in range(n):
         t = r0 if i == 0 else (r1 if i == 1 else r2)
         J = _edge_edge_at(t, False, band, restore, ia, ib, ie, jf, x, v, mass, tau, mu, nu_x,
-                          nu_y, nu_z, geo, k)
+                          nu_y, nu_z, geo, k, lock)
         if J > 0.0:
             return J
     return 0.0
 
 
 @numba.njit(cache=True)
-def edge_edge_relax(ia, ib, ie, jf, v, mass, mu, geo, k, slack):
+def edge_edge_relax(ia, ib, ie, jf, v, mass, mu, geo, k, slack, lock):
     """A later visit of an edge pair that got an impulse earlier in the step (row k of ``geo``):
     with its stored alpha, beta, n and gap term, the push tau N_c of [D19 eq. 11, 12] (with
     friction), added to the row's impulse, when the approach exceeds its target by more than
@@ -272,10 +338,17 @@ def edge_edge_relax(ia, ib, ie, jf, v, mass, mu, geo, k, slack):
              + abs(gt))
     if not (err > slack and err > VEL_TOL * scale):
         return 0.0
-    S = ((1.0 - be) ** 2 / mass[ie] + be * be / mass[jf] + (1.0 - al) ** 2 / mass[ia]
-         + al * al / mass[ib])
-    J = err / S
-    _apply(J, mu, S, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass)
+    if lock.shape[0] == 0:
+        S = ((1.0 - be) ** 2 / mass[ie] + be * be / mass[jf] + (1.0 - al) ** 2 / mass[ia]
+             + al * al / mass[ib])
+        J = err / S
+        _apply(J, mu, S, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass)
+    else:
+        S = _locked_sum(al, be, nx, ny, nz, ia, ib, ie, jf, mass, lock)
+        if not S > 0.0:
+            return 0.0
+        J = err / S
+        _apply_locked(J, mu, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass, lock)
     geo[k, 0] = lam + J
     return J
 
@@ -314,7 +387,7 @@ def edge_normals(x, faces, face_edges, out):
 
 @numba.njit(cache=True)
 def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band, restore, active, stamp,
-                    sweep, since, geo, slack):
+                    sweep, since, geo, slack, lock=NO_LOCK):
     """Gauss-Seidel sweep over candidate edge pairs (ALGORITHMS.md 3.2): sequentially, in the
     given (sorted) order, each pair seeing the velocities already corrected. ``pairs (k, 2)``
     rows of indices into ``edges`` (body 1 edge, body 2 edge); ``normals (g, 3)`` from
@@ -322,7 +395,7 @@ def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band, restore, a
     constraint row is then row k of ``geo (k, GEO_COLS)``: later visits in the same step update
     that row (``edge_edge_relax``, projected Gauss-Seidel) instead of testing the crossing again.
     ``stamp``, ``sweep``, ``since``: the skipping of unchanged pairs in repeated sweeps, as in
-    ``nodeface.node_face_sweep``. Returns (pairs corrected in this sweep, sum of the normal
+    ``nodeface.node_face_sweep``; ``lock``: prescribed velocity components, as there. Returns (pairs corrected in this sweep, sum of the normal
     impulse changes [N s], largest velocity change of a corrected node [m/s])."""
     applied = 0
     total = 0.0
@@ -337,12 +410,12 @@ def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band, restore, a
         if max(max(stamp[ia], stamp[ib]), max(stamp[ie], stamp[jf])) < since:
             continue
         if active[k]:
-            J = edge_edge_relax(ia, ib, ie, jf, v, mass, mu, geo, k, slack)
+            J = edge_edge_relax(ia, ib, ie, jf, v, mass, mu, geo, k, slack, lock)
         else:
             J = edge_edge_detect(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore,
                                  normals[g1, 0] - normals[g2, 0],
                                  normals[g1, 1] - normals[g2, 1],
-                                 normals[g1, 2] - normals[g2, 2], geo, k)
+                                 normals[g1, 2] - normals[g2, 2], geo, k, lock)
             if J > 0.0:
                 active[k] = 1
             else:

@@ -44,12 +44,13 @@ import numpy as np
 
 from impactsim.contact.cubic import cubic_coefficients, cubic_roots_in
 
+NO_LOCK = np.ones((0, 3))  # no prescribed velocity components (see ``locked_point_face_impulse``)
 GEO_COLS = 8  # a constraint row: lam, wa, wb, wc, nx, ny, nz, vmin
 VEL_TOL = 1e-12  # a row is satisfied when its velocity error is below this share of the speeds
 
 
 @numba.njit(cache=True)
-def _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary, vmin, geo, k):
+def _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary, vmin, geo, k, lock):
     """Contact of node p with face (ia, ib, ic) at time t of the step (ALGORITHMS.md 3.1).
 
     The node's normal velocity relative to the face point must be at least ``vmin`` (0 at a
@@ -93,7 +94,12 @@ def _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary, vmin, geo, k):
     nx *= inv
     ny *= inv
     nz *= inv
-    J = point_face_impulse(v, p, mass[p], v, mass, ia, ib, ic, wa, wb, wc, nx, ny, nz, vmin, mu)
+    if lock.shape[0] == 0:
+        J = point_face_impulse(v, p, mass[p], v, mass, ia, ib, ic, wa, wb, wc, nx, ny, nz, vmin,
+                               mu)
+    else:
+        J = locked_point_face_impulse(v, p, mass[p], lock[p, 0], lock[p, 1], lock[p, 2], v, mass,
+                                      lock, ia, ib, ic, wa, wb, wc, nx, ny, nz, vmin, mu)
     if J > 0.0:
         geo[k, 0] = J
         geo[k, 1] = wa
@@ -160,19 +166,97 @@ def point_face_impulse(vp, p, mp, v, mass, ia, ib, ic, wa, wb, wc, nx, ny, nz, v
 
 
 @numba.njit(cache=True)
-def node_face_correct(p, ia, ib, ic, x, v, mass, tau, mu, band, eps_bary, restore):
+def locked_point_face_impulse(vp, p, mp, lpx, lpy, lpz, v, mass, lock, ia, ib, ic, wa, wb, wc,
+                              nx, ny, nz, vmin, mu):
+    """``point_face_impulse`` with prescribed velocity components. ``lock (n_node, 3)``: 1.0
+    where a node's velocity component is free, 0.0 where the case prescribes it (the
+    boundary-conditions pass runs before contact, ALGORITHMS.md 1 step 3); (lpx, lpy, lpz) the
+    point's own row (1, 1, 1 for a particle). A prescribed component is a kinematic constraint,
+    an infinite mass along that axis: its share of the impulse goes to the constraint's reaction
+    and a node's velocity changes only along its free axes, dU_k = +-c_k J (lock_k * n) / m_k
+    (c = 1 for the point, w_i for the face nodes). The impulse that brings the relative normal
+    velocity to vmin uses the matching effective mass,
+
+        1/m_eff = s_p / m_p + sum w_i^2 s_i / m_i,   s_k = sum_d lock_k,d n_d^2,
+
+    and is 0 when every node is held along n (the constraints take it all). Friction likewise
+    with the tangent t: at most the impulse that stops sliding along t (effective mass with
+    t_d^2) and at most mu J. Momentum is conserved along every free axis of all four nodes.
+    Without locks (all 1.0) this is point_face_impulse up to round-off; the passes call
+    point_face_impulse then (bit-identical results)."""
+    vrx = vp[p, 0] - (wa * v[ia, 0] + wb * v[ib, 0] + wc * v[ic, 0])
+    vry = vp[p, 1] - (wa * v[ia, 1] + wb * v[ib, 1] + wc * v[ic, 1])
+    vrz = vp[p, 2] - (wa * v[ia, 2] + wb * v[ib, 2] + wc * v[ic, 2])
+    vn = vrx * nx + vry * ny + vrz * nz
+    if not vn < vmin:
+        return 0.0
+    ma = mass[ia]
+    mb = mass[ib]
+    mc = mass[ic]
+    if not (mp > 0.0 and ma > 0.0 and mb > 0.0 and mc > 0.0):
+        return -1.0  # a massless node (orphaned by erosion) takes no impulse
+    qx = nx * nx
+    qy = ny * ny
+    qz = nz * nz
+    minv = ((lpx * qx + lpy * qy + lpz * qz) / mp
+            + wa * wa * (lock[ia, 0] * qx + lock[ia, 1] * qy + lock[ia, 2] * qz) / ma
+            + wb * wb * (lock[ib, 0] * qx + lock[ib, 1] * qy + lock[ib, 2] * qz) / mb
+            + wc * wc * (lock[ic, 0] * qx + lock[ic, 1] * qy + lock[ic, 2] * qz) / mc)
+    if not minv > 0.0:
+        return 0.0  # every node is held along n
+    J = (vmin - vn) / minv
+    for d in range(3):
+        nd = nx if d == 0 else (ny if d == 1 else nz)
+        lp = lpx if d == 0 else (lpy if d == 1 else lpz)
+        vp[p, d] += J / mp * nd * lp
+        v[ia, d] -= wa * J / ma * nd * lock[ia, d]
+        v[ib, d] -= wb * J / mb * nd * lock[ib, d]
+        v[ic, d] -= wc * J / mc * nd * lock[ic, d]
+    if mu > 0.0:
+        vtx = vrx - vn * nx
+        vty = vry - vn * ny
+        vtz = vrz - vn * nz
+        vt = math.sqrt(vtx * vtx + vty * vty + vtz * vtz)
+        if vt > 0.0:
+            tx = vtx / vt
+            ty = vty / vt
+            tz = vtz / vt
+            qx = tx * tx
+            qy = ty * ty
+            qz = tz * tz
+            tinv = ((lpx * qx + lpy * qy + lpz * qz) / mp
+                    + wa * wa * (lock[ia, 0] * qx + lock[ia, 1] * qy + lock[ia, 2] * qz) / ma
+                    + wb * wb * (lock[ib, 0] * qx + lock[ib, 1] * qy + lock[ib, 2] * qz) / mb
+                    + wc * wc * (lock[ic, 0] * qx + lock[ic, 1] * qy + lock[ic, 2] * qz) / mc)
+            if tinv > 0.0:
+                Jt = min(vt / tinv, mu * J)
+                for d in range(3):
+                    td = tx if d == 0 else (ty if d == 1 else tz)
+                    lp = lpx if d == 0 else (lpy if d == 1 else lpz)
+                    vp[p, d] -= Jt / mp * td * lp
+                    v[ia, d] += wa * Jt / ma * td * lock[ia, d]
+                    v[ib, d] += wb * Jt / mb * td * lock[ib, d]
+                    v[ic, d] += wc * Jt / mc * td * lock[ic, d]
+    return J
+
+
+@numba.njit(cache=True)
+def node_face_correct(p, ia, ib, ic, x, v, mass, tau, mu, band, eps_bary, restore,
+                      lock=NO_LOCK):
     """One node-face pair (ALGORITHMS.md 3.1): continuous crossing test over [0, tau] (cubic in
     time, then inside the triangle), then the velocity-equalising normal impulse, compressive
     only, with optional Coulomb friction. Corrects v in place; returns the normal impulse [N s]
     (0 when nothing was done). ``band`` [m]: a node at most this far behind the face's plane at
     t = 0 is treated as touching, and ``restore`` of its depth is undone in the step (see the
-    module docstring)."""
+    module docstring). ``lock``: prescribed velocity components (``locked_point_face_impulse``;
+    an empty array when there are none)."""
     return node_face_detect(p, ia, ib, ic, x, v, mass, tau, mu, band, eps_bary, restore,
-                            np.empty((1, GEO_COLS)), 0)
+                            np.empty((1, GEO_COLS)), 0, lock)
 
 
 @numba.njit(cache=True)
-def node_face_detect(p, ia, ib, ic, x, v, mass, tau, mu, band, eps_bary, restore, geo, k):
+def node_face_detect(p, ia, ib, ic, x, v, mass, tau, mu, band, eps_bary, restore, geo, k,
+                     lock):
     """``node_face_correct`` that also stores the constraint row of an applied impulse in row k
     of ``geo (*, GEO_COLS)``: accumulated impulse, weights, unit normal, target velocity."""
     e1x = x[ib, 0] - x[ia, 0]
@@ -200,20 +284,20 @@ def node_face_detect(p, ia, ib, ic, x, v, mass, tau, mu, band, eps_bary, restore
         return 0.0
     if dist0 < 0.0:
         J = _node_face_at(0.0, p, ia, ib, ic, x, v, mass, mu, eps_bary, -restore * dist0 / tau,
-                          geo, k)
+                          geo, k, lock)
         if J > 0.0:
             return J
     n, r0, r1, r2 = cubic_roots_in(a, b, c, d, tau)
     for i in range(n):
         t = r0 if i == 0 else (r1 if i == 1 else r2)
-        J = _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary, 0.0, geo, k)
+        J = _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary, 0.0, geo, k, lock)
         if J > 0.0:
             return J
     return 0.0
 
 
 @numba.njit(cache=True)
-def node_face_relax(p, ia, ib, ic, v, mass, mu, geo, k, slack):
+def node_face_relax(p, ia, ib, ic, v, mass, mu, geo, k, slack, lock):
     """A later visit of a pair that got an impulse earlier in the step (row k of ``geo``): with
     its stored weights, normal and target vmin, the push that brings the node's relative normal
     velocity u back to vmin through ``point_face_impulse`` (with friction), added to the row's
@@ -235,7 +319,12 @@ def node_face_relax(p, ia, ib, ic, v, mass, mu, geo, k, slack):
     if not (err > slack and err > VEL_TOL * (abs(up) + wa * abs(ua) + wb * abs(ub)
                                              + wc * abs(uc) + abs(vmin))):
         return 0.0
-    J = point_face_impulse(v, p, mass[p], v, mass, ia, ib, ic, wa, wb, wc, nx, ny, nz, vmin, mu)
+    if lock.shape[0] == 0:
+        J = point_face_impulse(v, p, mass[p], v, mass, ia, ib, ic, wa, wb, wc, nx, ny, nz, vmin,
+                               mu)
+    else:
+        J = locked_point_face_impulse(v, p, mass[p], lock[p, 0], lock[p, 1], lock[p, 2], v, mass,
+                                      lock, ia, ib, ic, wa, wb, wc, nx, ny, nz, vmin, mu)
     if J > 0.0:
         geo[k, 0] = lam + J
         return J
@@ -244,7 +333,7 @@ def node_face_relax(p, ia, ib, ic, v, mass, mu, geo, k, slack):
 
 @numba.njit(cache=True)
 def node_face_sweep(pairs, nodes, faces, x, v, mass, tau, mu, band, eps_bary, restore, active,
-                    stamp, sweep, since, geo, slack):
+                    stamp, sweep, since, geo, slack, lock=NO_LOCK):
     """Gauss-Seidel sweep over candidate pairs (ALGORITHMS.md 3.1 with the sequential rule of
     3.2): pair after pair in the given (sorted) order, each seeing the velocities corrected by the
     previous ones. ``pairs (k, 2)`` rows (index into nodes, index into faces); ``active (k,)``
@@ -259,6 +348,9 @@ def node_face_sweep(pairs, nodes, faces, x, v, mass, tau, mu, band, eps_bary, re
     stamp >= ``since`` are skipped: a repeated sweep passes the previous sweep's number, and a
     pair whose nodes did not change since then would repeat its last answer (no impulse), so the
     result is the same as visiting it. The first sweep passes since = 0 and visits every pair.
+    ``lock (n_node, 3)``: 0.0 on prescribed velocity components, else 1.0 (an empty array
+    when the case prescribes none): the impulses leave prescribed components alone
+    (``locked_point_face_impulse``).
     Returns (pairs corrected in this sweep, sum of the normal impulse changes [N s], largest
     velocity change of a corrected node |dJ| / m_node [m/s])."""
     applied = 0
@@ -273,10 +365,10 @@ def node_face_sweep(pairs, nodes, faces, x, v, mass, tau, mu, band, eps_bary, re
         if max(max(stamp[p], stamp[a]), max(stamp[b], stamp[c])) < since:
             continue
         if active[k]:
-            J = node_face_relax(p, a, b, c, v, mass, mu, geo, k, slack)
+            J = node_face_relax(p, a, b, c, v, mass, mu, geo, k, slack, lock)
         else:
             J = node_face_detect(p, a, b, c, x, v, mass, tau, mu, band, eps_bary, restore,
-                                 geo, k)
+                                 geo, k, lock)
             if J > 0.0:
                 active[k] = 1
             else:

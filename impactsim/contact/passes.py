@@ -115,6 +115,27 @@ class ContactContext:
         self.release_tol = RELEASE_TOL
         self.projections = PROJECTIONS
         self.slack = SLACK
+        self._lock = None
+        self._lock_key = None
+
+    def lock(self, model) -> np.ndarray:
+        """Prescribed velocity components (model.bc_nodes, model.bc_mask): ``(n_node, 3)`` with
+        0.0 where the case prescribes a component, else 1.0; an empty ``(0, 3)`` array when it
+        prescribes none (the kernels then run their plain code, bit-identical to a scene
+        without boundary conditions). The boundary-conditions pass runs before contact
+        (ALGORITHMS.md 1 step 3); a prescribed component is an infinite mass along its axis and
+        the contact impulses leave it alone (``nodeface.locked_point_face_impulse``)."""
+        bc_nodes = getattr(model, "bc_nodes", None)
+        bc_mask = getattr(model, "bc_mask", None)
+        if bc_nodes is None or bc_mask is None or len(bc_nodes) == 0 or not np.any(bc_mask):
+            return _NO_LOCK
+        key = (model.v.shape[0], id(bc_nodes), id(bc_mask))
+        if key != self._lock_key:
+            lock = np.ones((model.v.shape[0], 3))
+            lock[np.asarray(bc_nodes)] = np.where(np.asarray(bc_mask, bool), 0.0, 1.0)
+            self._lock = lock
+            self._lock_key = key
+        return self._lock
 
     def rebuild_surface(self, model) -> None:
         """Start the surface afresh from model.conn (for a pass that renumbers or splits nodes in
@@ -203,6 +224,7 @@ def _books_energy(model) -> bool:
 
 
 _NO_SKIP = np.zeros(0, np.uint8)
+_NO_LOCK = np.ones((0, 3))
 _NO_PAIRS = np.zeros((0, 2), dtype=np.int64)
 
 
@@ -278,12 +300,13 @@ def _project(model, group, stamp, first) -> None:
     for p, r in zip(group, rows):
         p._gather(r, off, idx, coef, nrm, tgt, lam)
         off += r.shape[0]
-    row_partners(idx, coef, nrm, model.mass, diag, partner)
+    lock = ctx.lock(model)
+    row_partners(idx, coef, nrm, model.mass, diag, partner, lock)
     rounds = 0
     for _ in range(ctx.release_rounds):
         ctx.sweep_id += 1
         changed, _, jump = rows_round(idx, coef, nrm, tgt, lam, diag, partner, model.v,
-                                      model.mass, stamp, ctx.sweep_id)
+                                      model.mass, stamp, ctx.sweep_id, lock)
         rounds += 1
         if changed == 0 or jump <= ctx.release_tol * first:
             break
@@ -432,7 +455,7 @@ class NodeFacePass(ContactPass):
         s = ctx.surface
         return node_face_sweep(pairs, s.nodes, s.faces, model.x, model.v, model.mass, dt,
                                ctx.friction, ctx.band_rel * h, ctx.eps_bary, ctx.restore,
-                               active, stamp, sweep, since, geo, slack)
+                               active, stamp, sweep, since, geo, slack, ctx.lock(model))
 
     def _gather(self, rows, off, idx, coef, nrm, tgt, lam):
         s = self.ctx.surface
@@ -472,7 +495,7 @@ class EdgeEdgePass(ContactPass):
         s = ctx.surface
         return edge_edge_sweep(pairs, s.edges, self.normals, model.x, model.v, model.mass, dt,
                                ctx.friction, ctx.band_rel * h, ctx.restore, active, stamp,
-                               sweep, since, geo, slack)
+                               sweep, since, geo, slack, ctx.lock(model))
 
     def _gather(self, rows, off, idx, coef, nrm, tgt, lam):
         gather_edge_edge(rows, self._pairs, self.ctx.surface.edges, self._geo, off, idx, coef,

@@ -24,6 +24,13 @@ complementarity problem (``_block``). Only helping couplings pair up (pushing on
 other): two rows with opposite demands (a node of each body on the other's coplanar side face)
 would get a pair of huge, cancelling impulses. Rounds are frictionless; with friction the
 passes do not call them (``passes`` module docstring).
+
+Prescribed velocity components (``lock (n_node, 3)``, 0.0 where prescribed, else 1.0; an empty
+array when the case prescribes none, and then the plain code below runs): an impulse changes
+node i's velocity only along its free axes, c_i dlam (lock_i * n) / m_i, so every inverse mass
+1/m_i along a pair of directions (n_r, n_s) becomes sum_d lock_i,d n_r,d n_s,d / m_i, in the
+diagonal D_r, the couplings C_rs (mirror rows included) and the update alike
+(``nodeface.locked_point_face_impulse``).
 """
 
 from __future__ import annotations
@@ -32,6 +39,8 @@ import math
 
 import numba
 import numpy as np
+
+from impactsim.contact.nodeface import NO_LOCK
 
 RHO_BLOCK = 0.5  # rows coupled more strongly than this (normalised, helping) are solved in pairs
 VEL_TOL = 1e-12  # a row is satisfied when its velocity error is below this share of the speeds
@@ -85,28 +94,42 @@ def gather_edge_edge(rows, pairs, edges, geo, off, idx, coef, nrm, tgt, lam):
 
 
 @numba.njit(cache=True)
-def _coupling(r, s, idx, coef, nrm, mass):
+def _coupling(r, s, idx, coef, nrm, mass, lock):
     """G_r M^-1 G_s^T: the change of u_r per unit impulse of row s."""
     nd = nrm[r, 0] * nrm[s, 0] + nrm[r, 1] * nrm[s, 1] + nrm[r, 2] * nrm[s, 2]
     c = 0.0
     for a in range(4):
         for b in range(4):
             if idx[r, a] == idx[s, b]:
-                c += coef[r, a] * coef[s, b] * nd / mass[idx[r, a]]
+                i = idx[r, a]
+                if lock.shape[0] == 0:
+                    c += coef[r, a] * coef[s, b] * nd / mass[i]
+                else:
+                    ld = (lock[i, 0] * nrm[r, 0] * nrm[s, 0] + lock[i, 1] * nrm[r, 1] * nrm[s, 1]
+                          + lock[i, 2] * nrm[r, 2] * nrm[s, 2])
+                    c += coef[r, a] * coef[s, b] * ld / mass[i]
     return c
 
 
 @numba.njit(cache=True)
-def row_partners(idx, coef, nrm, mass, diag, partner):
-    """diag[r] = sum c_i^2 / m_i; partner[r] = the row s solved together with r (mutual
+def row_partners(idx, coef, nrm, mass, diag, partner, lock=NO_LOCK):
+    """diag[r] = sum c_i^2 / m_i (with ``lock``: sum c_i^2 s_i / m_i, s_i = sum_d lock_i,d
+    n_d^2); partner[r] = the row s solved together with r (mutual
     strongest helping coupling rho = C_rs / sqrt(D_r D_s) > RHO_BLOCK), else -1."""
     n = idx.shape[0]
     best = np.full(n, -1, np.int64)
     rho = np.full(n, RHO_BLOCK)
     for r in range(n):
         d = 0.0
-        for a in range(4):
-            d += coef[r, a] * coef[r, a] / mass[idx[r, a]]
+        if lock.shape[0] == 0:
+            for a in range(4):
+                d += coef[r, a] * coef[r, a] / mass[idx[r, a]]
+        else:
+            for a in range(4):
+                i = idx[r, a]
+                d += coef[r, a] * coef[r, a] * (lock[i, 0] * nrm[r, 0] * nrm[r, 0]
+                                                + lock[i, 1] * nrm[r, 1] * nrm[r, 1]
+                                                + lock[i, 2] * nrm[r, 2] * nrm[r, 2]) / mass[i]
         diag[r] = d
     flat = idx.ravel()
     order = np.argsort(flat, kind="mergesort")
@@ -121,7 +144,7 @@ def row_partners(idx, coef, nrm, mass, diag, partner):
                 s = order[b] // 4
                 if r == s:
                     continue
-                q = _coupling(r, s, idx, coef, nrm, mass) / math.sqrt(diag[r] * diag[s])
+                q = _coupling(r, s, idx, coef, nrm, mass, lock) / math.sqrt(diag[r] * diag[s])
                 if q > rho[r] or (q == rho[r] and best[r] >= 0 and s < best[r]):
                     rho[r] = q
                     best[r] = s
@@ -147,22 +170,27 @@ def _u(r, idx, coef, nrm, v):
 
 
 @numba.njit(cache=True)
-def _apply(r, x, idx, coef, nrm, v, mass, stamp, sweep):
+def _apply(r, x, idx, coef, nrm, v, mass, stamp, sweep, lock):
     """Impulse x along row r; returns the largest velocity change of its nodes."""
     jump = 0.0
     for a in range(4):
         i = idx[r, a]
         f = coef[r, a] * x / mass[i]
-        v[i, 0] += f * nrm[r, 0]
-        v[i, 1] += f * nrm[r, 1]
-        v[i, 2] += f * nrm[r, 2]
+        if lock.shape[0] == 0:
+            v[i, 0] += f * nrm[r, 0]
+            v[i, 1] += f * nrm[r, 1]
+            v[i, 2] += f * nrm[r, 2]
+        else:
+            v[i, 0] += f * nrm[r, 0] * lock[i, 0]
+            v[i, 1] += f * nrm[r, 1] * lock[i, 1]
+            v[i, 2] += f * nrm[r, 2] * lock[i, 2]
         stamp[i] = sweep
         jump = max(jump, abs(f))
     return jump
 
 
 @numba.njit(cache=True)
-def _block(r, s, idx, coef, nrm, tgt, lam, diag, v, mass):
+def _block(r, s, idx, coef, nrm, tgt, lam, diag, v, mass, lock):
     """Rows r, s together: lam + x >= 0, u + A x >= t, (lam + x) (u + A x - t) = 0 with
     A = [[D_r, C], [C, D_s]]. Returns (x_r, x_s); (0, 0) when no case fits (round-off)."""
     ur, sr = _u(r, idx, coef, nrm, v)
@@ -171,7 +199,7 @@ def _block(r, s, idx, coef, nrm, tgt, lam, diag, v, mass):
     es = tgt[s] - us
     dr = diag[r]
     ds = diag[s]
-    c = _coupling(r, s, idx, coef, nrm, mass)
+    c = _coupling(r, s, idx, coef, nrm, mass, lock)
     lr = lam[r]
     ls = lam[s]
     tol = VEL_TOL * (sr + ss + abs(tgt[r]) + abs(tgt[s]))
@@ -197,8 +225,9 @@ def _block(r, s, idx, coef, nrm, tgt, lam, diag, v, mass):
 
 
 @numba.njit(cache=True)
-def rows_round(idx, coef, nrm, tgt, lam, diag, partner, v, mass, stamp, sweep):
-    """One projected Gauss-Seidel round over all rows (module docstring). Changed nodes get
+def rows_round(idx, coef, nrm, tgt, lam, diag, partner, v, mass, stamp, sweep, lock=NO_LOCK):
+    """One projected Gauss-Seidel round over all rows (module docstring; ``lock`` as in
+    ``row_partners``, which made ``diag`` and ``partner``). Changed nodes get
     ``stamp = sweep``. Returns (rows changed, sum of the impulse changes [N s], largest velocity
     change of a node [m/s])."""
     changed = 0
@@ -209,10 +238,10 @@ def rows_round(idx, coef, nrm, tgt, lam, diag, partner, v, mass, stamp, sweep):
         if s >= 0:
             if s < r:
                 continue
-            xr, xs = _block(r, s, idx, coef, nrm, tgt, lam, diag, v, mass)
+            xr, xs = _block(r, s, idx, coef, nrm, tgt, lam, diag, v, mass, lock)
             for q, x in ((r, xr), (s, xs)):
                 if abs(x) > 1e-13 * max(lam[q], lam[q] + x):
-                    jump = max(jump, _apply(q, x, idx, coef, nrm, v, mass, stamp, sweep))
+                    jump = max(jump, _apply(q, x, idx, coef, nrm, v, mass, stamp, sweep, lock))
                     lam[q] = max(lam[q] + x, 0.0)
                     changed += 1
                     total += x
@@ -224,7 +253,7 @@ def rows_round(idx, coef, nrm, tgt, lam, diag, partner, v, mass, stamp, sweep):
         x = max(e / diag[r], -lam[r])
         if x == 0.0:
             continue
-        jump = max(jump, _apply(r, x, idx, coef, nrm, v, mass, stamp, sweep))
+        jump = max(jump, _apply(r, x, idx, coef, nrm, v, mass, stamp, sweep, lock))
         lam[r] = lam[r] + x if x > -lam[r] else 0.0
         changed += 1
         total += x

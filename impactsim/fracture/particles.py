@@ -40,7 +40,7 @@ import math
 import numba
 import numpy as np
 
-from impactsim.contact.nodeface import point_face_impulse
+from impactsim.contact.nodeface import NO_LOCK, locked_point_face_impulse, point_face_impulse
 
 
 class Particles:
@@ -97,9 +97,12 @@ class Particles:
 
 
 @numba.njit(cache=True)
-def particle_face_sweep(pairs, px, pv, pm, pr, faces, x, v, mass, force, dtv, tau, eps_bary):
+def particle_face_sweep(pairs, px, pv, pm, pr, faces, x, v, mass, force, dtv, tau, eps_bary,
+                        lock=NO_LOCK):
     """Gauss-Seidel particle-face corrections over sorted ``pairs (k,2)`` (particle, face row);
     the impulse is ``impactsim.contact.nodeface.point_face_impulse``, the node-face algebra.
+    ``lock (n_node, 3)``: 0.0 on the face nodes' prescribed velocity components, else 1.0
+    (empty: none), left alone by the impulse (``nodeface.locked_point_face_impulse``).
     Returns (pairs corrected, work of the impulses on nodes and particles [J])."""
     applied = 0
     work = 0.0
@@ -158,8 +161,12 @@ def particle_face_sweep(pairs, px, pv, pm, pr, faces, x, v, mass, force, dtv, ta
         a0, a1, a2 = v[ia, 0], v[ia, 1], v[ia, 2]
         b0, b1, b2 = v[ib, 0], v[ib, 1], v[ib, 2]
         c0, c1, c2 = v[ic, 0], v[ic, 1], v[ic, 2]
-        jn = point_face_impulse(pv, p, pm[p], v, mass, ia, ib, ic, wa, wb, wc, nx, ny, nz,
-                                umin, 0.0)
+        if lock.shape[0] == 0:
+            jn = point_face_impulse(pv, p, pm[p], v, mass, ia, ib, ic, wa, wb, wc, nx, ny, nz,
+                                    umin, 0.0)
+        else:
+            jn = locked_point_face_impulse(pv, p, pm[p], 1.0, 1.0, 1.0, v, mass, lock, ia, ib,
+                                           ic, wa, wb, wc, nx, ny, nz, umin, 0.0)
         if not jn > 0.0:
             continue
         work += 0.5 * pm[p] * ((pv[p, 0] - p0) * (pv[p, 0] + p0)
