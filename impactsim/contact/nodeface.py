@@ -32,6 +32,12 @@ through that row when it approaches again (``node_face_relax``), and the project
 ``impactsim.contact.rows`` may take impulse back from it when corrections of other pairs have
 pushed it apart (departure from [D19], see ``impactsim.contact.passes`` and docs/physics.md,
 "Contact energy").
+
+Prescribed velocity components (the boundary-conditions pass runs before contact): with a
+``lock`` array (0.0 on prescribed components, 1.0 on free ones; ``passes.ContactContext.lock``)
+a prescribed component is an infinite mass along its axis, and the impulses change node
+velocities only along free axes with the matching effective mass
+(``locked_point_face_impulse``). Without prescribed components the plain code runs.
 """
 
 from __future__ import annotations
