@@ -66,6 +66,7 @@ from impactsim.contact.edgeedge import GEO_COLS as EE_GEO_COLS
 from impactsim.contact.edgeedge import edge_edge_sweep, edge_normals
 from impactsim.contact.energy import impulse_work
 from impactsim.contact.nodeface import GEO_COLS as NF_GEO_COLS
+from impactsim.contact.nodeface import NO_LOCK as _NO_LOCK
 from impactsim.contact.nodeface import node_face_sweep
 from impactsim.contact.rows import (gather_edge_edge, gather_node_face, row_partners,
                                    rows_round)
@@ -119,21 +120,12 @@ class ContactContext:
         self._lock_key = None
 
     def lock(self, model) -> np.ndarray:
-        """Prescribed velocity components (model.bc_nodes, model.bc_mask): ``(n_node, 3)`` with
-        0.0 where the case prescribes a component, else 1.0; an empty ``(0, 3)`` array when it
-        prescribes none (the kernels then run their plain code, bit-identical to a scene
-        without boundary conditions). The boundary-conditions pass runs before contact
-        (ALGORITHMS.md 1 step 3); a prescribed component is an infinite mass along its axis and
-        the contact impulses leave it alone (``nodeface.locked_point_face_impulse``)."""
-        bc_nodes = getattr(model, "bc_nodes", None)
-        bc_mask = getattr(model, "bc_mask", None)
-        if bc_nodes is None or bc_mask is None or len(bc_nodes) == 0 or not np.any(bc_mask):
-            return _NO_LOCK
-        key = (model.v.shape[0], id(bc_nodes), id(bc_mask))
+        """``prescribed_lock(model)``, built again only when the node count or the model's
+        boundary-condition arrays change."""
+        key = (model.v.shape[0], id(getattr(model, "bc_nodes", None)),
+               id(getattr(model, "bc_mask", None)))
         if key != self._lock_key:
-            lock = np.ones((model.v.shape[0], 3))
-            lock[np.asarray(bc_nodes)] = np.where(np.asarray(bc_mask, bool), 0.0, 1.0)
-            self._lock = lock
+            self._lock = prescribed_lock(model)
             self._lock_key = key
         return self._lock
 
@@ -218,13 +210,29 @@ class ContactContext:
         self._v_star = None
 
 
+def prescribed_lock(model) -> np.ndarray:
+    """Prescribed velocity components (model.bc_nodes, model.bc_mask): ``(n_node, 3)`` with 0.0
+    where the case prescribes a component, else 1.0; an empty ``(0, 3)`` array when it prescribes
+    none (the kernels then run their plain code, bit-identical to a scene without boundary
+    conditions). The boundary-conditions pass runs before contact (ALGORITHMS.md 1 step 3); a
+    prescribed component is an infinite mass along its axis and the contact impulses leave it
+    alone (``nodeface.locked_point_face_impulse``; also the ``lock`` argument of
+    ``impactsim.fracture.particles.particle_face_sweep``)."""
+    bc_nodes = getattr(model, "bc_nodes", None)
+    bc_mask = getattr(model, "bc_mask", None)
+    if bc_nodes is None or bc_mask is None or len(bc_nodes) == 0 or not np.any(bc_mask):
+        return _NO_LOCK
+    lock = np.ones((model.v.shape[0], 3))
+    lock[np.asarray(bc_nodes)] = np.where(np.asarray(bc_mask, bool), 0.0, 1.0)
+    return lock
+
+
 def _books_energy(model) -> bool:
     return (hasattr(model, "dtv") and hasattr(model, "force")
             and isinstance(getattr(model, "energy_terms", None), dict))
 
 
 _NO_SKIP = np.zeros(0, np.uint8)
-_NO_LOCK = np.ones((0, 3))
 _NO_PAIRS = np.zeros((0, 2), dtype=np.int64)
 
 

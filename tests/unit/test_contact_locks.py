@@ -206,3 +206,23 @@ def test_passes_on_a_uniaxial_scene_leave_held_components_and_conserve_free_mome
         assert penetration(m) <= 1e-12
     assert applied > 0
     assert m.mass @ m.v[:, 2] == pytest.approx(pz, rel=1e-13)
+
+
+def test_particle_face_impulse_leaves_held_face_components_alone():
+    from impactsim.fracture.particles import particle_face_sweep
+    x = np.array([[0, 0, 0], [1e-3, 0, 2e-5], [0, 1e-3, -1e-5]], float)  # a tilted face
+    v = np.zeros((3, 3))
+    mass = np.array([1e-6, 2e-6, 3e-6])
+    lock = np.ones((3, 3))
+    lock[:, :2] = 0.0
+    px = np.array([[3e-4, 3e-4, 1.2e-4]])
+    pv = np.array([[5.0, 0.0, -200.0]])
+    pm = np.array([1e-6])
+    faces = np.array([[0, 1, 2]], np.int32)
+    pairs = np.array([[0, 0]], np.int64)
+    p0 = pm @ pv + mass @ v
+    applied, work = particle_face_sweep(pairs, px, pv, pm, np.array([1e-4]), faces, x, v, mass,
+                                        np.zeros((3, 3)), 0.0, 1e-6, EPS, lock)
+    assert applied == 1 and work < 0.0
+    assert np.all(v[:, :2] == 0.0) and np.all(v[:, 2] < 0.0)
+    assert (pm @ pv + mass @ v)[2] == pytest.approx(p0[2], rel=1e-13)
