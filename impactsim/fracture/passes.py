@@ -31,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from impactsim.contact.broadphase import SpatialHash, grid_for
+from impactsim.contact.passes import prescribed_lock
 from impactsim.fracture import criteria as C
 from impactsim.fracture.boundary import Boundary
 from impactsim.fracture.measures import body_measures
@@ -210,7 +211,8 @@ class ParticlePass(Pass):
                 if pairs.shape[0]:
                     applied, w = particle_face_sweep(pairs, pa.x, pa.v, pa.m, pa.radius, sel,
                                                      model.x, model.v, model.mass, model.force,
-                                                     model.dtv, dt, EPS_BARY)
+                                                     model.dtv, dt, EPS_BARY,
+                                                     prescribed_lock(model))
                     self.impacts += int(applied)
                     work += float(w)
         if s.collisions and n > 1:
