@@ -134,9 +134,9 @@ class Simulation:
             element_volumes(m.x, m.conn, m.status, self.vol_now)
             nodal_volume_ratio(self.vol_now, m.vol0, m.status, m.n2e_ptr, m.n2e, self.jnode)
         E.element_update(m.x, m.v, m.conn, m.elem_mat, m.status, m.sdev, m.pressure, m.q, m.eps_p,
-                         m.eps_rate, m.temperature, self.hardening, self.thermal, m.energy, m.vol, self.vol_eos, m.vol0,
-                         m.elem_mass, m.mat_params, self.jnode, self.use_anp, dt, self.cq,
-                         self.cl, self.elem_force, self.chunk_out)
+                         m.eps_rate, m.temperature, self.hardening, self.thermal, m.energy, m.vol,
+                         self.vol_eos, m.vol0, m.elem_mass, m.mat_params, self.jnode,
+                         self.use_anp, dt, self.cq, self.cl, self.elem_force, self.chunk_out)
         out = self.chunk_out
         k = int(np.argmin(out[:, E.OUT_DT]))
         self.dt_stable = float(out[k, E.OUT_DT])
