@@ -14,9 +14,11 @@ on the number of threads). Inside a chunk, blocks of B elements go down one of t
   real mesh): the block's node and element data are copied into a (rows x B) buffer
   (`_load_block`), the arithmetic runs as loops over the B lanes that LLVM turns into packed
   SIMD instructions (`_kinematics_block`: velocity gradient, geometry, trial stress;
-  `_pressure_block`: EOS, energy, viscosity, time step, forces), only the radial return is
-  scalar (`_return_block`, and only for lanes whose trial stress exceeds the rate-independent
-  lower bound of their yield stress, cached per element), and the results are copied back (`_store_block`);
+  `_pressure_block`: EOS, energy, viscosity, time step, forces); the radial return runs for
+  Johnson-Cook as vector loops too (`_jc_return_block`, ln and exp from `vecmath`), for other
+  strength models as a scalar loop (`_return_block`), and in both only for lanes whose trial
+  stress exceeds the rate-independent lower bound of their yield stress, cached per element;
+  the results are copied back (`_store_block`);
 - the scalar path (`_element_scalar`), one element at a time with every branch: damaged,
   fractured and eroded elements, blocks that mix materials, the partial block at the end of
   the mesh, and a block with an inverted element.
@@ -287,7 +289,8 @@ def _element_scalar(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, e
         veos = 0.25 * (jnode[i0] + jnode[i1] + jnode[i2] + jnode[i3]) * vol0[e]
     else:
         veos = vnew
-    pa, pb, c2a, c2b = eos_linear_part(int(mat_params[mk, P.EOS]), mass / veos, rho0, mat_params[mk, P.K], mat_params[mk, P.C0],
+    pa, pb, c2a, c2b = eos_linear_part(int(mat_params[mk, P.EOS]), mass / veos, rho0,
+                                       mat_params[mk, P.K], mat_params[mk, P.C0],
                                        mat_params[mk, P.S], mat_params[mk, P.GAMMA0])
     pold = pressure[e]
     dv = veos - veos_old
@@ -827,8 +830,9 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
 
     x (n,3) positions x^{n+1}; v (n,3) velocities U^{n+1} (the step's velocity); dt the step.
     hard, thermal (n_elem,) the per-element caches of the hardening term and the thermal factor
-    of the yield stress (fill them with `yield_cache`; the kernel keeps them current). jnode (n,) nodal volume ratios of the averaged-nodal-pressure tet
-    (Bonet & Burton 1998), read only when use_anp: then the EOS sees the element's mean of its
+    of the yield stress (fill them with `yield_cache`; the kernel keeps them current).
+    jnode (n,) nodal volume ratios of the averaged-nodal-pressure tet (Bonet & Burton 1998),
+    read only when use_anp: then the EOS sees the element's mean of its
     nodes' ratios instead of its own V/V0, which removes volumetric locking of the linear tet in
     nearly incompressible flow. Writes sdev, pressure, q, eps_p, eps_rate, temperature, energy,
     vol, elem_force (4e, 3) and per chunk: [min stable dt, viscous work, inverted count, index

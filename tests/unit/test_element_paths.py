@@ -25,8 +25,8 @@ COPPER = material(name="cu", density=8930.0, shear_modulus=46e9, bulk_modulus=13
 
 @numba.njit
 def _scalar_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
-                   hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp, dt,
-                   cq, cl, elem_force):
+                   hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
+                   use_anp, dt, cq, cl, elem_force):
     """Every element through E._element_scalar; returns (min dt, its element, q work, inverted)."""
     dt_min, worst, qwork, inverted = np.inf, -1, 0.0, 0
     for e in range(conn.shape[0]):
