@@ -126,6 +126,78 @@ def _tet_gradients(x0, y0, z0, x1, y1, z1, x2, y2, z2, x3, y3, z3):
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
+def _velocity_gradient(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, p3x, p3y, p3z,
+                       v0x, v0y, v0z, v1x, v1y, v1z, v2x, v2y, v2z, v3x, v3y, v3z, half):
+    """L = dv/dx on the mid-step geometry x^{n+1} - dt/2 U^{n+1}, split into the deviatoric
+    strain rate D' (xx, yy, zz), D (xy, yz, zx), the spin W = (L - L^T)/2 (xy, yz, zx) and tr D.
+    L_ij = sum_a (v_a - v_0)_i dN_a/dx_j over corners a = 1..3."""
+    det, a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z = _tet_gradients(
+        p0x - half * v0x, p0y - half * v0y, p0z - half * v0z,
+        p1x - half * v1x, p1y - half * v1y, p1z - half * v1z,
+        p2x - half * v2x, p2y - half * v2y, p2z - half * v2z,
+        p3x - half * v3x, p3y - half * v3y, p3z - half * v3z)
+    w1x, w1y, w1z = v1x - v0x, v1y - v0y, v1z - v0z
+    w2x, w2y, w2z = v2x - v0x, v2y - v0y, v2z - v0z
+    w3x, w3y, w3z = v3x - v0x, v3y - v0y, v3z - v0z
+    inv = 1.0 / det if det != 0.0 else 0.0
+    lxx = (w1x * a1x + w2x * a2x + w3x * a3x) * inv
+    lxy = (w1x * a1y + w2x * a2y + w3x * a3y) * inv
+    lxz = (w1x * a1z + w2x * a2z + w3x * a3z) * inv
+    lyx = (w1y * a1x + w2y * a2x + w3y * a3x) * inv
+    lyy = (w1y * a1y + w2y * a2y + w3y * a3y) * inv
+    lyz = (w1y * a1z + w2y * a2z + w3y * a3z) * inv
+    lzx = (w1z * a1x + w2z * a2x + w3z * a3x) * inv
+    lzy = (w1z * a1y + w2z * a2y + w3z * a3y) * inv
+    lzz = (w1z * a1z + w2z * a2z + w3z * a3z) * inv
+    trd = lxx + lyy + lzz
+    third = trd / 3.0
+    return (lxx - third, lyy - third, lzz - third,
+            0.5 * (lxy + lyx), 0.5 * (lyz + lzy), 0.5 * (lzx + lxz),
+            0.5 * (lxy - lyx), 0.5 * (lyz - lzy), 0.5 * (lzx - lxz), trd)
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
+def _char_length(det1, b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z):
+    """L = 3V / max face area (the smallest altitude): |grad N_a| det = 2 (area opposite a),
+    so L = det / max_a |b_a| with b_0 = -(b_1 + b_2 + b_3)."""
+    f1 = b1x * b1x + b1y * b1y + b1z * b1z
+    f2 = b2x * b2x + b2y * b2y + b2z * b2z
+    f3 = b3x * b3x + b3y * b3y + b3z * b3z
+    s0x, s0y, s0z = b1x + b2x + b3x, b1y + b2y + b3y, b1z + b2z + b3z
+    f0 = s0x * s0x + s0y * s0y + s0z * s0z
+    return det1 / math.sqrt(max(max(f0, f1), max(f2, f3)))
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
+def _jaumann_trial(sxx, syy, szz, sxy, syz, szx, exx, eyy, ezz, dxy, dyz, dzx, wxy, wyz, wzx,
+                   g2, dt):
+    """Trial deviator s + dt (2G D' + W s - s W) (Jaumann rate; W skew with W_xy = wxy,
+    W_yz = wyz, W_zx = wzx)."""
+    rxx = 2.0 * (wxy * sxy - wzx * szx)
+    ryy = 2.0 * (wyz * syz - wxy * sxy)
+    rzz = 2.0 * (wzx * szx - wyz * syz)
+    rxy = wxy * (syy - sxx) + wzx * syz - wyz * szx
+    ryz = wyz * (szz - syy) + wxy * szx - wzx * sxy
+    rzx = wzx * (sxx - szz) + wyz * sxy - wxy * syz
+    return (sxx + dt * (g2 * exx + rxx), syy + dt * (g2 * eyy + ryy),
+            szz + dt * (g2 * ezz + rzz), sxy + dt * (g2 * dxy + rxy),
+            syz + dt * (g2 * dyz + ryz), szx + dt * (g2 * dzx + rzx))
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
+def _corner_forces(txx, tyy, tzz, txy, tyz, tzx, b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z):
+    """Forces f_a = -V sigma grad N_a = -sigma b_a / 6 on corners 1..3 (V grad N_a = b_a / 6;
+    corner 0 takes minus their sum)."""
+    s6 = -1.0 / 6.0
+    return (s6 * (txx * b1x + txy * b1y + tzx * b1z), s6 * (txy * b1x + tyy * b1y + tyz * b1z),
+            s6 * (tzx * b1x + tyz * b1y + tzz * b1z),
+            s6 * (txx * b2x + txy * b2y + tzx * b2z), s6 * (txy * b2x + tyy * b2y + tyz * b2z),
+            s6 * (tzx * b2x + tyz * b2y + tzz * b2z),
+            s6 * (txx * b3x + txy * b3y + tzx * b3z), s6 * (txy * b3x + tyy * b3y + tyz * b3z),
+            s6 * (tzx * b3x + tyz * b3y + tzz * b3z))
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
 def _return_map(code, mat_params, mk, shear, seq, rate, eps_p, temperature, hard, thermal, e,
                 rho):
     """Radial return of element e with its trial stress seq; updates eps_p, temperature and the
@@ -184,35 +256,9 @@ def _element_scalar(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, e
     p1x, p1y, p1z = x[i1, 0], x[i1, 1], x[i1, 2]
     p2x, p2y, p2z = x[i2, 0], x[i2, 1], x[i2, 2]
     p3x, p3y, p3z = x[i3, 0], x[i3, 1], x[i3, 2]
-    det, a1x, a1y, a1z, a2x, a2y, a2z, a3x, a3y, a3z = _tet_gradients(
-        p0x - half * v0x, p0y - half * v0y, p0z - half * v0z,
-        p1x - half * v1x, p1y - half * v1y, p1z - half * v1z,
-        p2x - half * v2x, p2y - half * v2y, p2z - half * v2z,
-        p3x - half * v3x, p3y - half * v3y, p3z - half * v3z)
-    # velocity differences to node 0
-    w1x, w1y, w1z = v1x - v0x, v1y - v0y, v1z - v0z
-    w2x, w2y, w2z = v2x - v0x, v2y - v0y, v2z - v0z
-    w3x, w3y, w3z = v3x - v0x, v3y - v0y, v3z - v0z
-    inv = 1.0 / det if det != 0.0 else 0.0
-    # L_ij = sum_a w_a,i dN_a/dx_j
-    lxx = (w1x * a1x + w2x * a2x + w3x * a3x) * inv
-    lxy = (w1x * a1y + w2x * a2y + w3x * a3y) * inv
-    lxz = (w1x * a1z + w2x * a2z + w3x * a3z) * inv
-    lyx = (w1y * a1x + w2y * a2x + w3y * a3x) * inv
-    lyy = (w1y * a1y + w2y * a2y + w3y * a3y) * inv
-    lyz = (w1y * a1z + w2y * a2z + w3y * a3z) * inv
-    lzx = (w1z * a1x + w2z * a2x + w3z * a3x) * inv
-    lzy = (w1z * a1y + w2z * a2y + w3z * a3y) * inv
-    lzz = (w1z * a1z + w2z * a2z + w3z * a3z) * inv
-    dxy = 0.5 * (lxy + lyx)
-    dyz = 0.5 * (lyz + lzy)
-    dzx = 0.5 * (lzx + lxz)
-    wxy = 0.5 * (lxy - lyx)  # spin W = (L - L^T)/2
-    wyz = 0.5 * (lyz - lzy)
-    wzx = 0.5 * (lzx - lxz)
-    trd = lxx + lyy + lzz
-    third = trd / 3.0
-    exx, eyy, ezz = lxx - third, lyy - third, lzz - third  # deviatoric D'
+    exx, eyy, ezz, dxy, dyz, dzx, wxy, wyz, wzx, trd = _velocity_gradient(
+        p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, p3x, p3y, p3z,
+        v0x, v0y, v0z, v1x, v1y, v1z, v2x, v2y, v2z, v3x, v3y, v3z, half)
     # --- geometry at n+1: volume and force gradients
     det1, b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z = _tet_gradients(
         p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, p3x, p3y, p3z)
@@ -232,20 +278,8 @@ def _element_scalar(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, e
     # --- deviatoric stress: Jaumann rate s' = 2G D' + W s - s W
     sxx, syy, szz = sdev[e, 0], sdev[e, 1], sdev[e, 2]
     sxy, syz, szx = sdev[e, 3], sdev[e, 4], sdev[e, 5]
-    # (W s - s W) for symmetric s, skew W with W_xy = wxy, W_yz = wyz, W_zx = wzx
-    rxx = 2.0 * (wxy * sxy - wzx * szx)
-    ryy = 2.0 * (wyz * syz - wxy * sxy)
-    rzz = 2.0 * (wzx * szx - wyz * syz)
-    rxy = wxy * (syy - sxx) + wzx * syz - wyz * szx
-    ryz = wyz * (szz - syy) + wxy * szx - wzx * sxy
-    rzx = wzx * (sxx - szz) + wyz * sxy - wxy * syz
-    g2 = 2.0 * shear
-    nxx = sxx + dt * (g2 * exx + rxx)
-    nyy = syy + dt * (g2 * eyy + ryy)
-    nzz = szz + dt * (g2 * ezz + rzz)
-    nxy = sxy + dt * (g2 * dxy + rxy)
-    nyz = syz + dt * (g2 * dyz + ryz)
-    nzx = szx + dt * (g2 * dzx + rzx)
+    nxx, nyy, nzz, nxy, nyz, nzx = _jaumann_trial(sxx, syy, szz, sxy, syz, szx, exx, eyy, ezz,
+                                                   dxy, dyz, dzx, wxy, wyz, wzx, 2.0 * shear, dt)
     # effective deviatoric strain rate sqrt(2/3 D':D')
     rate = math.sqrt((2.0 / 3.0) * (exx * exx + eyy * eyy + ezz * ezz
                                     + 2.0 * (dxy * dxy + dyz * dyz + dzx * dzx)))
@@ -274,15 +308,7 @@ def _element_scalar(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, e
         + 2.0 * ((sxy + nxy) * dxy + (syz + nyz) * dyz + (szx + nzx) * dzx))
     sdev[e, 0], sdev[e, 1], sdev[e, 2] = nxx, nyy, nzz
     sdev[e, 3], sdev[e, 4], sdev[e, 5] = nxy, nyz, nzx
-    # --- artificial bulk viscosity and characteristic length
-    f1 = b1x * b1x + b1y * b1y + b1z * b1z
-    f2 = b2x * b2x + b2y * b2y + b2z * b2z
-    f3 = b3x * b3x + b3y * b3y + b3z * b3z
-    s0x, s0y, s0z = b1x + b2x + b3x, b1y + b2y + b3y, b1z + b2z + b3z
-    f0 = s0x * s0x + s0y * s0y + s0z * s0z
-    # |grad N_a| det = 2 * (area of the face opposite a); L = 3V / A_max = det / |g|max
-    fmax = max(max(f0, f1), max(f2, f3))
-    length = det1 / math.sqrt(fmax)
+    length = _char_length(det1, b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z)
     # --- pressure: EOS with the energy integrated implicitly (p = a + b e); the ANP tet
     # feeds the EOS the averaged nodal volume ratio and integrates p dV with its volume
     if use_anp:
@@ -333,17 +359,8 @@ def _element_scalar(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, e
     # --- nodal forces f_a = -V sigma grad N_a, sigma = s - (p + q) I
     ptot = pn + qn
     txx, tyy, tzz = nxx - ptot, nyy - ptot, nzz - ptot
-    # V grad N_a = (det/6) (b_a / det) = b_a / 6
-    s6 = -1.0 / 6.0
-    f1x = s6 * (txx * b1x + nxy * b1y + nzx * b1z)
-    f1y = s6 * (nxy * b1x + tyy * b1y + nyz * b1z)
-    f1z = s6 * (nzx * b1x + nyz * b1y + tzz * b1z)
-    f2x = s6 * (txx * b2x + nxy * b2y + nzx * b2z)
-    f2y = s6 * (nxy * b2x + tyy * b2y + nyz * b2z)
-    f2z = s6 * (nzx * b2x + nyz * b2y + tzz * b2z)
-    f3x = s6 * (txx * b3x + nxy * b3y + nzx * b3z)
-    f3y = s6 * (nxy * b3x + tyy * b3y + nyz * b3z)
-    f3z = s6 * (nzx * b3x + nyz * b3y + tzz * b3z)
+    f1x, f1y, f1z, f2x, f2y, f2z, f3x, f3y, f3z = _corner_forces(
+        txx, tyy, tzz, nxy, nyz, nzx, b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z)
     k4 = 4 * e
     elem_force[k4, 0] = -(f1x + f2x + f3x)
     elem_force[k4, 1] = -(f1y + f2y + f3y)
@@ -405,57 +422,12 @@ def _kinematics_block(buf, half, dt, shear):
         v3x = buf[(R_V + 9) * B + i]
         v3y = buf[(R_V + 10) * B + i]
         v3z = buf[(R_V + 11) * B + i]
-        # mid-step edges from node 0
-        ax = (p1x - half * v1x) - (p0x - half * v0x)
-        ay = (p1y - half * v1y) - (p0y - half * v0y)
-        az = (p1z - half * v1z) - (p0z - half * v0z)
-        bx = (p2x - half * v2x) - (p0x - half * v0x)
-        by = (p2y - half * v2y) - (p0y - half * v0y)
-        bz = (p2z - half * v2z) - (p0z - half * v0z)
-        cx = (p3x - half * v3x) - (p0x - half * v0x)
-        cy = (p3y - half * v3y) - (p0y - half * v0y)
-        cz = (p3z - half * v3z) - (p0z - half * v0z)
-        a1x, a1y, a1z = by * cz - bz * cy, bz * cx - bx * cz, bx * cy - by * cx
-        a2x, a2y, a2z = cy * az - cz * ay, cz * ax - cx * az, cx * ay - cy * ax
-        a3x, a3y, a3z = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
-        det = ax * a1x + ay * a1y + az * a1z
-        inv = 1.0 / det
-        w1x, w1y, w1z = v1x - v0x, v1y - v0y, v1z - v0z
-        w2x, w2y, w2z = v2x - v0x, v2y - v0y, v2z - v0z
-        w3x, w3y, w3z = v3x - v0x, v3y - v0y, v3z - v0z
-        lxx = (w1x * a1x + w2x * a2x + w3x * a3x) * inv
-        lxy = (w1x * a1y + w2x * a2y + w3x * a3y) * inv
-        lxz = (w1x * a1z + w2x * a2z + w3x * a3z) * inv
-        lyx = (w1y * a1x + w2y * a2x + w3y * a3x) * inv
-        lyy = (w1y * a1y + w2y * a2y + w3y * a3y) * inv
-        lyz = (w1y * a1z + w2y * a2z + w3y * a3z) * inv
-        lzx = (w1z * a1x + w2z * a2x + w3z * a3x) * inv
-        lzy = (w1z * a1y + w2z * a2y + w3z * a3y) * inv
-        lzz = (w1z * a1z + w2z * a2z + w3z * a3z) * inv
-        dxy = 0.5 * (lxy + lyx)
-        dyz = 0.5 * (lyz + lzy)
-        dzx = 0.5 * (lzx + lxz)
-        wxy = 0.5 * (lxy - lyx)
-        wyz = 0.5 * (lyz - lzy)
-        wzx = 0.5 * (lzx - lxz)
-        trd = lxx + lyy + lzz
-        third = trd / 3.0
-        exx, eyy, ezz = lxx - third, lyy - third, lzz - third
-        # geometry at n+1
-        ax, ay, az = p1x - p0x, p1y - p0y, p1z - p0z
-        bx, by, bz = p2x - p0x, p2y - p0y, p2z - p0z
-        cx, cy, cz = p3x - p0x, p3y - p0y, p3z - p0z
-        b1x, b1y, b1z = by * cz - bz * cy, bz * cx - bx * cz, bx * cy - by * cx
-        b2x, b2y, b2z = cy * az - cz * ay, cz * ax - cx * az, cx * ay - cy * ax
-        b3x, b3y, b3z = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
-        det1 = ax * b1x + ay * b1y + az * b1z
-        f1 = b1x * b1x + b1y * b1y + b1z * b1z
-        f2 = b2x * b2x + b2y * b2y + b2z * b2z
-        f3 = b3x * b3x + b3y * b3y + b3z * b3z
-        s0x, s0y, s0z = b1x + b2x + b3x, b1y + b2y + b3y, b1z + b2z + b3z
-        f0 = s0x * s0x + s0y * s0y + s0z * s0z
-        fmax = max(max(f0, f1), max(f2, f3))
-        buf[R_LEN * B + i] = det1 / math.sqrt(fmax)
+        exx, eyy, ezz, dxy, dyz, dzx, wxy, wyz, wzx, trd = _velocity_gradient(
+            p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, p3x, p3y, p3z,
+            v0x, v0y, v0z, v1x, v1y, v1z, v2x, v2y, v2z, v3x, v3y, v3z, half)
+        det1, b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z = _tet_gradients(
+            p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, p3x, p3y, p3z)
+        buf[R_LEN * B + i] = _char_length(det1, b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z)
         buf[(R_B + 0) * B + i] = b1x
         buf[(R_B + 1) * B + i] = b1y
         buf[(R_B + 2) * B + i] = b1z
@@ -480,19 +452,9 @@ def _kinematics_block(buf, half, dt, shear):
         sxy = buf[(R_S0 + 3) * B + i]
         syz = buf[(R_S0 + 4) * B + i]
         szx = buf[(R_S0 + 5) * B + i]
-        rxx = 2.0 * (wxy * sxy - wzx * szx)
-        ryy = 2.0 * (wyz * syz - wxy * sxy)
-        rzz = 2.0 * (wzx * szx - wyz * syz)
-        rxy = wxy * (syy - sxx) + wzx * syz - wyz * szx
-        ryz = wyz * (szz - syy) + wxy * szx - wzx * sxy
-        rzx = wzx * (sxx - szz) + wyz * sxy - wxy * syz
-        g2 = 2.0 * shear
-        nxx = sxx + dt * (g2 * exx + rxx)
-        nyy = syy + dt * (g2 * eyy + ryy)
-        nzz = szz + dt * (g2 * ezz + rzz)
-        nxy = sxy + dt * (g2 * dxy + rxy)
-        nyz = syz + dt * (g2 * dyz + ryz)
-        nzx = szx + dt * (g2 * dzx + rzx)
+        nxx, nyy, nzz, nxy, nyz, nzx = _jaumann_trial(
+            sxx, syy, szz, sxy, syz, szx, exx, eyy, ezz, dxy, dyz, dzx, wxy, wyz, wzx,
+            2.0 * shear, dt)
         buf[(R_SN + 0) * B + i] = nxx
         buf[(R_SN + 1) * B + i] = nyy
         buf[(R_SN + 2) * B + i] = nzz
@@ -758,16 +720,8 @@ def _pressure_block(buf, dt, anp, mg, rho0, bulk, c0, s, gamma0, shear, cq, cl):
         b3x = buf[(R_B + 6) * B + i]
         b3y = buf[(R_B + 7) * B + i]
         b3z = buf[(R_B + 8) * B + i]
-        s6 = -1.0 / 6.0
-        f1x = s6 * (txx * b1x + nxy * b1y + nzx * b1z)
-        f1y = s6 * (nxy * b1x + tyy * b1y + nyz * b1z)
-        f1z = s6 * (nzx * b1x + nyz * b1y + tzz * b1z)
-        f2x = s6 * (txx * b2x + nxy * b2y + nzx * b2z)
-        f2y = s6 * (nxy * b2x + tyy * b2y + nyz * b2z)
-        f2z = s6 * (nzx * b2x + nyz * b2y + tzz * b2z)
-        f3x = s6 * (txx * b3x + nxy * b3y + nzx * b3z)
-        f3y = s6 * (nxy * b3x + tyy * b3y + nyz * b3z)
-        f3z = s6 * (nzx * b3x + nyz * b3y + tzz * b3z)
+        f1x, f1y, f1z, f2x, f2y, f2z, f3x, f3y, f3z = _corner_forces(
+            txx, tyy, tzz, nxy, nyz, nzx, b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z)
         buf[(R_F + 0) * B + i] = -(f1x + f2x + f3x)
         buf[(R_F + 1) * B + i] = -(f1y + f2y + f3y)
         buf[(R_F + 2) * B + i] = -(f1z + f2z + f3z)
