@@ -22,12 +22,11 @@ def hugoniot_pressure(eta, rho0, c0, s):
     Hugoniot's limit compression 1/s (where p_H diverges) so an overrun element stays finite.
     """
     k = rho0 * c0 * c0
-    if eta <= 0.0:
-        return k * eta, k
-    den = 1.0 - s * eta
-    if den < 0.05:
-        den = 0.05
-    return k * eta / (den * den), k * (1.0 + s * eta) / (den * den * den)
+    # written with selects, no early return, so that it vectorises inside a loop over elements
+    den = max(1.0 - s * max(eta, 0.0), 0.05)
+    comp = eta > 0.0
+    return (k * eta / (den * den) if comp else k * eta,
+            k * (1.0 + s * eta) / (den * den * den) if comp else k)
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")

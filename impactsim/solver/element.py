@@ -644,13 +644,12 @@ def _jc_return_block(buf, ibuf, kbuf, mat_params, mk, shear, eps_p, temperature,
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
-def _pressure_block(buf, dt, anp, mg, rho0, bulk, c0, s, gamma0, shear, cq, cl):
+def _pressure_block(buf, dt, anp, eos, rho0, bulk, c0, s, gamma0, shear, cq, cl):
     """Deviatoric work, EOS pressure with the energy implicit, bulk viscosity, stable dt, forces.
 
-    The EOS branch (mg: Mie-Grueneisen, else linear) is the same for all lanes; the
-    Hugoniot's two branches (compression, tension) are selects.
+    The EOS (`laws.eos_linear_part`, code `eos`) is the same for all lanes; the Hugoniot's two
+    branches (compression, tension) are selects.
     """
-    k0 = rho0 * c0 * c0
     for i in range(B):
         det1 = buf[R_DET * B + i]
         vnew = det1 * (1.0 / 6.0)
@@ -678,22 +677,7 @@ def _pressure_block(buf, dt, anp, mg, rho0, bulk, c0, s, gamma0, shear, cq, cl):
         trd = buf[R_TRD * B + i]
         veos = buf[R_VEOS * B + i] if anp else vnew
         rho_e = mass / veos
-        if mg:
-            eta = 1.0 - rho0 / rho_e
-            den = max(1.0 - s * max(eta, 0.0), 0.05)
-            comp = eta > 0.0
-            ph = k0 * eta / (den * den) if comp else k0 * eta
-            dph = k0 * (1.0 + s * eta) / (den * den * den) if comp else k0
-            pa = ph * (1.0 - 0.5 * gamma0 * eta)
-            pb = gamma0 * rho0
-            r2 = rho0 / (rho_e * rho_e)
-            c2a = (dph * (1.0 - 0.5 * gamma0 * eta) - 0.5 * gamma0 * ph) * r2
-            c2b = gamma0 * r2
-        else:
-            pa = bulk * (rho_e / rho0 - 1.0)
-            pb = 0.0
-            c2a = bulk / rho0
-            c2b = 0.0
+        pa, pb, c2a, c2b = eos_linear_part(eos, rho_e, rho0, bulk, c0, s, gamma0)
         pold = buf[R_POLD * B + i]
         dv = veos - buf[R_VEOSOLD * B + i]
         c = math.sqrt(max(c2a + c2b * max(pold, 0.0), 0.0))
@@ -824,7 +808,7 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
                 elif code != P.ELASTIC:
                     _return_block(buf, code, mat_params, mk, shear, eps_p, temperature,
                                   hard, thermal, e0)
-                _pressure_block(buf, dt, use_anp, int(mat_params[mk, P.EOS]) == P.MIE_GRUNEISEN,
+                _pressure_block(buf, dt, use_anp, int(mat_params[mk, P.EOS]),
                                 mat_params[mk, P.RHO0], mat_params[mk, P.K], mat_params[mk, P.C0],
                                 mat_params[mk, P.S], mat_params[mk, P.GAMMA0], shear, cq, cl)
                 bdt, bworst, bq = _store_block(sdev, pressure, q, eps_rate, energy, vol, vol_eos,
