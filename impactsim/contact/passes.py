@@ -116,18 +116,11 @@ class ContactContext:
         self.release_tol = RELEASE_TOL
         self.projections = PROJECTIONS
         self.slack = SLACK
-        self._lock = None
-        self._lock_key = None
+        self._locks = PrescribedLock()
 
     def lock(self, model) -> np.ndarray:
-        """``prescribed_lock(model)``, built again only when the node count or the model's
-        boundary-condition arrays change."""
-        key = (model.v.shape[0], id(getattr(model, "bc_nodes", None)),
-               id(getattr(model, "bc_mask", None)))
-        if key != self._lock_key:
-            self._lock = prescribed_lock(model)
-            self._lock_key = key
-        return self._lock
+        """``prescribed_lock(model)``, cached (`PrescribedLock`)."""
+        return self._locks.get(model)
 
     def rebuild_surface(self, model) -> None:
         """Start the surface afresh from model.conn (for a pass that renumbers or splits nodes in
@@ -225,6 +218,23 @@ def prescribed_lock(model) -> np.ndarray:
     lock = np.ones((model.v.shape[0], 3))
     lock[np.asarray(bc_nodes)] = np.where(np.asarray(bc_mask, bool), 0.0, 1.0)
     return lock
+
+
+class PrescribedLock:
+    """``prescribed_lock(model)`` for passes that run every step: built again only when the node
+    count or the model's boundary-condition arrays change, not allocated each step."""
+
+    def __init__(self):
+        self._key = None
+        self._lock = _NO_LOCK
+
+    def get(self, model) -> np.ndarray:
+        key = (model.v.shape[0], id(getattr(model, "bc_nodes", None)),
+               id(getattr(model, "bc_mask", None)))
+        if key != self._key:
+            self._lock = prescribed_lock(model)
+            self._key = key
+        return self._lock
 
 
 def _books_energy(model) -> bool:

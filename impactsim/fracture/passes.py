@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from impactsim.contact.broadphase import SpatialHash, grid_for
-from impactsim.contact.passes import prescribed_lock
+from impactsim.contact.passes import PrescribedLock
 from impactsim.fracture import criteria as C
 from impactsim.fracture.boundary import Boundary
 from impactsim.fracture.measures import body_measures
@@ -172,6 +172,7 @@ class ParticlePass(Pass):
         self.collisions = 0
         self.cloud = np.zeros((2, 3))  # bounds of the particle boxes of the step
         self.bounds = np.zeros((2, 3))  # ... and of the faces near them
+        self.locks = PrescribedLock()  # prescribed velocity components of face nodes
         self._buf = {}
 
     def _buffer(self, name, rows, dtype=np.float64, cols=3):
@@ -212,7 +213,7 @@ class ParticlePass(Pass):
                     applied, w = particle_face_sweep(pairs, pa.x, pa.v, pa.m, pa.radius, sel,
                                                      model.x, model.v, model.mass, model.force,
                                                      model.dtv, dt, EPS_BARY,
-                                                     prescribed_lock(model))
+                                                     self.locks.get(model))
                     self.impacts += int(applied)
                     work += float(w)
         if s.collisions and n > 1:
