@@ -21,7 +21,7 @@ test: setup
 
 # the long versions of the stability suite
 hard: setup
-	$(BIN)/python -m pytest -q -m slow tests/hard
+	$(BIN)/python -m pytest -q -m slow tests
 
 bench: setup
 	$(BIN)/python benchmarks/run.py
