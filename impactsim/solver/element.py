@@ -40,8 +40,9 @@ import numba
 import numpy as np
 
 from impactsim.materials import params as P
-from impactsim.materials.laws import (eos_linear_part, hardening, radial_return,
-                                      rate_independent_floor, thermal_factor)
+from impactsim.materials.laws import (eos_linear_part, hardening, newton_step_converged,
+                                      power_near, radial_return, rate_independent_floor,
+                                      thermal_factor)
 from impactsim.model import DAMAGED, ERODED, FRACTURED
 from impactsim.solver import vecmath as VM
 from impactsim.solver.vecmath import vexp, vlog
@@ -522,7 +523,10 @@ def _scale_ln(buf, n):
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
 def _jc_newton(buf, a0, b0, n, g3):
     """One safeguarded Newton iteration of `laws.radial_return` on every lane still iterating,
-    with (eps_p + d)^n in R_POW. Returns the number of lanes still iterating."""
+    with (eps_p + d)^n in R_POW; a lane whose Newton step is bounded to land within the
+    tolerance (`laws.newton_step_converged`) takes it and stops. Returns the number of lanes
+    still iterating."""
+    curv = b0 * n * abs(1.0 - n)
     left = 0
     for i in range(B):
         done = buf[R_DONE * B + i]
@@ -538,20 +542,27 @@ def _jc_newton(buf, a0, b0, n, g3):
         ep = ep0 + d
         sy = a + b * pw
         f = seq - g3 * d - sy
-        conv = abs(f) <= 1e-12 * seq
+        tol = 1e-12 * seq
+        conv = abs(f) <= tol
         lo2 = d if f > 0.0 else lo
         hi2 = hi if f > 0.0 else d
-        dn = d + f / (g3 + b * n * pw / ep)
+        step = f / (g3 + b * n * pw / ep)
+        dn = d + step
+        accept = (newton_step_converged(step, ep, rt * curv * pw / (ep * ep), tol)
+                  and dn > lo2 and dn < hi2 and not conv)
+        pw_acc = power_near(pw, step / ep, n)
         dn = 0.5 * (lo2 + hi2) if (dn <= lo2 or dn >= hi2) else dn
         stall = hi2 - lo2 <= 1e-15 * (1.0 + ep0)
         iterating = done == 0.0
-        going = iterating and not conv
-        buf[R_DONE * B + i] = (1.0 if conv else (-1.0 if stall else 0.0)) if iterating else done
-        buf[R_SY * B + i] = sy if iterating and conv else buf[R_SY * B + i]
-        buf[R_HN * B + i] = a0 + b0 * pw if iterating and conv else buf[R_HN * B + i]
+        stop = conv or accept
+        going = iterating and not stop
+        buf[R_DONE * B + i] = (1.0 if stop else (-1.0 if stall else 0.0)) if iterating else done
+        pw = pw_acc if accept else pw
+        buf[R_SY * B + i] = a + b * pw if iterating and stop else buf[R_SY * B + i]
+        buf[R_HN * B + i] = a0 + b0 * pw if iterating and stop else buf[R_HN * B + i]
         buf[R_LO * B + i] = lo2 if going else lo
         buf[R_HI * B + i] = hi2 if going else hi
-        buf[R_DEPS * B + i] = dn if going else d
+        buf[R_DEPS * B + i] = dn if going or (iterating and accept) else d
         buf[R_ARG * B + i] = ep0 + dn if going else 1.0
         left += 1 if going and not stall else 0
     return left
