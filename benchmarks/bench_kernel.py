@@ -56,7 +56,7 @@ def main(argv=None) -> dict:
                              a["pressure"], a["q"], a["eps_p"], a["eps_rate"], a["temperature"],
                              a["hard"], a["thermal"], a["energy"], a["vol"], a["vol"], model.vol0,
                              model.elem_mass, mp, sim.jnode, False, dt, sim.cq, sim.cl,
-                             sim.elem_force, sim.chunk_out)
+                             model.force, sim.chunk_order, sim.colour_ptr, sim.chunk_out)
             if rep:  # the first round compiles nothing but warms the caches
                 times[label].append(1e9 * (time.process_time() - c0) / model.n_elem)
             if label == "JC":

@@ -38,7 +38,7 @@ from impactsim.fracture.measures import body_measures
 from impactsim.fracture.particles import (Particles, faces_near, move_particles, particle_boxes,
                                           particle_face_sweep, particle_particle_sweep,
                                           particle_walls)
-from impactsim.fracture.removal import clear_corner_forces, remove_elements
+from impactsim.fracture.removal import remove_elements
 from impactsim.model import DAMAGED, ERODED, FRACTURED
 from impactsim.solver.passes import Pass
 
@@ -83,12 +83,12 @@ class FracturePass(Pass):
 
     def __init__(self, state: FractureState):
         self.s = state
-        self.elem_force = None
+        self.sim = None
 
     def attach(self, sim) -> None:
-        """Bind the integrator's corner forces (4 e, 3): a removed element's forces of this step
-        are cleared so it no longer acts on its nodes at the next gather."""
-        self.elem_force = sim.elem_force
+        """Bind the integrator: the nodal forces of a removed element's nodes are recomputed
+        without it, so it no longer acts on them at the next predictor."""
+        self.sim = sim
 
     def run(self, model, dt):
         s = self.s
@@ -119,8 +119,8 @@ class FracturePass(Pass):
         model.energy_terms["eroded"] += float(e_out)
         s.counts["eroded"] += int(n_er)
         s.counts["converted"] += int(n_conv)
-        if self.elem_force is not None:
-            clear_corner_forces(ids, self.elem_force)
+        if self.sim is not None:
+            self.sim.refresh_forces(ids)
         s.boundary.remove(ids)
 
     def history(self, model):

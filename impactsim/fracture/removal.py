@@ -184,13 +184,3 @@ def remove_elements(ids, to_particle, conn, status, elem_mass, energy, elem_body
             eroded_energy += _erode(e, conn, elem_mass, energy, v, mass, node_live)
             n_eroded += 1
     return n_p, eroded_energy, n_eroded, n_conv
-
-
-@numba.njit(cache=True)
-def clear_corner_forces(ids, elem_force):
-    """Zero the corner forces (rows 4e..4e+3) of removed elements."""
-    for k in range(ids.shape[0]):
-        e = ids[k]
-        for c in range(4):
-            for d in range(3):
-                elem_force[4 * e + c, d] = 0.0

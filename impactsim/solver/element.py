@@ -235,17 +235,16 @@ def yield_cache(elem_mat, mat_params, eps_p, temperature, hard, thermal):
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
 def _element_scalar(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                     temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
-                    jnode, use_anp, half, dt, cq, cl, elem_force):
-    """The whole update of element e with every branch (the scalar path). Called, not inlined:
-    inlined into the parallel loop it doubled the cold compile (time to the first step 22 -> 34 s).
+                    jnode, use_anp, half, dt, cq, cl, force):
+    """The whole update of element e with every branch (the scalar path); adds its nodal forces
+    to `force`. Called, not inlined: inlined into the parallel loop it doubled the cold compile
+    (time to the first step 22 -> 34 s).
 
-    Returns (stable dt, viscous work -q dV, 1 if the element inverted else 0).
+    Returns (stable dt, viscous work -q dV, 1 if the element inverted else 0). An eroded or
+    inverted element adds no force.
     """
     st = status[e]
     if st == ERODED:
-        for k in range(4):
-            for d in range(3):
-                elem_force[4 * e + k, d] = 0.0
         return math.inf, 0.0, 0
     i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
     # --- velocities and the mid-step geometry: velocity gradient L = dv/dx^{n+1/2}
@@ -265,9 +264,6 @@ def _element_scalar(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, e
         p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, p3x, p3y, p3z)
     vnew = det1 / 6.0
     if vnew <= 0.0:
-        for k in range(4):
-            for d in range(3):
-                elem_force[4 * e + k, d] = 0.0
         return math.inf, 0.0, 1
     vold = vol[e]
     veos_old = vol_eos[e]  # the same array as vol for tet4
@@ -362,13 +358,18 @@ def _element_scalar(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, e
     txx, tyy, tzz = nxx - ptot, nyy - ptot, nzz - ptot
     f1x, f1y, f1z, f2x, f2y, f2z, f3x, f3y, f3z = _corner_forces(
         txx, tyy, tzz, nxy, nyz, nzx, b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z)
-    k4 = 4 * e
-    elem_force[k4, 0] = -(f1x + f2x + f3x)
-    elem_force[k4, 1] = -(f1y + f2y + f3y)
-    elem_force[k4, 2] = -(f1z + f2z + f3z)
-    elem_force[k4 + 1, 0], elem_force[k4 + 1, 1], elem_force[k4 + 1, 2] = f1x, f1y, f1z
-    elem_force[k4 + 2, 0], elem_force[k4 + 2, 1], elem_force[k4 + 2, 2] = f2x, f2y, f2z
-    elem_force[k4 + 3, 0], elem_force[k4 + 3, 1], elem_force[k4 + 3, 2] = f3x, f3y, f3z
+    force[i0, 0] -= f1x + f2x + f3x
+    force[i0, 1] -= f1y + f2y + f3y
+    force[i0, 2] -= f1z + f2z + f3z
+    force[i1, 0] += f1x
+    force[i1, 1] += f1y
+    force[i1, 2] += f1z
+    force[i2, 0] += f2x
+    force[i2, 1] += f2y
+    force[i2, 2] += f2z
+    force[i3, 0] += f3x
+    force[i3, 1] += f3y
+    force[i3, 2] += f3z
     return dte, -qn * dv, 0
 
 
@@ -733,9 +734,9 @@ def _pressure_block(buf, dt, anp, eos, rho0, bulk, c0, s, gamma0, shear, cq, cl)
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _store_block(sdev, pressure, q, eps_rate, energy, vol, vol_eos, elem_force, use_anp, e0, buf):
-    """Copy the block's results back to the element arrays; returns (min dt, its element,
-    viscous work), reduced in lane order."""
+def _store_block(conn, sdev, pressure, q, eps_rate, energy, vol, vol_eos, force, use_anp, e0, buf):
+    """Copy the block's results back to the element arrays and add its forces to the nodes (in
+    lane order); returns (min dt, its element, viscous work), reduced in lane order."""
     dt_min = math.inf
     worst = -1
     qwork = 0.0
@@ -751,8 +752,9 @@ def _store_block(sdev, pressure, q, eps_rate, energy, vol, vol_eos, elem_force, 
         vol[e] = vnew
         vol_eos[e] = buf[R_VEOS * B + i] if use_anp else vnew
         for k in range(4):
+            n = conn[e, k]
             for d in range(3):
-                elem_force[4 * e + k, d] = buf[(R_F + 3 * k + d) * B + i]
+                force[n, d] += buf[(R_F + 3 * k + d) * B + i]
         qwork += buf[R_QW * B + i]
         dte = buf[R_DTE * B + i]
         if dte < dt_min:
@@ -771,10 +773,112 @@ def _vector_block(elem_mat, status, e0):
     return mk
 
 
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
+           hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp,
+           half, dt, cq, cl, force, chunk_out):
+    """The elements of chunk ch, block by block (see the module docstring)."""
+    n_elem = conn.shape[0]
+    buf = np.empty(ROWS * B)
+    ibuf = buf.view(np.int64)
+    kbuf = np.empty(B, np.int64)
+    dt_min = math.inf
+    worst = -1
+    qwork = 0.0
+    inverted = 0
+    e_end = min(n_elem, (ch + 1) * CHUNK)
+    for e0 in range(ch * CHUNK, e_end, B):
+        mk = _vector_block(elem_mat, status, e0) if e0 + B <= e_end else -1
+        if mk >= 0:
+            _load_block(x, v, conn, sdev, pressure, energy, vol, vol_eos, vol0, elem_mass,
+                        jnode, use_anp, e0, buf)
+            shear = mat_params[mk, P.G]
+            _kinematics_block(buf, half, dt, shear)
+            for i in range(B):
+                if not buf[R_DET * B + i] > 0.0:
+                    mk = -1  # an inverted element: the scalar path counts it
+        if mk >= 0:
+            code = int(mat_params[mk, P.STRENGTH])
+            if code == P.JOHNSON_COOK and mat_params[mk, P.JC_C] >= 0.0:
+                _jc_return_block(buf, ibuf, kbuf, mat_params, mk, shear, eps_p, temperature,
+                                 hard, thermal, e0)
+            elif code != P.ELASTIC:
+                _return_block(buf, code, mat_params, mk, shear, eps_p, temperature,
+                              hard, thermal, e0)
+            _pressure_block(buf, dt, use_anp, int(mat_params[mk, P.EOS]),
+                            mat_params[mk, P.RHO0], mat_params[mk, P.K], mat_params[mk, P.C0],
+                            mat_params[mk, P.S], mat_params[mk, P.GAMMA0], shear, cq, cl)
+            bdt, bworst, bq = _store_block(conn, sdev, pressure, q, eps_rate, energy, vol,
+                                           vol_eos, force, use_anp, e0, buf)
+            qwork += bq
+            if bdt < dt_min:
+                dt_min = bdt
+                worst = bworst
+            continue
+        for e in range(e0, min(e0 + B, e_end)):
+            dte, qw, inv = _element_scalar(
+                e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+                temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
+                jnode, use_anp, half, dt, cq, cl, force)
+            qwork += qw
+            inverted += inv
+            if dte < dt_min:
+                dt_min = dte
+                worst = e
+    chunk_out[ch, OUT_DT] = dt_min
+    chunk_out[ch, OUT_QWORK] = qwork
+    chunk_out[ch, OUT_INVERTED] = inverted
+    chunk_out[ch, OUT_WORST] = worst
+
+
+@numba.njit(cache=True)
+def chunk_colours(conn, chunk):
+    """Colour the chunks of `chunk` consecutive elements so that no two chunks of one colour
+    share a node (greedy, in chunk order). Returns (order, ptr): the chunk indices sorted by
+    colour, in ascending order within a colour, and the start of each colour in `order`.
+    Colours are bit masks per node, so at most 63 are shared; a chunk that finds none free gets
+    a colour of its own."""
+    n_elem = conn.shape[0]
+    nch = max(1, (n_elem + chunk - 1) // chunk)
+    n_node = 0
+    for e in range(n_elem):
+        for k in range(4):
+            n_node = max(n_node, conn[e, k] + 1)
+    mask = np.zeros(n_node, np.int64)
+    colour = np.empty(nch, np.int64)
+    n_colours = 63
+    for ch in range(nch):
+        used = 0
+        for e in range(ch * chunk, min(n_elem, (ch + 1) * chunk)):
+            for k in range(4):
+                used |= mask[conn[e, k]]
+        c = 0
+        while c < 63 and (used >> c) & 1:
+            c += 1
+        if c == 63:  # every shared colour taken: a colour of its own
+            colour[ch] = n_colours
+            n_colours += 1
+            continue
+        colour[ch] = c
+        for e in range(ch * chunk, min(n_elem, (ch + 1) * chunk)):
+            for k in range(4):
+                mask[conn[e, k]] |= 1 << c
+    order = np.argsort(colour, kind="mergesort")
+    count = np.zeros(n_colours + 1, np.int64)
+    for ch in range(nch):
+        count[colour[ch] + 1] += 1
+    ptr = np.cumsum(count)
+    keep = [0]
+    for c in range(n_colours):
+        if count[c + 1] > 0:
+            keep.append(c + 1)
+    return order, ptr[np.array(keep)]
+
+
 @numba.njit(cache=True, parallel=True, error_model="numpy", fastmath=FAST)
 def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                    hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
-                   use_anp, dt, cq, cl, elem_force, chunk_out):
+                   use_anp, dt, cq, cl, force, chunk_order, colour_ptr, chunk_out):
     """Advance every element from step n to n+1 and compute its nodal forces at n+1.
 
     x (n,3) positions x^{n+1}; v (n,3) velocities U^{n+1} (the step's velocity); dt the step.
@@ -784,62 +888,70 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     read only when use_anp: then the EOS sees the element's mean of its
     nodes' ratios instead of its own V/V0, which removes volumetric locking of the linear tet in
     nearly incompressible flow. Writes sdev, pressure, q, eps_p, eps_rate, temperature, energy,
-    vol, elem_force (4e, 3) and per chunk: [min stable dt, viscous work, inverted count, index
-    of the element with min dt]. The stable dt of an element is L / (Q + sqrt(Q^2 + c^2)),
+    vol, the nodal forces `force` (n, 3) and per chunk: [min stable dt, viscous work, inverted
+    count, index of the element with min dt].
+
+    Forces are added to the nodes directly. The chunks run colour by colour (`chunk_colours`:
+    chunks of one colour share no node, so they run in parallel without a race): every node
+    gets its elements' forces in the same order whatever the number of threads. The stable dt of an element is L / (Q + sqrt(Q^2 + c^2)),
     L = 3V / max face area (smallest altitude), Q = C_l c + C_q^2 L |tr D| in compression, c the
     EOS sound speed with 4G/3rho.
     """
     n_elem = conn.shape[0]
-    nch = chunk_out.shape[0]
     half = 0.5 * dt
-    for ch in numba.prange(nch):
-        buf = np.empty(ROWS * B)
-        ibuf = buf.view(np.int64)
-        kbuf = np.empty(B, np.int64)
-        dt_min = math.inf
-        worst = -1
-        qwork = 0.0
-        inverted = 0
-        e_end = min(n_elem, (ch + 1) * CHUNK)
-        for e0 in range(ch * CHUNK, e_end, B):
-            mk = _vector_block(elem_mat, status, e0) if e0 + B <= e_end else -1
-            if mk >= 0:
-                _load_block(x, v, conn, sdev, pressure, energy, vol, vol_eos, vol0, elem_mass,
-                            jnode, use_anp, e0, buf)
-                shear = mat_params[mk, P.G]
-                _kinematics_block(buf, half, dt, shear)
-                for i in range(B):
-                    if not buf[R_DET * B + i] > 0.0:
-                        mk = -1  # an inverted element: the scalar path counts it
-            if mk >= 0:
-                code = int(mat_params[mk, P.STRENGTH])
-                if code == P.JOHNSON_COOK and mat_params[mk, P.JC_C] >= 0.0:
-                    _jc_return_block(buf, ibuf, kbuf, mat_params, mk, shear, eps_p, temperature,
-                                     hard, thermal, e0)
-                elif code != P.ELASTIC:
-                    _return_block(buf, code, mat_params, mk, shear, eps_p, temperature,
-                                  hard, thermal, e0)
-                _pressure_block(buf, dt, use_anp, int(mat_params[mk, P.EOS]),
-                                mat_params[mk, P.RHO0], mat_params[mk, P.K], mat_params[mk, P.C0],
-                                mat_params[mk, P.S], mat_params[mk, P.GAMMA0], shear, cq, cl)
-                bdt, bworst, bq = _store_block(sdev, pressure, q, eps_rate, energy, vol, vol_eos,
-                                               elem_force, use_anp, e0, buf)
-                qwork += bq
-                if bdt < dt_min:
-                    dt_min = bdt
-                    worst = bworst
+    for i in numba.prange(force.shape[0]):
+        force[i, 0] = 0.0
+        force[i, 1] = 0.0
+        force[i, 2] = 0.0
+    for colour in range(colour_ptr.shape[0] - 1):
+        for j in numba.prange(colour_ptr[colour], colour_ptr[colour + 1]):
+            _chunk(chunk_order[j], x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
+                   eps_rate, temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass,
+                   mat_params, jnode, use_anp, half, dt, cq, cl, force, chunk_out)
+
+
+@numba.njit(cache=True, parallel=True, error_model="numpy", fastmath=FAST)
+def node_forces(nodes, x, conn, status, sdev, pressure, q, n2e_ptr, n2e, force):
+    """Recompute the force on each of `nodes` from the current stress of its live elements
+    (-V sigma grad N per element, summed in the node-to-element order n2e): after a pass
+    removed elements, the forces the kernel added for them leave their nodes. An eroded or
+    inverted element adds nothing, as in `element_update`."""
+    for j in numba.prange(nodes.shape[0]):
+        i = nodes[j]
+        fx = 0.0
+        fy = 0.0
+        fz = 0.0
+        for k in range(n2e_ptr[i], n2e_ptr[i + 1]):
+            e = n2e[k] // 4
+            a = n2e[k] - 4 * e
+            if status[e] == ERODED:
                 continue
-            for e in range(e0, min(e0 + B, e_end)):
-                dte, qw, inv = _element_scalar(
-                    e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
-                    temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
-                    jnode, use_anp, half, dt, cq, cl, elem_force)
-                qwork += qw
-                inverted += inv
-                if dte < dt_min:
-                    dt_min = dte
-                    worst = e
-        chunk_out[ch, OUT_DT] = dt_min
-        chunk_out[ch, OUT_QWORK] = qwork
-        chunk_out[ch, OUT_INVERTED] = inverted
-        chunk_out[ch, OUT_WORST] = worst
+            i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
+            det, b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z = _tet_gradients(
+                x[i0, 0], x[i0, 1], x[i0, 2], x[i1, 0], x[i1, 1], x[i1, 2],
+                x[i2, 0], x[i2, 1], x[i2, 2], x[i3, 0], x[i3, 1], x[i3, 2])
+            if not det > 0.0:
+                continue
+            ptot = pressure[e] + q[e]
+            f1x, f1y, f1z, f2x, f2y, f2z, f3x, f3y, f3z = _corner_forces(
+                sdev[e, 0] - ptot, sdev[e, 1] - ptot, sdev[e, 2] - ptot, sdev[e, 3], sdev[e, 4],
+                sdev[e, 5], b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z)
+            if a == 0:
+                fx -= f1x + f2x + f3x
+                fy -= f1y + f2y + f3y
+                fz -= f1z + f2z + f3z
+            elif a == 1:
+                fx += f1x
+                fy += f1y
+                fz += f1z
+            elif a == 2:
+                fx += f2x
+                fy += f2y
+                fz += f2z
+            else:
+                fx += f3x
+                fy += f3y
+                fz += f3z
+        force[i, 0] = fx
+        force[i, 1] = fy
+        force[i, 2] = fz

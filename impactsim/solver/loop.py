@@ -2,10 +2,11 @@
 
 Per step n -> n+1:
   1. dt = C_cfl * min stable element step (growth limited, clamped to the next output time);
-  2. gather element forces F^n per node, predictor U* = U^n + dt F^n / m;
+  2. predictor U* = U^n + dt F^n / m with the nodal forces F^n of the last element update;
   3. velocity-stage passes correct U* (prescribed velocities, walls, contact: ALGORITHMS.md 3);
   4. x^{n+1} = x^n + dt U^{n+1}, after all corrections;
-  5. element update at x^{n+1}: strain rates, stresses, EOS, forces F^{n+1}, next stable dt;
+  5. element update at x^{n+1}: strain rates, stresses, EOS, nodal forces F^{n+1}, next
+     stable dt;
   6. fracture-stage passes.
 """
 
@@ -18,8 +19,8 @@ import numpy as np
 
 from impactsim.model import Model
 from impactsim.solver import element as E
-from impactsim.solver.nodal import (element_volumes, gather_and_predict, internal_energy,
-                                    kinetic_energy, move, nodal_volume_ratio)
+from impactsim.solver.nodal import (element_volumes, internal_energy, kinetic_energy, move,
+                                    nodal_volume_ratio, predict)
 from impactsim.solver.passes import Pass
 
 DT_GROWTH = 1.1  # the step may grow by at most this factor per step
@@ -47,8 +48,9 @@ class Simulation:
         self.fracture_passes = [p for p in passes if p.stage == "fracture"]
         self.other_passes = [p for p in passes if p.stage not in ("velocity", "fracture")]
         ne, nn = model.n_elem, model.n_node
-        self.elem_force = np.zeros((4 * ne, 3))
         self.chunk_out = np.zeros((E.n_chunks(ne), E.N_OUT))
+        # chunks of one colour share no node: the kernel adds their forces in parallel
+        self.chunk_order, self.colour_ptr = E.chunk_colours(model.conn, E.CHUNK)
         self.jnode = np.ones(nn)
         self.vol_now = np.zeros(ne)
         self.vol_eos = model.vol.copy() if self.use_anp else model.vol
@@ -56,7 +58,7 @@ class Simulation:
         self.hardening, self.thermal = np.zeros(ne), np.zeros(ne)
         E.yield_cache(model.elem_mat, model.mat_params, model.eps_p, model.temperature,
                       self.hardening, self.thermal)
-        for p in passes:  # passes that need the integrator's buffers (fracture: elem_force)
+        for p in passes:  # passes that need the integrator (fracture: refresh_forces)
             if hasattr(p, "attach"):
                 p.attach(self)
         self.timings: dict[str, float] = {"element": 0.0, "nodes": 0.0}
@@ -98,7 +100,7 @@ class Simulation:
         dtv = 0.5 * (self.dt + dt) if self.dt > 0.0 else 0.5 * dt
         m.dtv = dtv
         t0 = wallclock.perf_counter()
-        gather_and_predict(self.elem_force, m.n2e_ptr, m.n2e, m.mass, m.force, m.v, dtv)
+        predict(m.force, m.mass, m.v, dtv)
         t1 = wallclock.perf_counter()
         self.timings["nodes"] += t1 - t0
         for p in self.velocity_passes:
@@ -136,7 +138,8 @@ class Simulation:
         E.element_update(m.x, m.v, m.conn, m.elem_mat, m.status, m.sdev, m.pressure, m.q, m.eps_p,
                          m.eps_rate, m.temperature, self.hardening, self.thermal, m.energy, m.vol,
                          self.vol_eos, m.vol0, m.elem_mass, m.mat_params, self.jnode,
-                         self.use_anp, dt, self.cq, self.cl, self.elem_force, self.chunk_out)
+                         self.use_anp, dt, self.cq, self.cl, m.force, self.chunk_order,
+                         self.colour_ptr, self.chunk_out)
         out = self.chunk_out
         k = int(np.argmin(out[:, E.OUT_DT]))
         self.dt_stable = float(out[k, E.OUT_DT])
@@ -147,6 +150,14 @@ class Simulation:
         if inverted:
             raise SimulationStopped(
                 f"{inverted} element(s) inverted (negative volume) at t = {m.time + dt:.6g} s")
+
+    def refresh_forces(self, elements: np.ndarray) -> None:
+        """Recompute the nodal forces of the nodes of `elements` from their live elements, after
+        a pass changed those elements (erosion: a removed element no longer pushes its nodes)."""
+        m = self.model
+        nodes = np.unique(m.conn[elements])
+        E.node_forces(nodes, m.x, m.conn, m.status, m.sdev, m.pressure, m.q, m.n2e_ptr, m.n2e,
+                      m.force)
 
     # --- accounting ----------------------------------------------------------------------------
     def energies(self) -> dict[str, float]:

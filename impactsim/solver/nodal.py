@@ -1,8 +1,9 @@
-"""Node kernels of the explicit scheme: force gather + predictor, move, nodal volume ratios, sums.
+"""Node kernels of the explicit scheme: predictor, move, nodal volume ratios, sums.
 
-Gathers go through the node-to-element index (Model.n2e_ptr / n2e), so every node sums its
-element corners in a fixed order: deterministic whatever the thread count. Reductions use fixed
-chunks summed in order for the same reason.
+The element update adds the nodal forces itself (solver/element.py). Gathers go through the
+node-to-element index (Model.n2e_ptr / n2e), so every node sums its element corners in a fixed
+order: deterministic whatever the thread count. Reductions use fixed chunks summed in order for
+the same reason.
 """
 
 from __future__ import annotations
@@ -14,31 +15,17 @@ CHUNK = 4096
 
 
 @numba.njit(cache=True, parallel=True)
-def gather_and_predict(elem_force, n2e_ptr, n2e, mass, force, v, dtv):
-    """force_i = sum of its element corners' forces; U*_i = U_i + dtv force_i / m_i [D19 eq. 2].
-
-    elem_force (4 n_elem, 3) corner forces [N]; dtv the velocity step (the mean of the previous
-    and the new time step, so the leapfrog stays second order when dt changes).
-    """
-    n = mass.shape[0]
-    for i in numba.prange(n):
-        fx = 0.0
-        fy = 0.0
-        fz = 0.0
-        for k in range(n2e_ptr[i], n2e_ptr[i + 1]):
-            c = n2e[k]
-            fx += elem_force[c, 0]
-            fy += elem_force[c, 1]
-            fz += elem_force[c, 2]
-        force[i, 0] = fx
-        force[i, 1] = fy
-        force[i, 2] = fz
+def predict(force, mass, v, dtv):
+    """U*_i = U_i + dtv force_i / m_i [D19 eq. 2]; force (n, 3) the nodal forces of the element
+    update, dtv the velocity step (the mean of the previous and the new time step, so the
+    leapfrog stays second order when dt changes). A node without mass is left alone."""
+    for i in numba.prange(mass.shape[0]):
         mi = mass[i]
         if mi > 0.0:
             a = dtv / mi
-            v[i, 0] += a * fx
-            v[i, 1] += a * fy
-            v[i, 2] += a * fz
+            v[i, 0] += a * force[i, 0]
+            v[i, 1] += a * force[i, 1]
+            v[i, 2] += a * force[i, 2]
 
 
 @numba.njit(cache=True, parallel=True)

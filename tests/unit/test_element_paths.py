@@ -26,14 +26,14 @@ COPPER = material(name="cu", density=8930.0, shear_modulus=46e9, bulk_modulus=13
 @numba.njit
 def _scalar_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                    hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
-                   use_anp, dt, cq, cl, elem_force):
+                   use_anp, dt, cq, cl, force):
     """Every element through E._element_scalar; returns (min dt, its element, q work, inverted)."""
     dt_min, worst, qwork, inverted = np.inf, -1, 0.0, 0
     for e in range(conn.shape[0]):
         dte, qw, inv = E._element_scalar(e, x, v, conn, elem_mat, status, sdev, pressure, q,
                                          eps_p, eps_rate, temperature, hard, thermal, energy, vol,
                                          vol_eos, vol0, elem_mass, mat_params, jnode, use_anp,
-                                         0.5 * dt, dt, cq, cl, elem_force)
+                                         0.5 * dt, dt, cq, cl, force)
         qwork += qw
         inverted += inv
         if dte < dt_min:
@@ -84,7 +84,7 @@ def test_vector_and_scalar_paths_agree(element):
     ref = {k: getattr(model, k).copy() for k in names}
     ref["hard"], ref["thermal"] = sim.hardening.copy(), sim.thermal.copy()
     ref["vol_eos"] = sim.vol_eos.copy() if sim.use_anp else ref["vol"]
-    ref["force"] = np.zeros_like(sim.elem_force)
+    ref["force"] = np.zeros_like(model.force)
     m = model
     dt_min, worst, qwork, inverted = _scalar_update(
         m.x, m.v, m.conn, m.elem_mat, m.status, ref["sdev"], ref["pressure"], ref["q"],
@@ -101,7 +101,7 @@ def test_vector_and_scalar_paths_agree(element):
         np.testing.assert_allclose(a, b, rtol=0, atol=1e-12 * np.abs(b).max(), err_msg=k)
     np.testing.assert_allclose(sim.hardening, ref["hard"], rtol=1e-14)
     np.testing.assert_allclose(sim.thermal, ref["thermal"], rtol=1e-14)
-    np.testing.assert_allclose(sim.elem_force, ref["force"], rtol=0,
+    np.testing.assert_allclose(m.force, ref["force"], rtol=0,
                                atol=1e-12 * np.abs(ref["force"]).max())
     assert sim.dt_stable == pytest.approx(dt_min, rel=1e-13)
     assert sim.worst_element == worst
