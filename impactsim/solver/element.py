@@ -15,10 +15,11 @@ on the number of threads). Inside a chunk, blocks of B elements go down one of t
   (`_load_block`), the arithmetic runs as loops over the B lanes that LLVM turns into packed
   SIMD instructions (`_kinematics_block`: velocity gradient, geometry, trial stress;
   `_pressure_block`: EOS, energy, viscosity, time step, forces); the radial return runs for
-  Johnson-Cook as vector loops too (`_jc_return_block`, ln and exp from `vecmath`), for other
-  strength models as a scalar loop (`_return_block`), and in both only for lanes whose trial
-  stress exceeds the rate-independent lower bound of their yield stress, cached per element;
-  the results are copied back (`_store_block`);
+  Johnson-Cook as vector loops too (`_jc_return_block`, with the lane functions ln and exp of
+  `vecmath`, so each Newton iteration is one loop), for other strength models as a scalar loop
+  (`_return_block`), and in both only for lanes whose trial stress exceeds the
+  rate-independent lower bound of their yield stress, cached per element; the results are
+  copied back and the forces added to the nodes (`_store_block`);
 - the scalar path (`_element_scalar`), one element at a time with every branch: damaged,
   fractured and eroded elements, blocks that mix materials, the partial block at the end of
   the mesh, and a block with an inverted element.
@@ -45,10 +46,9 @@ from impactsim.materials.laws import (eos_linear_part, hardening, newton_step_co
                                       thermal_factor)
 from impactsim.model import DAMAGED, ERODED, FRACTURED
 from impactsim.solver import vecmath as VM
-from impactsim.solver.vecmath import vexp, vlog
 
 CHUNK = 512
-B = VM.B  # lanes of a block; the buffer (ROWS x B doubles, 24 kB) stays in the L1 cache
+B = 32  # lanes of a block; the buffer (ROWS x B doubles, 23 kB) stays in the L1 cache
 # IEEE semantics are kept (no nnan/ninf: inf marks "no limit"); numpy's error model drops the
 # zero-division checks that Python semantics would put on every division.
 FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
@@ -90,13 +90,12 @@ R_RT = 84  # rate factor x thermal factor
 R_DEPS = 85  # plastic strain increment (Newton iterate)
 R_LO = 86  # bracket of the increment
 R_HI = 87
-R_DONE = 88  # 1 converged (or elastic), 0 iterating, -1 stalled (the scalar return redoes it)
+R_DONE = 88  # ITERATING, FINISHED (converged, or elastic) or STALLED (see _jc_newton)
 R_SY = 89  # yield stress at the end of the return
 R_HN = 90  # hardening term at the end of the return
-R_ARG = 91  # argument of ln
-R_LN = 92  # ln, then the exponent of exp
-R_POW = 93  # the power
-ROWS = 94
+ROWS = 91
+# states of a lane in the vector return (row R_DONE)
+ITERATING, FINISHED, STALLED = 0.0, 1.0, 2.0
 # Newton iterations of the vector return; a lane not converged by then (a few per thousand
 # yielding elements) is redone by the scalar return, so that one slow lane does not make the
 # whole block iterate
@@ -485,48 +484,35 @@ def _return_block(buf, code, mat_params, mk, shear, eps_p, temperature, hard, th
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
-def _jc_start(buf, a0, n, c, g3):
-    """Rate factor from ln(max(rate/rate0, 1)) in R_LN; the trial check at the step's rate and the
+def _jc_start(buf, a0, n, c, g3, inv_rate0):
+    """Rate factor 1 + C ln(max(rate/rate0, 1)), the trial check at the step's rate and the
     Newton start of `laws.radial_return` (linearised return, bracket [0, (seq - sy)/3G])."""
     for i in range(B):
         seq = buf[R_SEQ * B + i]
         ep = buf[R_EP * B + i]
         hard = buf[R_HARD * B + i]
-        rt = (1.0 + c * buf[R_LN * B + i]) * buf[R_THERM * B + i]
+        rt = (1.0 + c * VM.ln(max(buf[R_RATE * B + i] * inv_rate0, 1.0))) * buf[R_THERM * B + i]
         sy = hard * rt
         act = seq > sy
         hi = (seq - sy) / g3
         d = (seq - sy) / (g3 + n * (hard - a0) * rt / ep) if ep > 0.0 else hi
-        d = d if act else 0.0
         buf[R_RT * B + i] = rt
         buf[R_ACT * B + i] = 1.0 if act else 0.0
-        buf[R_DONE * B + i] = 0.0 if act else 1.0
-        buf[R_DEPS * B + i] = d
+        buf[R_DONE * B + i] = ITERATING if act else FINISHED
+        buf[R_DEPS * B + i] = d if act else 0.0
         buf[R_LO * B + i] = 0.0
         buf[R_HI * B + i] = hi if act else 0.0
         buf[R_SY * B + i] = sy
         buf[R_HN * B + i] = hard
-        buf[R_ARG * B + i] = ep + d if act else 1.0
-
-
-@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
-def _rate_arg(buf, inv_rate0):
-    for i in range(B):
-        buf[R_ARG * B + i] = max(buf[R_RATE * B + i] * inv_rate0, 1.0)
-
-
-@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
-def _scale_ln(buf, n):
-    for i in range(B):
-        buf[R_LN * B + i] *= n
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
 def _jc_newton(buf, a0, b0, n, g3):
     """One safeguarded Newton iteration of `laws.radial_return` on every lane still iterating,
-    with (eps_p + d)^n in R_POW; a lane whose Newton step is bounded to land within the
-    tolerance (`laws.newton_step_converged`) takes it and stops. Returns the number of lanes
-    still iterating."""
+    (eps_p + d)^n from `vecmath.power`. A lane whose Newton step is bounded to land within the
+    tolerance (`laws.newton_step_converged`) takes it and finishes; a lane whose bracket has
+    shrunk to round-off finishes at the next call with the yield stress at its last iterate, as
+    the scalar return does. Returns the number of lanes not finished."""
     curv = b0 * n * abs(1.0 - n)
     left = 0
     for i in range(B):
@@ -537,10 +523,12 @@ def _jc_newton(buf, a0, b0, n, g3):
         d = buf[R_DEPS * B + i]
         lo = buf[R_LO * B + i]
         hi = buf[R_HI * B + i]
-        pw = buf[R_POW * B + i]
+        iterating = done == ITERATING
+        final = done == STALLED
+        ep = ep0 + d if iterating or final else 1.0
+        pw = VM.power(ep, n)
         a = a0 * rt
         b = b0 * rt
-        ep = ep0 + d
         sy = a + b * pw
         f = seq - g3 * d - sy
         tol = 1e-12 * seq
@@ -551,28 +539,26 @@ def _jc_newton(buf, a0, b0, n, g3):
         dn = d + step
         accept = (newton_step_converged(step, ep, rt * curv * pw / (ep * ep), tol)
                   and dn > lo2 and dn < hi2 and not conv)
-        pw_acc = power_near(pw, step / ep, n)
+        pw = power_near(pw, step / ep, n) if accept else pw
         dn = 0.5 * (lo2 + hi2) if (dn <= lo2 or dn >= hi2) else dn
         stall = hi2 - lo2 <= 1e-15 * (1.0 + ep0)
-        iterating = done == 0.0
-        stop = conv or accept
-        going = iterating and not stop
-        buf[R_DONE * B + i] = (1.0 if stop else (-1.0 if stall else 0.0)) if iterating else done
-        pw = pw_acc if accept else pw
-        buf[R_SY * B + i] = a + b * pw if iterating and stop else buf[R_SY * B + i]
-        buf[R_HN * B + i] = a0 + b0 * pw if iterating and stop else buf[R_HN * B + i]
+        finish = final or (iterating and (conv or accept))
+        going = iterating and not (conv or accept)
+        new = FINISHED if finish else (STALLED if going and stall else done)
+        buf[R_DONE * B + i] = new
+        buf[R_SY * B + i] = a + b * pw if finish else buf[R_SY * B + i]
+        buf[R_HN * B + i] = a0 + b0 * pw if finish else buf[R_HN * B + i]
         buf[R_LO * B + i] = lo2 if going else lo
         buf[R_HI * B + i] = hi2 if going else hi
         buf[R_DEPS * B + i] = dn if going or (iterating and accept) else d
-        buf[R_ARG * B + i] = ep0 + dn if going else 1.0
-        left += 1 if going and not stall else 0
+        left += 0 if new == FINISHED else 1
     return left
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
-def _jc_finish(buf, tq_cv, t_room, inv_t_range):
-    """Plastic strain, adiabatic heating and the returned deviator of the yielded lanes; the
-    homologous temperature T* to R_ARG for the thermal factor (0.5 where it is not needed)."""
+def _jc_finish(buf, tq_cv, t_room, inv_t_range, m):
+    """Plastic strain, adiabatic heating, the thermal factor 1 - T*^m (`laws.thermal_factor`)
+    and the returned deviator of the yielded lanes."""
     for i in range(B):
         upd = buf[R_ACT * B + i] > 0.0 and buf[R_DEPS * B + i] > 0.0
         deps = buf[R_DEPS * B + i]
@@ -583,29 +569,20 @@ def _jc_finish(buf, tq_cv, t_room, inv_t_range):
         scale = sy / seq if upd else 1.0
         for c in range(6):
             buf[(R_SN + c) * B + i] *= scale
+        t_star = (temp - t_room) * inv_t_range
+        tm = VM.power(t_star if (t_star > 0.0 and t_star < 1.0) else 0.5, m)
+        th = 0.0 if t_star >= 1.0 else (1.0 - tm if t_star > 0.0 else 1.0)
         buf[R_EP * B + i] = buf[R_EP * B + i] + deps if upd else buf[R_EP * B + i]
         buf[R_TEMP * B + i] = temp if upd else buf[R_TEMP * B + i]
         buf[R_HARD * B + i] = buf[R_HN * B + i] if upd else buf[R_HARD * B + i]
-        t_star = (temp - t_room) * inv_t_range
-        buf[R_ACT * B + i] = t_star if upd else -1.0  # reused: T* of the lanes to update
-        buf[R_ARG * B + i] = t_star if (upd and t_star > 0.0 and t_star < 1.0) else 0.5
-
-
-@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
-def _jc_thermal(buf):
-    """Thermal factor 1 - T*^m (T*^m in R_POW) of the yielded lanes (T* in R_ACT, -1 elsewhere)."""
-    for i in range(B):
-        t_star = buf[R_ACT * B + i]
-        th = 0.0 if t_star >= 1.0 else (1.0 - buf[R_POW * B + i] if t_star > 0.0 else 1.0)
-        buf[R_THERM * B + i] = th if t_star != -1.0 else buf[R_THERM * B + i]
+        buf[R_THERM * B + i] = th if upd else buf[R_THERM * B + i]
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _jc_return_block(buf, ibuf, kbuf, mat_params, mk, shear, eps_p, temperature, hard, thermal,
-                     e0):
+def _jc_return_block(buf, mat_params, mk, shear, eps_p, temperature, hard, thermal, e0):
     """The Johnson-Cook radial return of a block as vector loops: `laws.radial_return` and the
     caches' update of `_return_map`, lane by lane the same iteration (ln and exp from
-    `vecmath`); a lane whose iteration stalls or runs out is redone by the scalar return.
+    `vecmath`); a lane not finished after VECTOR_ITERATIONS is redone by the scalar return.
     Requires C >= 0 (hard x thermal is then a lower bound: lanes below it skip, and a block
     with no lane above it costs one comparison per lane)."""
     any_active = False
@@ -622,17 +599,12 @@ def _jc_return_block(buf, ibuf, kbuf, mat_params, mk, shear, eps_p, temperature,
         buf[R_THERM * B + i] = thermal[e0 + i]
     a0, b0, n = mat_params[mk, P.JC_A], mat_params[mk, P.JC_B], mat_params[mk, P.JC_N]
     g3 = 3.0 * shear
-    _rate_arg(buf, 1.0 / mat_params[mk, P.EPSDOT0])
-    vlog(buf, ibuf, R_ARG, R_LN, kbuf)
-    _jc_start(buf, a0, n, mat_params[mk, P.JC_C], g3)
+    _jc_start(buf, a0, n, mat_params[mk, P.JC_C], g3, 1.0 / mat_params[mk, P.EPSDOT0])
     for _ in range(VECTOR_ITERATIONS):
-        vlog(buf, ibuf, R_ARG, R_LN, kbuf)
-        _scale_ln(buf, n)
-        vexp(buf, R_LN, R_POW)
         if _jc_newton(buf, a0, b0, n, g3) == 0:
             break
     for i in range(B):
-        if buf[R_DONE * B + i] != 1.0:  # stalled or slow: the scalar return from the start
+        if buf[R_DONE * B + i] != FINISHED:  # slow: the scalar return from the start
             deps, sy, hnew = radial_return(P.JOHNSON_COOK, mat_params, mk, shear,
                                            buf[R_SEQ * B + i], buf[R_EP * B + i],
                                            buf[R_RATE * B + i], buf[R_HARD * B + i],
@@ -642,17 +614,12 @@ def _jc_return_block(buf, ibuf, kbuf, mat_params, mk, shear, eps_p, temperature,
             buf[R_HN * B + i] = hnew
     t_room = mat_params[mk, P.T_ROOM]
     _jc_finish(buf, mat_params[mk, P.TQ] / mat_params[mk, P.CV], t_room,
-               1.0 / (mat_params[mk, P.T_MELT] - t_room))
-    vlog(buf, ibuf, R_ARG, R_LN, kbuf)
-    _scale_ln(buf, mat_params[mk, P.JC_M])
-    vexp(buf, R_LN, R_POW)
-    _jc_thermal(buf)
+               1.0 / (mat_params[mk, P.T_MELT] - t_room), mat_params[mk, P.JC_M])
     for i in range(B):
         eps_p[e0 + i] = buf[R_EP * B + i]
         temperature[e0 + i] = buf[R_TEMP * B + i]
         hard[e0 + i] = buf[R_HARD * B + i]
         thermal[e0 + i] = buf[R_THERM * B + i]
-
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
@@ -780,8 +747,6 @@ def _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
     """The elements of chunk ch, block by block (see the module docstring)."""
     n_elem = conn.shape[0]
     buf = np.empty(ROWS * B)
-    ibuf = buf.view(np.int64)
-    kbuf = np.empty(B, np.int64)
     dt_min = math.inf
     worst = -1
     qwork = 0.0
@@ -800,8 +765,8 @@ def _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
         if mk >= 0:
             code = int(mat_params[mk, P.STRENGTH])
             if code == P.JOHNSON_COOK and mat_params[mk, P.JC_C] >= 0.0:
-                _jc_return_block(buf, ibuf, kbuf, mat_params, mk, shear, eps_p, temperature,
-                                 hard, thermal, e0)
+                _jc_return_block(buf, mat_params, mk, shear, eps_p, temperature, hard, thermal,
+                                 e0)
             elif code != P.ELASTIC:
                 _return_block(buf, code, mat_params, mk, shear, eps_p, temperature,
                               hard, thermal, e0)

@@ -1,19 +1,19 @@
-"""Logarithm and exponential over rows of a block buffer, as loops LLVM vectorises.
+"""Logarithm and exponential as lane functions that LLVM vectorises inside a loop.
 
 The Johnson-Cook return needs ln and exp (the rate term, eps_p^n, T*^m). numba has no vector
 math library here (no SVML), so `math.log` and `math.exp` stay scalar libm calls even in a
-vectorised loop; these are written out instead, with the usual reductions:
+vectorised loop, which then stops being vectorised. These are written out instead, with the
+usual reductions, from arithmetic, selects and bit casts only, and inlined into the caller:
 
-- log x: x = 2^k m with m in [sqrt(1/2), sqrt(2)) read from the bits of x (an int64 view of the
-  same buffer), then ln m = 2 atanh(s), s = (m - 1)/(m + 1), |s| <= 0.172, by its odd series to
-  s^23 (truncation below 1e-17 relative), and ln x = k ln 2 + ln m with ln 2 split in two parts;
-- exp y: y = k ln 2 + r with k = round(y / ln 2) and |r| <= ln 2 / 2, exp r by its Taylor series
-  to r^13 (truncation below 2e-17), times 2^k from a table.
+- `ln(x)`: x = 2^k m with m in [sqrt(1/2), sqrt(2)) read from the bits of x, then
+  ln m = 2 atanh(s), s = (m - 1)/(m + 1), |s| <= 0.172, by its odd series to s^23 (truncation
+  below 1e-17 relative), and ln x = k ln 2 + ln m with ln 2 split in two parts;
+- `exp(y)`: y = k ln 2 + r with k = round(y / ln 2) and |r| <= ln 2 / 2, exp r by its Taylor
+  series to r^13 (truncation below 2e-17), times 2^k built from its bits.
 Both are accurate to a few units in the last place (tested against math.log/math.exp) for
-positive normal x and for y in [-708, 709]; outside that exp saturates to 0 or 2^1023 (the
-callers stay far inside). Each step is its own small function so that LLVM vectorises it:
-a loop reads and writes one view of the buffer only (float or int), so no run-time alias check
-is needed.
+positive normal x and for y in [-708, 709]; outside that exp saturates to about 2^-1021 or
+2^1023 (the callers stay far inside). The bit casts are numba intrinsics (an LLVM bitcast, which
+vectorises to nothing), so a loop that calls these needs no integer view of its buffer.
 """
 
 from __future__ import annotations
@@ -21,86 +21,89 @@ from __future__ import annotations
 import math
 
 import numba
-import numpy as np
+from llvmlite import ir
+from numba.core import types
+from numba.extending import intrinsic
 
 FAST = {"nsz", "arcp", "contract"}  # no "afn", no "reassoc": the reductions must stay exact
-B = 32  # lanes (must equal the element kernel's block size)
 LN2_HI = 6.93147180369123816490e-01  # ln 2 in two parts (fdlibm): k * LN2_HI is exact
 LN2_LO = 1.90821492927058770002e-10
 INV_LN2 = 1.4426950408889634
 SQRT2 = 1.4142135623730951
 MANTISSA = (1 << 52) - 1
 ONE_BITS = 1023 << 52
-POW2 = 2.0 ** np.arange(-1022, 1024, dtype=np.float64)  # 2^k at POW2[k + 1022]
 
 
-@numba.njit(cache=True, error_model="numpy")
-def _split_exponent(ix, im, kbuf):
-    """x = 2^k m, m in [1, 2): k to kbuf, the bits of m to im (int views of B lanes)."""
-    for i in range(B):
-        bits = ix[i]
-        kbuf[i] = (bits >> 52) - 1023
-        im[i] = (bits & MANTISSA) | ONE_BITS
+@intrinsic
+def as_bits(typingctx, x):
+    """The IEEE bits of a float64 as an int64 (a bit cast, no conversion)."""
+    if x != types.float64:
+        return None
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], ir.IntType(64))
+
+    return types.int64(types.float64), codegen
 
 
-@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
-def _log_mantissa(mrow, kbuf):
-    """mrow holds m in [1, 2) and kbuf k: replace m by ln(2^k m)."""
-    for i in range(B):
-        m = mrow[i]
-        k = float(kbuf[i])
-        big = m > SQRT2
-        m = 0.5 * m if big else m
-        k = k + 1.0 if big else k
-        s = (m - 1.0) / (m + 1.0)
-        z = s * s
-        p = 1.0 / 23.0
-        p = p * z + 1.0 / 21.0
-        p = p * z + 1.0 / 19.0
-        p = p * z + 1.0 / 17.0
-        p = p * z + 1.0 / 15.0
-        p = p * z + 1.0 / 13.0
-        p = p * z + 1.0 / 11.0
-        p = p * z + 1.0 / 9.0
-        p = p * z + 1.0 / 7.0
-        p = p * z + 1.0 / 5.0
-        p = p * z + 1.0 / 3.0
-        mrow[i] = k * LN2_HI + (k * LN2_LO + 2.0 * s * (1.0 + z * p))
+@intrinsic
+def from_bits(typingctx, i):
+    """The float64 whose IEEE bits are the int64 i (a bit cast, no conversion)."""
+    if i != types.int64:
+        return None
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], ir.DoubleType())
+
+    return types.float64(types.int64), codegen
 
 
-@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
-def _exp_row(yrow, out):
-    for i in range(B):
-        y = yrow[i]
-        y = min(max(y, -708.0), 709.0)
-        kf = math.floor(y * INV_LN2 + 0.5)
-        r = (y - kf * LN2_HI) - kf * LN2_LO
-        p = 1.0 / 6227020800.0  # 1/13!
-        p = p * r + 1.0 / 479001600.0
-        p = p * r + 1.0 / 39916800.0
-        p = p * r + 1.0 / 3628800.0
-        p = p * r + 1.0 / 362880.0
-        p = p * r + 1.0 / 40320.0
-        p = p * r + 1.0 / 5040.0
-        p = p * r + 1.0 / 720.0
-        p = p * r + 1.0 / 120.0
-        p = p * r + 1.0 / 24.0
-        p = p * r + 1.0 / 6.0
-        p = p * r + 0.5
-        p = p * r + 1.0
-        p = p * r + 1.0
-        out[i] = p * POW2[int(kf) + 1022]
+@numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
+def ln(x):
+    """Natural logarithm of a positive normal float64, a few ulp from libm."""
+    bits = as_bits(x)
+    m = from_bits((bits & MANTISSA) | ONE_BITS)  # in [1, 2)
+    k = float((bits >> 52) - 1023)
+    big = m > SQRT2
+    m = 0.5 * m if big else m
+    k = k + 1.0 if big else k
+    s = (m - 1.0) / (m + 1.0)
+    z = s * s
+    # 1/3 + z/5 + ... + z^10/23 in Estrin's form: a dependency chain of 4 multiply-adds instead
+    # of Horner's 10, so that several lanes' chains overlap in the out-of-order window
+    z2 = z * z
+    z4 = z2 * z2
+    q0 = 1.0 / 3.0 + z * (1.0 / 5.0)
+    q1 = 1.0 / 7.0 + z * (1.0 / 9.0)
+    q2 = 1.0 / 11.0 + z * (1.0 / 13.0)
+    q3 = 1.0 / 15.0 + z * (1.0 / 17.0)
+    q4 = 1.0 / 19.0 + z * (1.0 / 21.0)
+    p = (q0 + z2 * q1) + z4 * ((q2 + z2 * q3) + z4 * (q4 + z2 * (1.0 / 23.0)))
+    return k * LN2_HI + (k * LN2_LO + 2.0 * s * (1.0 + z * p))
 
 
-@numba.njit(cache=True, error_model="numpy")
-def vexp(buf, src, dst):
-    """Row dst = exp(row src) (rows of B lanes, dst != src)."""
-    _exp_row(buf[src * B:(src + 1) * B], buf[dst * B:(dst + 1) * B])
+@numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
+def exp(y):
+    """e^y for y in [-708, 709] (saturates outside), a few ulp from libm."""
+    y = min(max(y, -708.0), 709.0)
+    kf = math.floor(y * INV_LN2 + 0.5)
+    r = (y - kf * LN2_HI) - kf * LN2_LO
+    # sum of r^k / k!, k = 0..13, in Estrin's form (a chain of 5 multiply-adds, not 13)
+    r2 = r * r
+    r4 = r2 * r2
+    r8 = r4 * r4
+    q0 = 1.0 + r
+    q1 = 0.5 + r * (1.0 / 6.0)
+    q2 = 1.0 / 24.0 + r * (1.0 / 120.0)
+    q3 = 1.0 / 720.0 + r * (1.0 / 5040.0)
+    q4 = 1.0 / 40320.0 + r * (1.0 / 362880.0)
+    q5 = 1.0 / 3628800.0 + r * (1.0 / 39916800.0)
+    q6 = 1.0 / 479001600.0 + r * (1.0 / 6227020800.0)
+    p = ((q0 + r2 * q1) + r4 * (q2 + r2 * q3)) + r8 * ((q4 + r2 * q5) + r4 * q6)
+    return p * from_bits((int(kf) + 1023) << 52)
 
 
-@numba.njit(cache=True, error_model="numpy")
-def vlog(buf, ibuf, src, dst, kbuf):
-    """Row dst = ln(row src) for positive normal values (dst != src); ibuf is buf viewed as
-    int64 and kbuf an int64 scratch of B entries."""
-    _split_exponent(ibuf[src * B:(src + 1) * B], ibuf[dst * B:(dst + 1) * B], kbuf)
-    _log_mantissa(buf[dst * B:(dst + 1) * B], kbuf)
+@numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
+def power(x, y):
+    """x ** y for positive normal x, as exp(y ln x) (relative error about |y ln x| 1e-16)."""
+    return exp(y * ln(x))
