@@ -375,24 +375,46 @@ def _element_scalar(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, e
 @numba.njit(cache=True, error_model="numpy")
 def _load_block(x, v, conn, sdev, pressure, energy, vol, vol_eos, vol0, elem_mass, jnode,
                 use_anp, e0, buf):
-    """Copy the data of elements e0 .. e0 + B - 1 into the block buffer."""
+    """Copy the data of elements e0 .. e0 + B - 1 into the block buffer.
+
+    Element arrays are read through views of the block (`sdev[e0:e0 + B]`...), indexed by the
+    lane: an index e0 + i that LLVM cannot prove non-negative gets numba's negative-index
+    wraparound, and the copy then compiles to gathers, several times slower."""
+    cn = conn[e0:e0 + B]
     for i in range(B):
-        e = e0 + i
         for k in range(4):
-            n = conn[e, k]
+            n = np.uint64(cn[i, k])  # unsigned: no wraparound test on the node index
             for d in range(3):
                 buf[(R_X + 3 * k + d) * B + i] = x[n, d]
                 buf[(R_V + 3 * k + d) * B + i] = v[n, d]
+    sd = sdev[e0:e0 + B]
+    for i in range(B):
         for c in range(6):
-            buf[(R_S0 + c) * B + i] = sdev[e, c]
-        buf[R_VOLD * B + i] = vol[e]
-        buf[R_VEOSOLD * B + i] = vol_eos[e]
-        buf[R_MASS * B + i] = elem_mass[e]
-        buf[R_EN * B + i] = energy[e]
-        buf[R_POLD * B + i] = pressure[e]
-        if use_anp:
-            buf[R_VEOS * B + i] = 0.25 * (jnode[conn[e, 0]] + jnode[conn[e, 1]] + jnode[conn[e, 2]]
-                                         + jnode[conn[e, 3]]) * vol0[e]
+            buf[(R_S0 + c) * B + i] = sd[i, c]
+    _copy_in(vol[e0:e0 + B], buf, R_VOLD)
+    _copy_in(vol_eos[e0:e0 + B], buf, R_VEOSOLD)
+    _copy_in(elem_mass[e0:e0 + B], buf, R_MASS)
+    _copy_in(energy[e0:e0 + B], buf, R_EN)
+    _copy_in(pressure[e0:e0 + B], buf, R_POLD)
+    if use_anp:
+        v0 = vol0[e0:e0 + B]
+        for i in range(B):
+            buf[R_VEOS * B + i] = 0.25 * (jnode[cn[i, 0]] + jnode[cn[i, 1]] + jnode[cn[i, 2]]
+                                         + jnode[cn[i, 3]]) * v0[i]
+
+
+@numba.njit(cache=True, inline="always")
+def _copy_in(src, buf, row):
+    """buf row `row` = src (a view of B lanes)."""
+    for i in range(B):
+        buf[row * B + i] = src[i]
+
+
+@numba.njit(cache=True, inline="always")
+def _copy_out(buf, row, dst):
+    """dst (a view of B lanes) = buf row `row`."""
+    for i in range(B):
+        dst[i] = buf[row * B + i]
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
@@ -585,18 +607,21 @@ def _jc_return_block(buf, mat_params, mk, shear, eps_p, temperature, hard, therm
     `vecmath`); a lane not finished after VECTOR_ITERATIONS is redone by the scalar return.
     Requires C >= 0 (hard x thermal is then a lower bound: lanes below it skip, and a block
     with no lane above it costs one comparison per lane)."""
+    hd = hard[e0:e0 + B]  # views of the block (see `_load_block`)
+    th = thermal[e0:e0 + B]
     any_active = False
     for i in range(B):
-        if buf[R_SEQ * B + i] > hard[e0 + i] * thermal[e0 + i]:
+        if buf[R_SEQ * B + i] > hd[i] * th[i]:
             any_active = True
             break
     if not any_active:
         return
-    for i in range(B):
-        buf[R_EP * B + i] = eps_p[e0 + i]
-        buf[R_TEMP * B + i] = temperature[e0 + i]
-        buf[R_HARD * B + i] = hard[e0 + i]
-        buf[R_THERM * B + i] = thermal[e0 + i]
+    ep = eps_p[e0:e0 + B]
+    tp = temperature[e0:e0 + B]
+    _copy_in(ep, buf, R_EP)
+    _copy_in(tp, buf, R_TEMP)
+    _copy_in(hd, buf, R_HARD)
+    _copy_in(th, buf, R_THERM)
     a0, b0, n = mat_params[mk, P.JC_A], mat_params[mk, P.JC_B], mat_params[mk, P.JC_N]
     g3 = 3.0 * shear
     _jc_start(buf, a0, n, mat_params[mk, P.JC_C], g3, 1.0 / mat_params[mk, P.EPSDOT0])
@@ -615,11 +640,10 @@ def _jc_return_block(buf, mat_params, mk, shear, eps_p, temperature, hard, therm
     t_room = mat_params[mk, P.T_ROOM]
     _jc_finish(buf, mat_params[mk, P.TQ] / mat_params[mk, P.CV], t_room,
                1.0 / (mat_params[mk, P.T_MELT] - t_room), mat_params[mk, P.JC_M])
-    for i in range(B):
-        eps_p[e0 + i] = buf[R_EP * B + i]
-        temperature[e0 + i] = buf[R_TEMP * B + i]
-        hard[e0 + i] = buf[R_HARD * B + i]
-        thermal[e0 + i] = buf[R_THERM * B + i]
+    _copy_out(buf, R_EP, ep)
+    _copy_out(buf, R_TEMP, tp)
+    _copy_out(buf, R_HARD, hd)
+    _copy_out(buf, R_THERM, th)
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
@@ -702,40 +726,48 @@ def _pressure_block(buf, dt, anp, eos, rho0, bulk, c0, s, gamma0, shear, cq, cl)
 
 @numba.njit(cache=True, error_model="numpy")
 def _store_block(conn, sdev, pressure, q, eps_rate, energy, vol, vol_eos, force, use_anp, e0, buf):
-    """Copy the block's results back to the element arrays and add its forces to the nodes (in
-    lane order); returns (min dt, its element, viscous work), reduced in lane order."""
+    """Copy the block's results back to the element arrays (through views of the block, see
+    `_load_block`) and add its forces to the nodes (in lane order); returns (min dt, its
+    element, viscous work), reduced in lane order."""
+    sd = sdev[e0:e0 + B]
+    for i in range(B):
+        for c in range(6):
+            sd[i, c] = buf[(R_SN + c) * B + i]
+    _copy_out(buf, R_PN, pressure[e0:e0 + B])
+    _copy_out(buf, R_QN, q[e0:e0 + B])
+    _copy_out(buf, R_EN1, energy[e0:e0 + B])
+    _copy_out(buf, R_RATE, eps_rate[e0:e0 + B])
+    vo = vol[e0:e0 + B]
+    ve = vol_eos[e0:e0 + B]
+    for i in range(B):
+        vnew = buf[R_DET * B + i] * (1.0 / 6.0)
+        vo[i] = vnew
+        ve[i] = buf[R_VEOS * B + i] if use_anp else vnew
+    cn = conn[e0:e0 + B]
     dt_min = math.inf
     worst = -1
     qwork = 0.0
     for i in range(B):
-        e = e0 + i
-        for c in range(6):
-            sdev[e, c] = buf[(R_SN + c) * B + i]
-        pressure[e] = buf[R_PN * B + i]
-        q[e] = buf[R_QN * B + i]
-        energy[e] = buf[R_EN1 * B + i]
-        eps_rate[e] = buf[R_RATE * B + i]
-        vnew = buf[R_DET * B + i] * (1.0 / 6.0)
-        vol[e] = vnew
-        vol_eos[e] = buf[R_VEOS * B + i] if use_anp else vnew
         for k in range(4):
-            n = conn[e, k]
+            n = np.uint64(cn[i, k])
             for d in range(3):
                 force[n, d] += buf[(R_F + 3 * k + d) * B + i]
         qwork += buf[R_QW * B + i]
         dte = buf[R_DTE * B + i]
         if dte < dt_min:
             dt_min = dte
-            worst = e
+            worst = e0 + i
     return dt_min, worst, qwork
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def _vector_block(elem_mat, status, e0):
     """The block's material row if it can take the vector path (all intact, one material)."""
-    mk = elem_mat[e0]
-    for e in range(e0, e0 + B):
-        if status[e] != 0 or elem_mat[e] != mk:
+    mat = elem_mat[e0:e0 + B]
+    st = status[e0:e0 + B]
+    mk = mat[0]
+    for i in range(B):
+        if st[i] != 0 or mat[i] != mk:
             return -1
     return mk
 
