@@ -828,13 +828,23 @@ def _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
     chunk_out[ch, OUT_WORST] = worst
 
 
-@numba.njit(cache=True)
-def chunk_colours(conn, chunk):
+def chunk_colours(conn: np.ndarray, chunk: int) -> tuple[np.ndarray, np.ndarray]:
     """Colour the chunks of `chunk` consecutive elements so that no two chunks of one colour
-    share a node (greedy, in chunk order). Returns (order, ptr): the chunk indices sorted by
-    colour, in ascending order within a colour, and the start of each colour in `order`.
-    Colours are bit masks per node, so at most 63 are shared; a chunk that finds none free gets
-    a colour of its own."""
+    share a node (greedy, in chunk order; `_colour_chunks`). Returns (order, ptr): the chunk
+    indices sorted by colour, in ascending order within a colour, and the start of each colour
+    in `order`."""
+    colour = _colour_chunks(conn, chunk)
+    order = np.argsort(colour, kind="stable")
+    count = np.bincount(colour)
+    ptr = np.concatenate(([0], np.cumsum(count[count > 0])))
+    return order.astype(np.int64), ptr.astype(np.int64)
+
+
+@numba.njit(cache=True)
+def _colour_chunks(conn, chunk):
+    """The colour of every chunk: the lowest colour none of its nodes has yet. Colours are bit
+    masks per node, so at most 63 are shared; a chunk that finds none free gets a colour of its
+    own."""
     n_elem = conn.shape[0]
     nch = max(1, (n_elem + chunk - 1) // chunk)
     n_node = 0
@@ -842,7 +852,7 @@ def chunk_colours(conn, chunk):
         for k in range(4):
             n_node = max(n_node, conn[e, k] + 1)
     mask = np.zeros(n_node, np.int64)
-    colour = np.empty(nch, np.int64)
+    colour = np.zeros(nch, np.int64)
     n_colours = 63
     for ch in range(nch):
         used = 0
@@ -860,16 +870,7 @@ def chunk_colours(conn, chunk):
         for e in range(ch * chunk, min(n_elem, (ch + 1) * chunk)):
             for k in range(4):
                 mask[conn[e, k]] |= 1 << c
-    order = np.argsort(colour, kind="mergesort")
-    count = np.zeros(n_colours + 1, np.int64)
-    for ch in range(nch):
-        count[colour[ch] + 1] += 1
-    ptr = np.cumsum(count)
-    keep = [0]
-    for c in range(n_colours):
-        if count[c + 1] > 0:
-            keep.append(c + 1)
-    return order, ptr[np.array(keep)]
+    return colour
 
 
 @numba.njit(cache=True, parallel=True, error_model="numpy", fastmath=FAST)
