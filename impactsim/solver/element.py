@@ -90,12 +90,13 @@ R_RT = 84  # rate factor x thermal factor
 R_DEPS = 85  # plastic strain increment (Newton iterate)
 R_LO = 86  # bracket of the increment
 R_HI = 87
-R_DONE = 88  # ITERATING, FINISHED (converged, or elastic) or STALLED (see _jc_newton)
+R_DONE = 88  # ITERATING, FINISHED (converged, or elastic), STALLED (see _jc_newton) or FIRST
+#             (first yield, eps_p = 0: the scalar return takes it, `laws.first_yield_return`)
 R_SY = 89  # yield stress at the end of the return
 R_HN = 90  # hardening term at the end of the return
 ROWS = 91
 # states of a lane in the vector return (row R_DONE)
-ITERATING, FINISHED, STALLED = 0.0, 1.0, 2.0
+ITERATING, FINISHED, STALLED, FIRST = 0.0, 1.0, 2.0, 3.0
 # Newton iterations of the vector return; a lane not converged by then (a few per thousand
 # yielding elements) is redone by the scalar return, so that one slow lane does not make the
 # whole block iterate
@@ -508,7 +509,10 @@ def _return_block(buf, code, mat_params, mk, shear, eps_p, temperature, hard, th
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
 def _jc_start(buf, a0, n, c, g3, inv_rate0):
     """Rate factor 1 + C ln(max(rate/rate0, 1)), the trial check at the step's rate and the
-    Newton start of `laws.radial_return` (linearised return, bracket [0, (seq - sy)/3G])."""
+    Newton start of `laws.radial_return` (linearised return, bracket [0, (seq - sy)/3G]); a
+    lane at its first yield (eps_p = 0) is marked FIRST, for the scalar return
+    (`laws.first_yield_return`: iterating such lanes in vector form made whole blocks iterate
+    up to eight times, which cost more than it saved)."""
     for i in range(B):
         seq = buf[R_SEQ * B + i]
         ep = buf[R_EP * B + i]
@@ -520,7 +524,7 @@ def _jc_start(buf, a0, n, c, g3, inv_rate0):
         d = (seq - sy) / (g3 + n * (hard - a0) * rt / ep) if ep > 0.0 else hi
         buf[R_RT * B + i] = rt
         buf[R_ACT * B + i] = 1.0 if act else 0.0
-        buf[R_DONE * B + i] = ITERATING if act else FINISHED
+        buf[R_DONE * B + i] = (ITERATING if ep > 0.0 else FIRST) if act else FINISHED
         buf[R_DEPS * B + i] = d if act else 0.0
         buf[R_LO * B + i] = 0.0
         buf[R_HI * B + i] = hi if act else 0.0
@@ -534,7 +538,8 @@ def _jc_newton(buf, a0, b0, n, g3):
     (eps_p + d)^n from `vecmath.power`. A lane whose Newton step is bounded to land within the
     tolerance (`laws.newton_step_converged`) takes it and finishes; a lane whose bracket has
     shrunk to round-off finishes at the next call with the yield stress at its last iterate, as
-    the scalar return does. Returns the number of lanes not finished."""
+    the scalar return does. FIRST lanes are left to the scalar return. Returns the number of
+    lanes still iterating here."""
     curv = b0 * n * abs(1.0 - n)
     left = 0
     for i in range(B):
@@ -573,7 +578,7 @@ def _jc_newton(buf, a0, b0, n, g3):
         buf[R_LO * B + i] = lo2 if going else lo
         buf[R_HI * B + i] = hi2 if going else hi
         buf[R_DEPS * B + i] = dn if going or (iterating and accept) else d
-        left += 0 if new == FINISHED else 1
+        left += 1 if new == ITERATING or new == STALLED else 0
     return left
 
 
@@ -629,7 +634,7 @@ def _jc_return_block(buf, mat_params, mk, shear, eps_p, temperature, hard, therm
         if _jc_newton(buf, a0, b0, n, g3) == 0:
             break
     for i in range(B):
-        if buf[R_DONE * B + i] != FINISHED:  # slow: the scalar return from the start
+        if buf[R_DONE * B + i] != FINISHED:  # first yield or slow: the scalar return
             deps, sy, hnew = radial_return(P.JOHNSON_COOK, mat_params, mk, shear,
                                            buf[R_SEQ * B + i], buf[R_EP * B + i],
                                            buf[R_RATE * B + i], buf[R_HARD * B + i],

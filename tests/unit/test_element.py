@@ -96,6 +96,25 @@ def test_radial_return_lands_on_yield_surface():
             assert sy == pytest.approx(sy_check, rel=1e-12)
         else:
             assert seq_trial <= sy_check
+    # first yield (eps_p = 0), from just above the yield stress to far past it: on the yield
+    # surface (the iteration runs in t = d^n, `laws.first_yield_return`)
+    rt = thermal_factor(P.JOHNSON_COOK, mp, 0, 300.0) * (1 + 0.025 * math.log(1e3))
+    for over in (1e-6, 1e-4, 1e-2, 0.1, 1.0, 5.0):
+        seq_trial = 90e6 * rt * (1 + over)
+        deps, sy, hard = radial_return(P.JOHNSON_COOK, mp, 0, G, seq_trial, 0.0, 1e3, 90e6,
+                                       thermal_factor(P.JOHNSON_COOK, mp, 0, 300.0))
+        sy_check, _ = flow_stress(P.JOHNSON_COOK, mp, 0, deps, 1e3, 300.0)
+        assert deps > 0.0 and sy == pytest.approx(sy_check, rel=1e-13)
+        assert abs(seq_trial - 3 * G * deps - sy_check) <= 1e-12 * seq_trial * 1.01
+    # an increment far larger than the plastic strain so far
+    for eps0 in (1e-9, 1e-6):
+        deps, sy, hard = radial_return(P.JOHNSON_COOK, mp, 0, G, 3e8, eps0, 1e3,
+                                       hardening(P.JOHNSON_COOK, mp, 0, eps0),
+                                       thermal_factor(P.JOHNSON_COOK, mp, 0, 300.0))
+        sy_check, _ = flow_stress(P.JOHNSON_COOK, mp, 0, eps0 + deps, 1e3, 300.0)
+        assert deps > 100 * eps0 and sy == pytest.approx(sy_check, rel=1e-13)
+        assert hard == pytest.approx(hardening(P.JOHNSON_COOK, mp, 0, eps0 + deps), rel=1e-13)
+        assert abs(3e8 - 3 * G * deps - sy_check) <= 1e-12 * 3e8 * 1.01
     # ideal plasticity: exactly Y0
     mp[0, P.STRENGTH] = P.IDEAL_PLASTIC
     mp[0, P.Y0] = 3e8
