@@ -145,6 +145,24 @@ def power_near(pw, x, n):
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
+def newton_start(seq_trial, sy, hard, a0, rt, n, g3, eps_p):
+    """Start of the Johnson-Cook return's Newton iteration for eps_p > 0: the smaller root of
+    the residual's quadratic model at d = 0, y - p d + k d^2 / 2 (y = seq_trial - sy, p = 3G + h
+    with the hardening slope h, k = rt B n (1 - n) eps_p^(n-2) its curvature there; B eps_p^n
+    is hard - A, so no power is needed). The residual's curvature falls as d grows, so the
+    model lies above it and its root right of the solution; its error is third order in the
+    increment (relative error x^2 for an increment x eps_p, against x for the linearised start
+    y / p), which lets the first Newton step finish (`newton_step_converged`) more often.
+    Without a real root (k large), y / p."""
+    y = seq_trial - sy
+    hb = (hard - a0) * rt  # rt B eps_p^n
+    p = g3 + n * hb / eps_p
+    k = n * abs(1.0 - n) * hb / (eps_p * eps_p)
+    disc = p * p - 2.0 * k * y
+    return 2.0 * y / (p + math.sqrt(disc)) if disc > 0.0 else y / p
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def first_yield_return(seq_trial, a, b, a0, b0, n, g3):
     """The Johnson-Cook return of an element that yields for the first time (eps_p = 0):
     seq_trial - 3G d - (a + b d^n) = 0 solved by Newton's method in t = d^n, i.e.
@@ -183,13 +201,13 @@ def radial_return(code, mp, k, shear, seq_trial, eps_p, eps_rate, hard, thermal)
     ideal-plastic: d_eps = (seq_trial - Y0) / 3G in closed form.
     Johnson-Cook: the rate and thermal factors are constant during the return (eps_rate and T
     are the step's), so Newton's method runs on the hardening term alone,
-    (A + B (eps_p + d)^n) rt: one power per iteration. It starts from the linearised return
-    d = (seq_trial - sigma_y) / (3G + h) (h the hardening slope at eps_p), is safeguarded with
-    bisection on [0, (seq_trial - sigma_y(eps_p)) / 3G], and stops at |residual| <=
-    1e-12 seq_trial, or one evaluation earlier when the Newton step's own residual is bounded
-    below that (`newton_step_converged`; the power at the end then from `power_near`). In a
-    steadily yielding element the linearised start is that close, and the return costs one
-    power. At the first yield (eps_p = 0) the iteration runs in t = d^n instead
+    (A + B (eps_p + d)^n) rt: one power per iteration. It starts from the root of the
+    residual's quadratic model (`newton_start`), is safeguarded with bisection on
+    [0, (seq_trial - sigma_y(eps_p)) / 3G], and stops at |residual| <= 1e-12 seq_trial, or one
+    evaluation earlier when the Newton step's own residual is bounded below that
+    (`newton_step_converged`; the power at the end then from `power_near`). For an increment
+    up to a few per cent of eps_p the start is that close, and the return costs one power.
+    At the first yield (eps_p = 0) the iteration runs in t = d^n instead
     (`first_yield_return`).
     """
     if code == P.IDEAL_PLASTIC:
@@ -213,7 +231,7 @@ def radial_return(code, mp, k, shear, seq_trial, eps_p, eps_rate, hard, thermal)
         return first_yield_return(seq_trial, a, b, a0, b0, n, g3)
     hi = (seq_trial - sy) / g3
     lo = 0.0
-    d = (seq_trial - sy) / (g3 + n * (hard - a0) * rt / eps_p)
+    d = newton_start(seq_trial, sy, hard, a0, rt, n, g3, eps_p)
     tol = 1e-12 * seq_trial
     curv = b * n * abs(1.0 - n)  # |f''| = curv ep^(n-2)
     pw = 0.0

@@ -41,9 +41,9 @@ import numba
 import numpy as np
 
 from impactsim.materials import params as P
-from impactsim.materials.laws import (eos_linear_part, hardening, newton_step_converged,
-                                      power_near, radial_return, rate_independent_floor,
-                                      thermal_factor)
+from impactsim.materials.laws import (eos_linear_part, hardening, newton_start,
+                                      newton_step_converged, power_near, radial_return,
+                                      rate_independent_floor, thermal_factor)
 from impactsim.model import DAMAGED, ERODED, FRACTURED
 from impactsim.solver import vecmath as VM
 
@@ -509,7 +509,7 @@ def _return_block(buf, code, mat_params, mk, shear, eps_p, temperature, hard, th
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
 def _jc_start(buf, a0, n, c, g3, inv_rate0):
     """Rate factor 1 + C ln(max(rate/rate0, 1)), the trial check at the step's rate and the
-    Newton start of `laws.radial_return` (linearised return, bracket [0, (seq - sy)/3G]); a
+    Newton start of `laws.radial_return` (`laws.newton_start`, bracket [0, (seq - sy)/3G]); a
     lane at its first yield (eps_p = 0) is marked FIRST, for the scalar return
     (`laws.first_yield_return`: iterating such lanes in vector form made whole blocks iterate
     up to eight times, which cost more than it saved)."""
@@ -521,7 +521,7 @@ def _jc_start(buf, a0, n, c, g3, inv_rate0):
         sy = hard * rt
         act = seq > sy
         hi = (seq - sy) / g3
-        d = (seq - sy) / (g3 + n * (hard - a0) * rt / ep) if ep > 0.0 else hi
+        d = newton_start(seq, sy, hard, a0, rt, n, g3, ep) if ep > 0.0 else hi
         buf[R_RT * B + i] = rt
         buf[R_ACT * B + i] = 1.0 if act else 0.0
         buf[R_DONE * B + i] = (ITERATING if ep > 0.0 else FIRST) if act else FINISHED
