@@ -5,8 +5,9 @@ PY := $(VENV)/bin/python
 BIN := $(VENV)/bin
 CASES := elastic-bar-wall taylor-bar two-cubes two-cylinders elastic-bars hertz-spheres sphere-plate oblique-sphere
 SWEEP ?= cases/sweeps/mesh-size.toml
+REV ?= HEAD
 
-.PHONY: setup test hard bench accuracy sweep cases demo clean
+.PHONY: setup test hard bench compare accuracy sweep cases demo clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -25,6 +26,10 @@ hard: setup
 
 bench: setup
 	$(BIN)/python benchmarks/run.py
+
+# whole-step time of the working tree against a revision, in one process: make compare REV=HEAD~3
+compare: setup
+	$(BIN)/python benchmarks/compare.py $(REV)
 
 # accuracy against cost: runs the studies, writes docs/accuracy.md and docs/accuracy/*.png
 accuracy: setup

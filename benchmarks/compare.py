@@ -1,0 +1,135 @@
+"""Whole-step time of the working tree against a git revision, measured in one process.
+
+The machine here is shared: the same run can take 1.5x longer from one minute to the next, so
+figures from two separate runs do not compare. This runs the bench scene of bench_element.py
+(202,752 tets of copper onto a rigid wall, Johnson-Cook + Mie-Grueneisen) with both versions
+side by side: the revision's `impactsim` package is exported (`git archive`) into a temporary
+folder as `impactsim_rev`, each version builds its own Simulation, and the timed steps
+alternate between them in short runs, so both see the same machine. Prints process CPU ns per
+element-step for each version, their ratio, and how far apart the two end states are (the
+two versions should compute the same physics).
+
+    python benchmarks/compare.py REV [--steps 60] [--warm 20] [--run 5] [--elastic]
+        [--cells 32]
+
+The first call for a revision compiles its kernels (about half a minute); they are cached in
+the export folder (`.bench_compare/<rev>` under the repository).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numba
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def export(rev: str) -> str:
+    """Export `impactsim` at `rev` as the package `impactsim_rev` under .bench_compare/<sha>;
+    returns the folder to put on sys.path."""
+    sha = subprocess.run(["git", "rev-parse", "--short", rev], cwd=ROOT, check=True,
+                         capture_output=True, text=True).stdout.strip()
+    dest = ROOT / ".bench_compare" / sha
+    pkg = dest / "impactsim_rev"
+    if not pkg.exists():
+        dest.mkdir(parents=True, exist_ok=True)
+        archive = subprocess.run(["git", "archive", sha, "impactsim"], cwd=ROOT, check=True,
+                                 capture_output=True).stdout
+        subprocess.run(["tar", "-x", "-C", str(dest)], input=archive, check=True)
+        (dest / "impactsim").rename(pkg)
+        for f in pkg.rglob("*.py"):
+            text = f.read_text()
+            text = re.sub(r"\bimpactsim\b(?=[. ])", "impactsim_rev", text)
+            f.write_text(text)
+    return str(dest)
+
+
+def build(pkg: str, cells: int, elastic: bool):
+    """The bench scene of bench_element.py, built with package `pkg`."""
+    load_case_text = importlib.import_module(f"{pkg}.case").load_case_text
+    mesh_body = importlib.import_module(f"{pkg}.mesh").mesh_body
+    build_model = importlib.import_module(f"{pkg}.solver.build").build_model
+    build_passes = importlib.import_module(f"{pkg}.solver.pipeline").build_passes
+    Simulation = importlib.import_module(f"{pkg}.solver.loop").Simulation
+    P = importlib.import_module(f"{pkg}.materials.params")
+    h = 0.5e-3
+    nx, ny, nz = cells, cells, cells + 1
+    case = load_case_text(f"""
+[run]
+name = "bench"
+end_time = 1e-3
+[[body]]
+name = "block"
+material = "ofhc-copper"
+shape = "box"
+size = [{nx * h}, {ny * h}, {nz * h}]
+position = [0, 0, {nz * h / 2 + 1e-7}]
+mesh_size = {h}
+mesher = "structured"
+velocity = [0, 0, -190]
+[[wall]]
+point = [0, 0, 0]
+normal = [0, 0, 1]
+""")
+    model = build_model(case, [mesh_body(case.bodies[0], use_cache=False)])
+    if elastic:
+        model.mat_params[:, P.STRENGTH] = P.ELASTIC
+    return model, Simulation(model, build_passes(case, model), cfl=0.6)
+
+
+def main(argv=None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("rev")
+    ap.add_argument("--steps", type=int, default=60, help="timed steps per version")
+    ap.add_argument("--warm", type=int, default=20, help="untimed steps first")
+    ap.add_argument("--run", type=int, default=5, help="steps per turn of a version")
+    ap.add_argument("--elastic", action="store_true", help="the block made elastic")
+    ap.add_argument("--cells", type=int, default=32, help="cells along x (6 tets each)")
+    args = ap.parse_args(argv)
+    sys.path.insert(0, export(args.rev))
+    sys.path.insert(0, str(ROOT))
+    numba.set_num_threads(1)
+    sims = {}
+    for label, pkg in ((args.rev, "impactsim_rev"), ("working tree", "impactsim")):
+        t0 = time.perf_counter()
+        model, sim = build(pkg, args.cells, args.elastic)
+        sim.step()  # compiles (or loads) the kernels
+        print(f"{label}: {model.n_elem} tets, ready in {time.perf_counter() - t0:.1f} s")
+        sims[label] = (model, sim)
+    for model, sim in sims.values():
+        for _ in range(args.warm - 1):
+            sim.step()
+    cpu = {label: 0.0 for label in sims}
+    done = 0
+    while done < args.steps:
+        n = min(args.run, args.steps - done)
+        for label, (model, sim) in sims.items():
+            c0 = time.process_time()
+            for _ in range(n):
+                sim.step()
+            cpu[label] += time.process_time() - c0
+        done += n
+    (ma, _), (mb, _) = sims.values()
+    ns = {label: 1e9 * t / (mb.n_elem * args.steps) for label, t in cpu.items()}
+    a, b = ns.values()
+    drift = float(np.abs(ma.x - mb.x).max() / np.abs(mb.x - mb.x0).max())
+    plastic = int(np.count_nonzero(mb.eps_p))
+    print(f"{'JC' if not args.elastic else 'elastic'}, 1 thread, steps {args.warm}.."
+          f"{args.warm + args.steps}, {plastic} plastic elements: CPU ns per element-step")
+    for label, v in ns.items():
+        print(f"  {label:>14}: {v:7.1f}")
+    print(f"  ratio {args.rev} / working tree: {a / b:.2f}")
+    print(f"  end states: max |x difference| = {drift:.1e} of the largest displacement")
+    return {"ns": ns, "ratio": a / b, "drift": drift}
+
+
+if __name__ == "__main__":
+    main()
