@@ -29,6 +29,9 @@ from pathlib import Path
 import numba
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_element import case_text  # noqa: E402
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -60,25 +63,7 @@ def build(pkg: str, cells: int, elastic: bool):
     build_passes = importlib.import_module(f"{pkg}.solver.pipeline").build_passes
     Simulation = importlib.import_module(f"{pkg}.solver.loop").Simulation
     P = importlib.import_module(f"{pkg}.materials.params")
-    h = 0.5e-3
-    nx, ny, nz = cells, cells, cells + 1
-    case = load_case_text(f"""
-[run]
-name = "bench"
-end_time = 1e-3
-[[body]]
-name = "block"
-material = "ofhc-copper"
-shape = "box"
-size = [{nx * h}, {ny * h}, {nz * h}]
-position = [0, 0, {nz * h / 2 + 1e-7}]
-mesh_size = {h}
-mesher = "structured"
-velocity = [0, 0, -190]
-[[wall]]
-point = [0, 0, 0]
-normal = [0, 0, 1]
-""")
+    case = load_case_text(case_text((cells, cells, cells + 1)))
     model = build_model(case, [mesh_body(case.bodies[0], use_cache=False)])
     if elastic:
         model.mat_params[:, P.STRENGTH] = P.ELASTIC
