@@ -26,7 +26,7 @@ class Model:
     v: np.ndarray  # (n_node, 3) float64 [m/s] velocities (U^{n+1/2} between steps)
     x0: np.ndarray  # (n_node, 3) float64 [m] initial positions
     mass: np.ndarray  # (n_node,) float64 [kg] lumped nodal mass (a quarter of each element's)
-    force: np.ndarray  # (n_node, 3) float64 [N] internal + viscous force at the current step
+    force: np.ndarray  # (n_node, 3) float64 [N] internal + viscous force (element kernel)
     node_body: np.ndarray  # (n_node,) int32 body index
     # --- elements ----------------------------------------------------------------------------
     conn: np.ndarray  # (n_elem, 4) int32 node indices, positive orientation
@@ -44,7 +44,7 @@ class Model:
     vol: np.ndarray  # (n_elem,) float64 [m^3] current volume
     vol0: np.ndarray  # (n_elem,) float64 [m^3] initial volume
     elem_mass: np.ndarray  # (n_elem,) float64 [kg]
-    # --- node -> element index (CSR), for deterministic gathers --------------------------------
+    # --- node -> element index (CSR): nodal volume ratios, force refresh after erosion ---------
     n2e_ptr: np.ndarray  # (n_node + 1,) int64
     n2e: np.ndarray  # (4 n_elem,) int64 entries e*4 + local corner
     # --- materials ---------------------------------------------------------------------------

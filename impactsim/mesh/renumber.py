@@ -2,7 +2,7 @@
 
 Nodes are sorted by the Morton (Z-order) code of their coordinates, elements by the Morton code
 of their centroid on the same grid, so that elements next to each other in memory touch nodes
-next to each other in memory (the element loop and the per-node gather both stream). Both orders
+next to each other in memory (the element loop gathers and scatters node data nearby). Both orders
 are permutations: the renumbered mesh is the same mesh (same node set, same tets, same volume),
 only listed in another order. Ties are broken by the previous index (stable sort), so the result
 is deterministic. The node order inside each tet is kept, so orientation is unchanged.

@@ -3,12 +3,15 @@
 Per element: geometry at x^{n+1}, velocity gradient on the mid-step configuration
 x^{n+1/2} = x^{n+1} - dt/2 U^{n+1}, hypoelastic Jaumann update of the deviator, radial return,
 EOS pressure with the per-element internal energy integrated implicitly in e, bulk artificial
-viscosity, the element's nodal forces and its stable time step. Forces are stored per element
-corner and gathered per node afterwards (deterministic, no racing scatter).
+viscosity, the element's nodal forces and its stable time step. Each element adds its corner
+forces to its nodes.
 
 Elements are processed in chunks of CHUNK (the unit of the parallel loop and of the reductions:
 time step, viscous work, inverted elements, summed in chunk order so that results do not depend
-on the number of threads). Inside a chunk, blocks of B elements go down one of two paths:
+on the number of threads). The chunks run colour by colour (`chunk_colours`: chunks of one
+colour share no node), so no two threads add to one node at once and every node sums its
+elements in the same order whatever the number of threads. Inside a chunk, blocks of B elements
+go down one of two paths:
 
 - the vector path, for a full block of intact elements of one material (nearly every block of a
   real mesh): the block's node and element data are copied into a (rows x B) buffer
@@ -896,9 +899,10 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
 
     Forces are added to the nodes directly. The chunks run colour by colour (`chunk_colours`:
     chunks of one colour share no node, so they run in parallel without a race): every node
-    gets its elements' forces in the same order whatever the number of threads. The stable dt of an element is L / (Q + sqrt(Q^2 + c^2)),
-    L = 3V / max face area (smallest altitude), Q = C_l c + C_q^2 L |tr D| in compression, c the
-    EOS sound speed with 4G/3rho.
+    gets its elements' forces in the same order whatever the number of threads.
+
+    The stable dt of an element is L / (Q + sqrt(Q^2 + c^2)), L = 3V / max face area (smallest
+    altitude), Q = C_l c + C_q^2 L |tr D| in compression, c the EOS sound speed with 4G/3rho.
     """
     n_elem = conn.shape[0]
     half = 0.5 * dt
