@@ -1,6 +1,9 @@
 """Pointwise material laws (ALGORITHMS.md 2): EOS pressure and yield stress of one element.
 
-Small numba functions over scalars, inlined into the element kernel and tested alone.
+Small numba functions over scalars, inlined into the element kernel and tested alone. The one
+exception is `radial_return`, which the kernel calls: its scalar path, its block return for
+other strength models and its Johnson-Cook fallback each inlined a copy of the iteration, and
+the three copies cost about 9 s of the cold compile.
 """
 
 from __future__ import annotations
@@ -189,7 +192,7 @@ def first_yield_return(seq_trial, a, b, a0, b0, n, g3):
     return d, a + b * t, a0 + b0 * t
 
 
-@numba.njit(cache=True, inline="always", error_model="numpy")
+@numba.njit(cache=True, error_model="numpy")
 def radial_return(code, mp, k, shear, seq_trial, eps_p, eps_rate, hard, thermal):
     """Plastic strain increment of the radial return to the yield surface (ALGORITHMS.md 2).
 
