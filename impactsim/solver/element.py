@@ -515,7 +515,10 @@ def _jc_start(buf, a0, n, c, g3, inv_rate0):
     Newton start of `laws.radial_return` (`laws.newton_start`, bracket [0, (seq - sy)/3G]); a
     lane at its first yield (eps_p = 0) is marked FIRST, for the scalar return
     (`laws.first_yield_return`: iterating such lanes in vector form made whole blocks iterate
-    up to eight times, which cost more than it saved)."""
+    up to eight times, which cost more than it saved). Returns the number of yielding lanes
+    (ITERATING or FIRST): a block above its yield floor may still be elastic at the step's
+    rate, and then needs no Newton iteration and no update."""
+    active = 0
     for i in range(B):
         seq = buf[R_SEQ * B + i]
         ep = buf[R_EP * B + i]
@@ -533,6 +536,8 @@ def _jc_start(buf, a0, n, c, g3, inv_rate0):
         buf[R_HI * B + i] = hi if act else 0.0
         buf[R_SY * B + i] = sy
         buf[R_HN * B + i] = hard
+        active += 1 if act else 0
+    return active
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
@@ -632,7 +637,8 @@ def _jc_return_block(buf, mat_params, mk, shear, eps_p, temperature, hard, therm
     _copy_in(th, buf, R_THERM)
     a0, b0, n = mat_params[mk, P.JC_A], mat_params[mk, P.JC_B], mat_params[mk, P.JC_N]
     g3 = 3.0 * shear
-    _jc_start(buf, a0, n, mat_params[mk, P.JC_C], g3, 1.0 / mat_params[mk, P.EPSDOT0])
+    if _jc_start(buf, a0, n, mat_params[mk, P.JC_C], g3, 1.0 / mat_params[mk, P.EPSDOT0]) == 0:
+        return  # elastic at the step's rate: nothing changes
     for _ in range(VECTOR_ITERATIONS):
         if _jc_newton(buf, a0, b0, n, g3) == 0:
             break
