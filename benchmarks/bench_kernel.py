@@ -41,6 +41,7 @@ def main(argv=None) -> dict:
     for _ in range(args.warm):
         sim.step()
     dt = sim.dt
+    fr = sim.force_rows
     names = ["sdev", "pressure", "q", "eps_p", "eps_rate", "temperature", "energy", "vol"]
     frozen = {k: getattr(model, k).copy() for k in names}
     frozen["hard"], frozen["thermal"] = sim.hardening.copy(), sim.thermal.copy()
@@ -56,7 +57,8 @@ def main(argv=None) -> dict:
                              a["pressure"], a["q"], a["eps_p"], a["eps_rate"], a["temperature"],
                              a["hard"], a["thermal"], a["energy"], a["vol"], a["vol"], model.vol0,
                              model.elem_mass, mp, sim.jnode, False, dt, sim.cq, sim.cl,
-                             model.force, sim.chunk_order, sim.colour_ptr, sim.chunk_out)
+                             model.force, fr.rows, sim.fext, fr.extra_ptr, fr.extra_rows,
+                             fr.part_size // E.CHUNK, sim.chunk_out, 1)
             if rep:  # the first round compiles nothing but warms the caches
                 times[label].append(1e9 * (time.process_time() - c0) / model.n_elem)
             if label == "JC":

@@ -4,14 +4,15 @@ Per element: geometry at x^{n+1}, velocity gradient on the mid-step configuratio
 x^{n+1/2} = x^{n+1} - dt/2 U^{n+1}, hypoelastic Jaumann update of the deviator, radial return,
 EOS pressure with the per-element internal energy integrated implicitly in e, bulk artificial
 viscosity, the element's nodal forces and its stable time step. Each element adds its corner
-forces to its nodes.
+forces to the rows of its nodes (`scatter.py`).
 
-Elements are processed in chunks of CHUNK (the unit of the parallel loop and of the reductions:
-time step, viscous work, inverted elements, summed in chunk order so that results do not depend
-on the number of threads). The chunks run colour by colour (`chunk_colours`: chunks of one
-colour share no node), so no two threads add to one node at once and every node sums its
-elements in the same order whatever the number of threads. Inside a chunk, blocks of B elements
-go down one of two paths:
+Elements are processed in chunks of CHUNK (the unit of the reductions: time step, viscous work,
+inverted elements, summed in chunk order so that results do not depend on the number of
+threads), and the chunks in parts of PART elements, the unit of work of a thread. Every
+(node, part) pair has a force row of its own, each part runs on one thread in element order,
+and each node's rows are summed in part order at the end: no two threads add to one row, and
+every node sums its elements in the same order whatever the number of threads. Inside a chunk,
+blocks of B elements go down one of two paths:
 
 - the vector path, for a full block of intact elements of one material (nearly every block of a
   real mesh): the block's node and element data are copied into a (rows x B) buffer
@@ -49,8 +50,10 @@ from impactsim.materials.laws import (eos_linear_part, hardening, newton_start,
                                       rate_independent_floor, thermal_factor)
 from impactsim.model import DAMAGED, ERODED, FRACTURED
 from impactsim.solver import vecmath as VM
+from impactsim.solver.scatter import gather_node
 
 CHUNK = 512
+PART = 4 * CHUNK  # elements of a part (scatter.py), the unit of work of a thread
 B = 32  # lanes of a block; the buffer (ROWS x B doubles, 23 kB) stays in the L1 cache
 # IEEE semantics are kept (no nnan/ninf: inf marks "no limit"); numpy's error model drops the
 # zero-division checks that Python semantics would put on every division.
@@ -238,9 +241,9 @@ def yield_cache(elem_mat, mat_params, eps_p, temperature, hard, thermal):
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
 def _element_scalar(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                     temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
-                    jnode, use_anp, half, dt, cq, cl, force):
+                    jnode, use_anp, half, dt, cq, cl, rows, fext):
     """The whole update of element e with every branch (the scalar path); adds its nodal forces
-    to `force`. Called, not inlined: inlined into the parallel loop it doubled the cold compile
+    to its rows `rows[e]` of `fext` (`scatter.force_rows`). Called, not inlined: inlined into the parallel loop it doubled the cold compile
     (time to the first step 22 -> 34 s).
 
     Returns (stable dt, viscous work -q dV, 1 if the element inverted else 0). An eroded or
@@ -361,18 +364,19 @@ def _element_scalar(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, e
     txx, tyy, tzz = nxx - ptot, nyy - ptot, nzz - ptot
     f1x, f1y, f1z, f2x, f2y, f2z, f3x, f3y, f3z = _corner_forces(
         txx, tyy, tzz, nxy, nyz, nzx, b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z)
-    force[i0, 0] -= f1x + f2x + f3x
-    force[i0, 1] -= f1y + f2y + f3y
-    force[i0, 2] -= f1z + f2z + f3z
-    force[i1, 0] += f1x
-    force[i1, 1] += f1y
-    force[i1, 2] += f1z
-    force[i2, 0] += f2x
-    force[i2, 1] += f2y
-    force[i2, 2] += f2z
-    force[i3, 0] += f3x
-    force[i3, 1] += f3y
-    force[i3, 2] += f3z
+    r0, r1, r2, r3 = rows[e, 0], rows[e, 1], rows[e, 2], rows[e, 3]
+    fext[r0, 0] -= f1x + f2x + f3x
+    fext[r0, 1] -= f1y + f2y + f3y
+    fext[r0, 2] -= f1z + f2z + f3z
+    fext[r1, 0] += f1x
+    fext[r1, 1] += f1y
+    fext[r1, 2] += f1z
+    fext[r2, 0] += f2x
+    fext[r2, 1] += f2y
+    fext[r2, 2] += f2z
+    fext[r3, 0] += f3x
+    fext[r3, 1] += f3y
+    fext[r3, 2] += f3z
     return dte, -qn * dv, 0
 
 
@@ -739,9 +743,10 @@ def _pressure_block(buf, dt, anp, eos, rho0, bulk, c0, s, gamma0, shear, cq, cl)
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _store_block(conn, sdev, pressure, q, eps_rate, energy, vol, vol_eos, force, use_anp, e0, buf):
+def _store_block(rows, sdev, pressure, q, eps_rate, energy, vol, vol_eos, fext, use_anp, e0,
+                 buf):
     """Copy the block's results back to the element arrays (through views of the block, see
-    `_load_block`) and add its forces to the nodes (in lane order); returns (min dt, its
+    `_load_block`) and add its forces to the corners' rows of fext (in lane order); returns (min dt, its
     element, viscous work), reduced in lane order."""
     sd = sdev[e0:e0 + B]
     for i in range(B):
@@ -757,7 +762,7 @@ def _store_block(conn, sdev, pressure, q, eps_rate, energy, vol, vol_eos, force,
         vnew = buf[R_DET * B + i] * (1.0 / 6.0)
         vo[i] = vnew
         ve[i] = buf[R_VEOS * B + i] if use_anp else vnew
-    cn = conn[e0:e0 + B]
+    cn = rows[e0:e0 + B]
     dt_min = math.inf
     worst = -1
     qwork = 0.0
@@ -765,7 +770,7 @@ def _store_block(conn, sdev, pressure, q, eps_rate, energy, vol, vol_eos, force,
         for k in range(4):
             n = np.uint64(cn[i, k])
             for d in range(3):
-                force[n, d] += buf[(R_F + 3 * k + d) * B + i]
+                fext[n, d] += buf[(R_F + 3 * k + d) * B + i]
         qwork += buf[R_QW * B + i]
         dte = buf[R_DTE * B + i]
         if dte < dt_min:
@@ -789,7 +794,7 @@ def _vector_block(elem_mat, status, e0):
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
 def _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
            hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp,
-           half, dt, cq, cl, force, chunk_out):
+           half, dt, cq, cl, rows, fext, chunk_out):
     """The elements of chunk ch, block by block (see the module docstring)."""
     n_elem = conn.shape[0]
     buf = np.empty(ROWS * B)
@@ -819,8 +824,8 @@ def _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
             _pressure_block(buf, dt, use_anp, int(mat_params[mk, P.EOS]),
                             mat_params[mk, P.RHO0], mat_params[mk, P.K], mat_params[mk, P.C0],
                             mat_params[mk, P.S], mat_params[mk, P.GAMMA0], shear, cq, cl)
-            bdt, bworst, bq = _store_block(conn, sdev, pressure, q, eps_rate, energy, vol,
-                                           vol_eos, force, use_anp, e0, buf)
+            bdt, bworst, bq = _store_block(rows, sdev, pressure, q, eps_rate, energy, vol,
+                                           vol_eos, fext, use_anp, e0, buf)
             qwork += bq
             if bdt < dt_min:
                 dt_min = bdt
@@ -830,7 +835,7 @@ def _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
             dte, qw, inv = _element_scalar(
                 e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                 temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
-                jnode, use_anp, half, dt, cq, cl, force)
+                jnode, use_anp, half, dt, cq, cl, rows, fext)
             qwork += qw
             inverted += inv
             if dte < dt_min:
@@ -842,55 +847,11 @@ def _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
     chunk_out[ch, OUT_WORST] = worst
 
 
-def chunk_colours(conn: np.ndarray, chunk: int) -> tuple[np.ndarray, np.ndarray]:
-    """Colour the chunks of `chunk` consecutive elements so that no two chunks of one colour
-    share a node (greedy, in chunk order; `_colour_chunks`). Returns (order, ptr): the chunk
-    indices sorted by colour, in ascending order within a colour, and the start of each colour
-    in `order`."""
-    colour = _colour_chunks(conn, chunk)
-    order = np.argsort(colour, kind="stable")
-    count = np.bincount(colour)
-    ptr = np.concatenate(([0], np.cumsum(count[count > 0])))
-    return order.astype(np.int64), ptr.astype(np.int64)
-
-
-@numba.njit(cache=True)
-def _colour_chunks(conn, chunk):
-    """The colour of every chunk: the lowest colour none of its nodes has yet. Colours are bit
-    masks per node, so at most 63 are shared; a chunk that finds none free gets a colour of its
-    own."""
-    n_elem = conn.shape[0]
-    nch = max(1, (n_elem + chunk - 1) // chunk)
-    n_node = 0
-    for e in range(n_elem):
-        for k in range(4):
-            n_node = max(n_node, conn[e, k] + 1)
-    mask = np.zeros(n_node, np.int64)
-    colour = np.zeros(nch, np.int64)
-    n_colours = 63
-    for ch in range(nch):
-        used = 0
-        for e in range(ch * chunk, min(n_elem, (ch + 1) * chunk)):
-            for k in range(4):
-                used |= mask[conn[e, k]]
-        c = 0
-        while c < 63 and (used >> c) & 1:
-            c += 1
-        if c == 63:  # every shared colour taken: a colour of its own
-            colour[ch] = n_colours
-            n_colours += 1
-            continue
-        colour[ch] = c
-        for e in range(ch * chunk, min(n_elem, (ch + 1) * chunk)):
-            for k in range(4):
-                mask[conn[e, k]] |= 1 << c
-    return colour
-
-
 @numba.njit(cache=True, parallel=True, error_model="numpy", fastmath=FAST)
 def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                    hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
-                   use_anp, dt, cq, cl, force, chunk_order, colour_ptr, chunk_out):
+                   use_anp, dt, cq, cl, force, rows, fext, extra_ptr, extra_rows, part_chunks,
+                   chunk_out, threads):
     """Advance every element from step n to n+1 and compute its nodal forces at n+1.
 
     x (n,3) positions x^{n+1}; v (n,3) velocities U^{n+1} (the step's velocity); dt the step.
@@ -903,8 +864,12 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     vol, the nodal forces `force` (n, 3) and per chunk: [min stable dt, viscous work, inverted
     count, index of the element with min dt].
 
-    Forces are added to the nodes directly. The chunks run colour by colour (`chunk_colours`:
-    chunks of one colour share no node, so they run in parallel without a race): every node
+    The elements run in parts of `part_chunks` chunks, part t, t + T, t + 2T, ... on thread t
+    of T = `threads` (numba.get_num_threads(), passed in: called here, it would keep numba from
+    caching the kernel), each part's chunks in order. Every corner adds its force to its row of
+    `fext` (`rows`, `extra_ptr`, `extra_rows`: `scatter.force_rows` for parts of that size),
+    which has that one writer, and each node's rows are then summed in part order into
+    `force`. Every node thus
     gets its elements' forces in the same order whatever the number of threads.
 
     The stable dt of an element is L / (Q + sqrt(Q^2 + c^2)), L = 3V / max face area (smallest
@@ -912,15 +877,20 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     """
     n_elem = conn.shape[0]
     half = 0.5 * dt
+    for i in numba.prange(fext.shape[0]):
+        fext[i, 0] = 0.0
+        fext[i, 1] = 0.0
+        fext[i, 2] = 0.0
+    n_ch = (n_elem + CHUNK - 1) // CHUNK
+    n_parts = (n_ch + part_chunks - 1) // part_chunks
+    for t in numba.prange(threads):
+        for part in range(t, n_parts, threads):
+            for ch in range(part * part_chunks, min(n_ch, (part + 1) * part_chunks)):
+                _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+                       temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass,
+                       mat_params, jnode, use_anp, half, dt, cq, cl, rows, fext, chunk_out)
     for i in numba.prange(force.shape[0]):
-        force[i, 0] = 0.0
-        force[i, 1] = 0.0
-        force[i, 2] = 0.0
-    for colour in range(colour_ptr.shape[0] - 1):
-        for j in numba.prange(colour_ptr[colour], colour_ptr[colour + 1]):
-            _chunk(chunk_order[j], x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
-                   eps_rate, temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass,
-                   mat_params, jnode, use_anp, half, dt, cq, cl, force, chunk_out)
+        gather_node(i, fext, extra_ptr, extra_rows, force)
 
 
 @numba.njit(cache=True, parallel=True, error_model="numpy", fastmath=FAST)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 import time as wallclock
 
+import numba
 import numpy as np
 
 from impactsim.model import Model
@@ -22,6 +23,7 @@ from impactsim.solver import element as E
 from impactsim.solver.nodal import (element_volumes, internal_energy, kinetic_energy, move,
                                     nodal_volume_ratio, predict)
 from impactsim.solver.passes import Pass
+from impactsim.solver.scatter import force_rows
 
 DT_GROWTH = 1.1  # the step may grow by at most this factor per step
 
@@ -49,8 +51,7 @@ class Simulation:
         self.other_passes = [p for p in passes if p.stage not in ("velocity", "fracture")]
         ne, nn = model.n_elem, model.n_node
         self.chunk_out = np.zeros((E.n_chunks(ne), E.N_OUT))
-        # chunks of one colour share no node: the kernel adds their forces in parallel
-        self.chunk_order, self.colour_ptr = E.chunk_colours(model.conn, E.CHUNK)
+        self.set_parts(E.PART)
         self.jnode = np.ones(nn)
         self.vol_now = np.zeros(ne)
         self.vol_eos = model.vol.copy() if self.use_anp else model.vol
@@ -70,6 +71,15 @@ class Simulation:
         self.dt_first = None
         self.worst_element = -1
         self._update_elements(0.0)  # forces and stable step of the initial state
+
+    def set_parts(self, part_size: int) -> None:
+        """Run the elements in parts of `part_size` (a multiple of element.CHUNK), the unit of
+        work of a thread: every (node, part) pair adds its forces to a row of its own of
+        `fext` (scatter.py)."""
+        if part_size % E.CHUNK:
+            raise ValueError(f"part size {part_size} is not a multiple of {E.CHUNK}")
+        self.force_rows = force_rows(self.model.conn, self.model.n_node, part_size)
+        self.fext = np.zeros((self.force_rows.n_rows, 3))
 
     def next_dt(self, limit: float = math.inf) -> float:
         """The next step: C_cfl times the stable step, at most DT_GROWTH times the last step that
@@ -131,6 +141,7 @@ class Simulation:
 
     def _update_elements(self, dt: float) -> None:
         m = self.model
+        fr = self.force_rows
         t0 = wallclock.perf_counter()
         if self.use_anp:
             element_volumes(m.x, m.conn, m.status, self.vol_now)
@@ -138,8 +149,9 @@ class Simulation:
         E.element_update(m.x, m.v, m.conn, m.elem_mat, m.status, m.sdev, m.pressure, m.q, m.eps_p,
                          m.eps_rate, m.temperature, self.hardening, self.thermal, m.energy, m.vol,
                          self.vol_eos, m.vol0, m.elem_mass, m.mat_params, self.jnode,
-                         self.use_anp, dt, self.cq, self.cl, m.force, self.chunk_order,
-                         self.colour_ptr, self.chunk_out)
+                         self.use_anp, dt, self.cq, self.cl, m.force, fr.rows, self.fext,
+                         fr.extra_ptr, fr.extra_rows, fr.part_size // E.CHUNK, self.chunk_out,
+                         numba.get_num_threads())
         out = self.chunk_out
         k = int(np.argmin(out[:, E.OUT_DT]))
         self.dt_stable = float(out[k, E.OUT_DT])

@@ -26,14 +26,15 @@ COPPER = material(name="cu", density=8930.0, shear_modulus=46e9, bulk_modulus=13
 @numba.njit
 def _scalar_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                    hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
-                   use_anp, dt, cq, cl, force):
-    """Every element through E._element_scalar; returns (min dt, its element, q work, inverted)."""
+                   use_anp, dt, cq, cl, rows, force):
+    """Every element through E._element_scalar, its forces added to rows `rows` of `force`;
+    returns (min dt, its element, q work, inverted)."""
     dt_min, worst, qwork, inverted = np.inf, -1, 0.0, 0
     for e in range(conn.shape[0]):
         dte, qw, inv = E._element_scalar(e, x, v, conn, elem_mat, status, sdev, pressure, q,
                                          eps_p, eps_rate, temperature, hard, thermal, energy, vol,
                                          vol_eos, vol0, elem_mass, mat_params, jnode, use_anp,
-                                         0.5 * dt, dt, cq, cl, force)
+                                         0.5 * dt, dt, cq, cl, rows, force)
         qwork += qw
         inverted += inv
         if dte < dt_min:
@@ -91,7 +92,7 @@ def test_vector_and_scalar_paths_agree(element):
         ref["eps_p"], ref["eps_rate"], ref["temperature"], ref["hard"], ref["thermal"],
         ref["energy"],
         ref["vol"], ref["vol_eos"], m.vol0, m.elem_mass, m.mat_params, sim.jnode, sim.use_anp,
-        dt, sim.cq, sim.cl, ref["force"])
+        dt, sim.cq, sim.cl, m.conn, ref["force"])  # rows = conn: straight onto the nodes
     sim._update_elements(dt)
     yielding = m.eps_p != ep0
     assert 20 < yielding.sum() < m.n_elem // 2  # the return map ran, and not everywhere

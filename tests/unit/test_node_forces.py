@@ -1,57 +1,81 @@
-"""Nodal forces added by the element kernel itself (no corner-force array, no gather pass).
+"""Nodal forces added by the element kernel itself (no corner-force array).
 
-The kernel runs its chunks of elements colour by colour and adds each element's forces to its
-four nodes. These tests check that the colouring really keeps chunks of one colour apart (else
-two threads would race on a node), that the forces it adds equal the per-node sum of every
-element's -V sigma grad N computed independently, and that removing elements takes their forces
-off their nodes.
+The kernel runs fixed parts of elements, and every corner adds its force to the row of its
+(node, part) pair; each node's rows are then summed (solver/scatter.py). These tests check that
+every row has one writer part (else two threads would race on it) and that summing the rows
+gives each node's sum, that the kernel's forces equal the per-node sum of every element's
+-V sigma grad N computed independently, and that removing elements takes their forces off
+their nodes.
 """
 
+import numba
 import numpy as np
 import pytest
 
 from impactsim.model import ERODED
 from impactsim.solver import element as E
 from impactsim.solver.loop import Simulation
+from impactsim.solver.scatter import force_rows, gather_node
 from tests.builders import box_model, material
 
 COPPER = material(name="cu", density=8930.0, shear_modulus=46e9, bulk_modulus=137e9,
                   specific_heat=383.0)
 
 
-def _loaded_model():
+def _loaded_model(part=E.CHUNK):
     """A 1.5k-tet box with random velocities, after two updates: every stress component and
-    the bulk viscosity are non-zero."""
+    the bulk viscosity are non-zero. Parts of `part` elements (three of one chunk each by
+    default, so that nodes on their borders sum rows of two or three parts)."""
     model, _ = box_model(COPPER, size=(2e-3, 1e-3, 1e-3), h=0.2e-3)
     rng = np.random.default_rng(7)
     model.v[:] = rng.normal(size=model.v.shape) * 5.0
     sim = Simulation(model, [])
+    sim.set_parts(part)
     for _ in range(2):
         sim.step()
     return model, sim
 
 
-@pytest.mark.parametrize("chunk", [1, 8, 64])
-def test_chunks_of_one_colour_share_no_node(chunk):
+@pytest.mark.parametrize("part", [1, 8, 64, 512])
+def test_force_rows_have_one_writer_and_sum_per_node(part):
+    """Every row of fext is written by one part only, each node's first row is its own index,
+    and summing each node's rows gives the per-node sum of its corners."""
     model, _ = box_model(COPPER, size=(2e-3, 1e-3, 1e-3), h=0.2e-3)
-    conn = model.conn
-    order, ptr = E.chunk_colours(conn, chunk)
-    nch = (conn.shape[0] + chunk - 1) // chunk
-    assert np.array_equal(np.sort(order), np.arange(nch))  # every chunk once
-    assert ptr[0] == 0 and ptr[-1] == nch and np.all(np.diff(ptr) > 0)
-    for c in range(ptr.shape[0] - 1):
-        chunks = order[ptr[c]:ptr[c + 1]]
-        assert np.all(np.diff(chunks) > 0)  # chunk order within a colour
-        seen = np.zeros(model.n_node, np.int64)
-        for ch in chunks:
-            nodes = np.unique(conn[ch * chunk:(ch + 1) * chunk])
-            seen[nodes] += 1
-        assert seen.max() == 1, f"colour {c}: two chunks share a node"
-    assert ptr.shape[0] - 1 < min(nch, 63)  # far fewer colours than chunks
+    conn, nn = model.conn, model.n_node
+    fr = force_rows(conn, nn, part)
+    part_of_corner = np.repeat(np.arange(model.n_elem) // part, 4)
+    rows = fr.rows.ravel()
+    writers = np.full(fr.n_rows, -1)
+    writers[rows] = part_of_corner
+    assert np.array_equal(writers[rows], part_of_corner)  # one part per row
+    # a node's rows: its own, then one per further part that touches it, in part order
+    for i in (0, nn // 2, nn - 1):
+        mine = np.concatenate(([i], fr.extra_rows[fr.extra_ptr[i]:fr.extra_ptr[i + 1]]))
+        assert set(mine) == set(rows[conn.ravel() == i])
+        assert np.all(np.diff(writers[mine]) > 0)
+    assert fr.n_rows - nn == fr.extra_rows.shape[0]
+    if part >= model.n_elem:
+        assert fr.n_rows == nn  # one part: no extra rows
+    rng = np.random.default_rng(1)
+    corner_force = rng.normal(size=(model.n_elem * 4, 3))
+    fext = np.zeros((fr.n_rows, 3))
+    np.add.at(fext, rows, corner_force)
+    expected = np.zeros((nn, 3))
+    np.add.at(expected, conn.ravel(), corner_force)
+    got = np.zeros((nn, 3))
+    _gather_all(fext, fr.extra_ptr, fr.extra_rows, got)
+    np.testing.assert_allclose(got, expected, rtol=1e-13, atol=1e-13)
 
 
-def test_kernel_forces_equal_the_per_node_sum():
-    model, sim = _loaded_model()
+@numba.njit
+def _gather_all(fext, extra_ptr, extra_rows, force):
+    for i in range(force.shape[0]):
+        gather_node(i, fext, extra_ptr, extra_rows, force)
+
+
+@pytest.mark.parametrize("part", [E.CHUNK, E.PART])
+def test_kernel_forces_equal_the_per_node_sum(part):
+    model, sim = _loaded_model(part)
     assert model.n_elem > 2 * E.CHUNK and np.abs(model.q).max() > 0.0
     every = np.arange(model.n_node)
     expected = np.zeros_like(model.force)
