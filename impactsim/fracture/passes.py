@@ -52,7 +52,6 @@ class FractureState:
     def __init__(self, case, model):
         self.boundary = Boundary.from_model(model)
         self.surface_only = case.fracture.erosion_region != "anywhere"
-        self.compression = case.output.compression  # of the particles' frames
         self.n_per = int(case.fracture.particles_per_element)
         self.collisions = bool(case.fracture.particle_collisions)
         self.particles = Particles()
@@ -236,19 +235,14 @@ class ParticlePass(Pass):
                                        "particle_collisions": self.collisions,
                                        "hash_grows": self.hash.grows + self.pp_hash.grows}}
 
-    def frame(self, model, time, out_dir):
-        """Write the next numbered particles_*.vtu of the particles.pvd series (called with every frame)."""
-        from impactsim.output.series import SeriesWriter
-
-        if getattr(self, "_series", None) is None or self._series_dir != out_dir:
-            self._series = SeriesWriter(out_dir, prefix="particles", pvd_name="particles.pvd",
-                                        compression=self.s.compression)
-            self._series_dir = out_dir
+    def frame(self, model):
+        """The particles as the points of a series of their own (particles_*.vtu in
+        particles.pvd), written with every frame of the mesh."""
         pa = self.s.particles
         n = pa.n
         data = {"velocity": pa.v[:n], "mass": pa.m[:n], "radius": pa.radius[:n],
                 "internal_energy": pa.energy[:n], "body": pa.body[:n]}
-        self._series.write(time, pa.x[:n], None, point_data=data)
+        return {"particles": (pa.x[:n], data)}
 
 
 def make_fracture_passes(case, model) -> list[Pass]:

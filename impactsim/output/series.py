@@ -7,6 +7,12 @@ then rewrites the collection `<pvd_name>` listing every frame written so far; bo
 can share a directory: the solver writes the mesh as ``frame_*.vtu`` / ``series.pvd`` and the
 particles as ``particles_*.vtu`` / ``particles.pvd``.
 
+With `background=True` a frame is copied when `write` is called and written by a thread of the
+writer's own, frame after frame in order, while the caller goes on (the run's kernels release
+the GIL, and zlib does while it compresses): the compression of a frame then costs the run
+little on a second core. `close()` waits for the frames still being written and raises the
+first error of any; the collection lists a frame only once its file is complete.
+
 Array conventions of a frame (k = number of points or of cells):
 - ``(k,)`` and ``(k, c)`` arrays are written as they are (bool as uint8);
 - ``(k, 6)`` arrays are symmetric tensors in the model's Voigt order xx, yy, zz, xy, yz, zx and
@@ -18,6 +24,8 @@ from __future__ import annotations
 
 import os
 import xml.etree.ElementTree as ET
+from collections import deque
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
@@ -38,11 +46,14 @@ def voigt_to_tensor(s: np.ndarray) -> np.ndarray:
 class SeriesWriter:
     """Writes numbered VTU frames into `directory` and keeps `<pvd_name>` listing them.
 
-    `frames` holds (time [s], file name) of every frame written, in order.
+    `frames` holds (time [s], file name) of every frame written, in order (in background mode,
+    of every frame whose file is complete).
     """
 
+    MAX_PENDING = 2  # frames copied but not yet written, in background mode
+
     def __init__(self, directory: str | os.PathLike, prefix: str = "frame", pvd_name: str = "series.pvd",
-                 compression: str = "zlib"):
+                 compression: str = "zlib", background: bool = False):
         if compression not in ("zlib", "none"):
             raise ValueError(f"compression must be 'zlib' or 'none', got {compression!r}")
         self.compression = None if compression == "none" else compression
@@ -51,6 +62,10 @@ class SeriesWriter:
         self.prefix = prefix
         self.pvd_path = self.directory / pvd_name
         self.frames: list[tuple[float, str]] = []
+        self._count = 0  # frames handed to write()
+        self._pool = (ThreadPoolExecutor(1, thread_name_prefix=f"impactsim-{prefix}")
+                      if background else None)
+        self._pending: deque[Future] = deque()
 
     def write(
         self,
@@ -85,20 +100,42 @@ class SeriesWriter:
                 raise ValueError(f"keep must be a ({e},) bool array, got {keep.dtype} {keep.shape}")
             conn = conn[keep]
             cdata = {name: value[keep] for name, value in cdata.items()}
+        conn = np.ascontiguousarray(conn)
+        if self._pool is not None:  # the caller goes on changing its arrays: a frame of copies
+            pts, conn = pts.copy(), conn.copy()
+            pdata = {name: value.copy() for name, value in pdata.items()}
+            cdata = {name: value.copy() for name, value in cdata.items()}
+        mesh = meshio.Mesh(pts, [(cell_type, conn)], point_data=pdata,
+                           cell_data={name: [value] for name, value in cdata.items()})
+        name = f"{self.prefix}_{self._count:05d}.vtu"
+        self._count += 1
+        if self._pool is None:
+            self._write(time, name, mesh)
+        else:
+            while len(self._pending) >= self.MAX_PENDING:
+                self._pending.popleft().result()  # raises the error of a failed frame
+            self._pending.append(self._pool.submit(self._write, time, name, mesh))
+        return self.directory / name
 
-        mesh = meshio.Mesh(
-            pts,
-            [(cell_type, np.ascontiguousarray(conn))],
-            point_data=pdata,
-            cell_data={name: [value] for name, value in cdata.items()},
-        )
-        name = f"{self.prefix}_{len(self.frames):05d}.vtu"
-        path = self.directory / name
-        with replacing(path) as tmp:
+    def close(self) -> None:
+        """Wait for the frames still being written (background mode); raises the first error.
+        Frames written after this are written at once, as without background."""
+        if self._pool is None:
+            return
+        try:
+            while self._pending:
+                self._pending.popleft().result()
+        finally:
+            self._pending.clear()
+            self._pool.shutdown(wait=True)
+            self._pool = None
+
+    def _write(self, time: float, name: str, mesh: meshio.Mesh) -> None:
+        """Write one frame file, then the collection with it (in order: one thread at most)."""
+        with replacing(self.directory / name) as tmp:
             meshio.write(tmp, mesh, file_format="vtu", binary=True, compression=self.compression)
         self.frames.append((time, name))
         write_text(self.pvd_path, collection_xml(self.frames))
-        return path
 
 
 def collection_xml(frames: list[tuple[float, str]]) -> str:

@@ -847,7 +847,8 @@ def _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
     chunk_out[ch, OUT_WORST] = worst
 
 
-@numba.njit(cache=True, parallel=True, error_model="numpy", fastmath=FAST)
+# nogil: the frame writer's thread (output/series.py) runs while the kernel does
+@numba.njit(cache=True, parallel=True, nogil=True, error_model="numpy", fastmath=FAST)
 def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                    hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
                    use_anp, dt, cq, cl, force, rows, fext, extra_ptr, extra_rows, part_chunks,

@@ -9,7 +9,9 @@ Stages, in the order the loop calls them within one step (ALGORITHMS.md 1):
               rigid walls, contact passes (they correct U* of boundary nodes)
   "fracture"  after the element update of the new step: spall, loosening, erosion, particles
 Passes may also offer ``history(model) -> dict[str, float]`` (extra history.csv columns, called
-on history rows only) and ``summary(model) -> dict`` (merged into summary.json).
+on history rows only), ``summary(model) -> dict`` (merged into summary.json) and
+``frame(model) -> {name: (points (k, 3), point data)}``: series of their own, written with every
+frame of the mesh as ``<name>_*.vtu`` listed in ``<name>.pvd`` (the particles).
 """
 
 from __future__ import annotations

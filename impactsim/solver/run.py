@@ -121,7 +121,9 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
                      dt_collapse=case.run.dt_collapse)
     timings["setup"] = wallclock.perf_counter() - start - timings["meshing"]
 
-    series = SeriesWriter(out, compression=case.output.compression)
+    # frames are written by threads of their own while the run goes on (output/series.py)
+    series = SeriesWriter(out, compression=case.output.compression, background=True)
+    pass_series: dict[str, SeriesWriter] = {}  # the passes' own series (particles)
     fields = case.output.fields
     columns = CORE_COLUMNS + [k for p in passes for k in p.history(model)]
     history = HistoryWriter(out / "history.csv", list(dict.fromkeys(columns)))
@@ -142,9 +144,13 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
             point = {k: v for k, v in point.items() if k in fields}
             cell = {k: v for k, v in cell.items() if k in fields}
         series.write(model.time, model.x, model.conn, point, cell, keep=model.status != ERODED)
-        for pa in passes:  # passes with their own series (particles) write with every frame
-            if hasattr(pa, "frame"):
-                pa.frame(model, model.time, out)
+        for pa in passes:  # passes with series of their own (particles) write with every frame
+            for key, (points, data) in (pa.frame(model) if hasattr(pa, "frame") else {}).items():
+                if key not in pass_series:
+                    pass_series[key] = SeriesWriter(out, prefix=key, pvd_name=f"{key}.pvd",
+                                                    compression=case.output.compression,
+                                                    background=True)
+                pass_series[key].write(model.time, points, None, point_data=data)
         t_out += wallclock.perf_counter() - t1
 
     def history_row():
@@ -196,6 +202,10 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
                 pass
         history.close()
         bar.close()
+        t1 = wallclock.perf_counter()
+        for writer in (series, *pass_series.values()):
+            writer.close()  # the frames still being written
+        t_out += wallclock.perf_counter() - t1
 
     energies = sim.energies()
     wall = wallclock.perf_counter() - start

@@ -126,3 +126,48 @@ def test_shape_errors_name_the_field(tmp_path):
 def test_unknown_compression_is_refused(tmp_path):
     with pytest.raises(ValueError, match="compression"):
         SeriesWriter(tmp_path, compression="gzip")
+
+
+def test_background_frames_hold_the_values_at_write_time(tmp_path):
+    """In background mode a frame is a copy: changing the arrays right after write() does not
+    change the file, and after close() the collection lists every frame in order."""
+    writer = SeriesWriter(tmp_path, background=True)
+    points = POINTS.copy()
+    velocity = np.zeros((5, 3))
+    pressure = np.zeros(3)
+    tets = TETS.copy()
+    for k in range(5):
+        velocity[:] = k
+        pressure[:] = -k
+        points[:, 0] = POINTS[:, 0] + k
+        writer.write(1e-6 * k, points, tets, {"velocity": velocity}, {"pressure": pressure})
+        velocity[:] = np.nan  # the caller goes on with its arrays at once
+        pressure[:] = np.nan
+        points[:, 0] = np.nan
+        tets[:] = 0
+        tets[:] = TETS
+    writer.close()
+    listed = read_collection(tmp_path / "series.pvd")
+    assert [t for t, _ in listed] == [1e-6 * k for k in range(5)]
+    for k, (_, path) in enumerate(listed):
+        mesh = meshio.read(path)
+        assert np.all(mesh.point_data["velocity"] == k)
+        assert np.all(mesh.cell_data["pressure"][0] == -k)
+        np.testing.assert_array_equal(mesh.points[:, 0], POINTS[:, 0] + k)
+        np.testing.assert_array_equal(mesh.cells[0].data, TETS)
+
+
+def test_background_errors_surface_at_close(tmp_path, monkeypatch):
+    def broken(*args, **kwargs):
+        raise OSError("disk full")
+
+    writer = SeriesWriter(tmp_path, background=True)
+    writer.write(0.0, POINTS, TETS)
+    writer.close()
+    monkeypatch.setattr(meshio, "write", broken)
+    failing = SeriesWriter(tmp_path / "b", background=True)
+    failing.write(0.0, POINTS, TETS)
+    with pytest.raises(OSError, match="disk full"):
+        failing.close()
+    assert failing.frames == [] and not (tmp_path / "b" / "series.pvd").exists()
+    assert [p.name for _, p in read_collection(tmp_path / "series.pvd")] == ["frame_00000.vtu"]
