@@ -348,7 +348,8 @@ def _element_scalar(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, e
     q[e] = qn
     vol[e] = vnew
     vol_eos[e] = veos
-    # --- stable time step
+    # --- stable time step; a fractured element carries no stress (no deviator, pressure or
+    # viscosity), adds no force, and so sets no limit
     c2 = c2a + c2b * max(pn, 0.0)
     if c2 < 0.0:
         c2 = 0.0
@@ -359,6 +360,8 @@ def _element_scalar(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, e
     if trd < 0.0:
         qq = cl * c + cq * cq * length * (-trd)
     dte = length / (qq + math.sqrt(qq * qq + c2)) if c2 > 0.0 or qq > 0.0 else math.inf
+    if st == FRACTURED:
+        dte = math.inf
     # --- nodal forces f_a = -V sigma grad N_a, sigma = s - (p + q) I
     ptot = pn + qn
     txx, tyy, tzz = nxx - ptot, nyy - ptot, nzz - ptot

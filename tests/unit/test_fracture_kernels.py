@@ -188,3 +188,27 @@ def test_a_cell_left_without_face_neighbours_becomes_a_particle():
     s = frac.summary(model)
     assert s["particles"] == model.n_elem
     assert s["mass_final"] == pytest.approx(s["mass_initial"], rel=1e-14)
+
+
+def test_fractured_elements_set_no_time_step_limit():
+    """A fractured cell carries no stress and adds no force, so it sets no stable step: the
+    cells around a node pushed deep into its neighbours are by far the smallest, and made
+    fractured they leave the stable step where removing them would; a body of fractured
+    cells only has none (the step is then bounded by its growth limit alone)."""
+    steps = {}
+    for status in (FRACTURED, ERODED):
+        model, _ = box_model(material(), h=0.5)
+        model.x[0] += 0.4  # a corner node pushed in: its cells are flat, the smallest by far
+        sim = Simulation(model, [])
+        around = np.nonzero((model.conn == 0).any(axis=1))[0]
+        assert sim.worst_element in around
+        smallest = sim.dt_stable
+        model.status[around] = status
+        sim._update_elements(0.0)
+        steps[status] = sim.dt_stable
+        assert sim.worst_element not in around
+    assert steps[FRACTURED] == steps[ERODED] > 2.0 * smallest
+    model.status[:] = FRACTURED
+    sim._update_elements(0.0)
+    assert sim.dt_stable == np.inf
+    assert np.all(model.force == 0.0)
