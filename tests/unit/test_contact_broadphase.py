@@ -94,6 +94,38 @@ def test_result_does_not_depend_on_cell_size_or_capacity():
         np.testing.assert_array_equal(r, results[0])
 
 
+@pytest.mark.parametrize("same_set, self_contact", [(False, False), (True, False), (True, True)])
+def test_threaded_query_gives_the_serial_pairs(monkeypatch, same_set, self_contact):
+    """The query runs fixed chunks of query rows on the threads: the same pairs in the same
+    order as one serial pass, for one thread or two, also when a chunk's share of the pair
+    buffer is too small and the buffer grows."""
+    import numba
+
+    from impactsim.contact import broadphase
+
+    rng = np.random.default_rng(5)
+    lo, hi = random_boxes(rng, 700, size=1.2)
+    body = rng.integers(0, 3, 700).astype(np.int32)
+    ent = rng.integers(0, 400, size=(700, 2)).astype(np.int32)
+    origin, h = grid_for([(lo, hi)], 1.0)
+    serial = SpatialHash()
+    serial.build(lo, hi, origin, h)
+    ref = np.array(serial.query(lo, hi, ent, body, ent, body, same_set, self_contact))
+    assert ref.shape[0] > 100
+    monkeypatch.setattr(broadphase, "QUERY_CHUNK", 64)  # 11 chunks
+    threads = numba.get_num_threads()
+    try:
+        for n_threads in sorted({1, threads}):
+            numba.set_num_threads(n_threads)
+            hs = SpatialHash(pair_capacity=16)
+            hs.build(lo, hi, origin, h)
+            pairs = hs.query(lo, hi, ent, body, ent, body, same_set, self_contact)
+            np.testing.assert_array_equal(pairs, ref)
+            assert hs.grows >= (1 if n_threads > 1 else 0)
+    finally:
+        numba.set_num_threads(threads)
+
+
 def test_non_finite_boxes_are_an_error():
     lo = np.array([[0.0, 0.0, np.nan]])
     with pytest.raises(FloatingPointError):
