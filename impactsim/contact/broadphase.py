@@ -6,13 +6,12 @@ four). Each entity's box covers its nodes over one step, [x, x + tau U] (tau = 0
 padded by ``pad``. Boxes are inserted into a uniform grid of cell size h (about the mean surface
 edge length): the grid is a hash table of 2**tbits buckets over packed cell keys, filled by a
 stable counting sort, so building it costs O(entries) and every query scans only the entries of
-the cells its own box covers. Each entry holds a copy of its entity's box and the bits saying
-whether its cell is the entity's first along each axis, so a query reads the entries of a cell in
-one sweep of memory. A pair of overlapping boxes is reported once, in the cell that holds the
-lower corner of their intersection, so no deduplication pass is needed. The pairs of a query row
-are sorted by entry, so the pairs come sorted by (query, entry): the order is canonical
-(independent of the grid parameters and of the number of threads, which run fixed chunks of
-query rows).
+the cells its own box covers. Each entry holds the bits saying whether its cell is the entity's
+first along each axis, and the boxes are kept one row (a cache line) each. A pair of
+overlapping boxes is reported once, in the cell that holds the lower corner of their
+intersection, so no deduplication pass is needed. The pairs of a query row are sorted by entry,
+so the pairs come sorted by (query, entry): the order is canonical (independent of the grid
+parameters and of the number of threads, which run fixed chunks of query rows).
 
 Buffers have a capacity; a kernel that needs more returns the count it needed and the host grows
 the buffer and runs it again. Nothing is dropped silently.
@@ -28,8 +27,10 @@ import numpy as np
 _AXIS_BITS = 21
 _AXIS_CELLS = 1 << _AXIS_BITS
 _GOLDEN = np.uint64(11400714819323198485)
-QUERY_CHUNK = 2048  # query rows per chunk of the threaded query (fixed: results do not depend
+QUERY_CHUNK = 1024  # query rows per chunk of the threaded query (fixed: results do not depend
 #                     on the number of threads)
+QUERY_MIN_CHUNKS = 8  # fewer chunks run in one thread: a parallel launch does not pay for itself
+#                       there, least of all when another thread (the frame writer) holds a core
 
 
 @numba.njit(cache=True)
@@ -83,19 +84,21 @@ def _bucket(key, tbits):
 
 @numba.njit(cache=True)
 def build_hash(lo, hi, origin, inv_h, tbits, tmp_keys, tmp_ents, tmp_first, bucket_start, keys,
-               ents, boxes, first):
+               ents, first, boxes):
     """Insert every box into each grid cell it covers (ALGORITHMS.md 3.2, spatial hash).
 
     Counting sort by bucket: ``bucket_start (2**tbits + 1,)`` offsets into the entries: ``keys``
-    (cell key), ``ents`` (entity), ``boxes (cap, 6)`` (a copy of the entity's box, lo then hi,
-    so a query reads the entries of a cell in one sweep of memory instead of gathering the
-    boxes of their entities) and ``first (cap,)`` (bit d set when the entry's cell is the
-    entity's first cell along axis d: the query's once-only rule without floors). Returns the
-    number of entries needed; when it exceeds the capacity (len(keys)) nothing usable is built
-    and the caller grows the buffers."""
+    (cell key), ``ents`` (entity) and ``first`` (bit d set when the entry's cell is the
+    entity's first cell along axis d: the query's once-only rule without floors). The boxes go
+    to ``boxes (n, 8)`` (lo, hi and two unused columns: one cache line per entity, so the
+    query gathers a box with one load). Returns the number of entries needed; when it exceeds
+    the capacity (len(keys)) nothing usable is built and the caller grows the buffers."""
     cap = keys.shape[0]
     n = 0
     for i in range(lo.shape[0]):
+        for d in range(3):
+            boxes[i, d] = lo[i, d]
+            boxes[i, 3 + d] = hi[i, d]
         x0 = _cell(lo[i, 0], origin[0], inv_h)
         x1 = _cell(hi[i, 0], origin[0], inv_h)
         y0 = _cell(lo[i, 1], origin[1], inv_h)
@@ -133,13 +136,6 @@ def build_hash(lo, hi, origin, inv_h, tbits, tmp_keys, tmp_ents, tmp_first, buck
     for b in range(nb, 0, -1):
         bucket_start[b] = bucket_start[b - 1]
     bucket_start[0] = 0
-    # the boxes gathered in entry order (reads from the boxes, which are fewer than the
-    # entries, instead of scattered writes over all entries)
-    for q in range(n):
-        i = ents[q]
-        for d in range(3):
-            boxes[q, d] = lo[i, d]
-            boxes[q, 3 + d] = hi[i, d]
     return n
 
 
@@ -161,11 +157,11 @@ def _query_rows(i0, i1, qlo, qhi, qent, qbody, eent, ebody, same_set, self_conta
 
     An entry of the cell's key and an admissible entity (j > i for ``same_set``, another body
     or, with ``self_contact``, no shared node) is tested in one expression without branches
-    (the once-only rule, the box overlap, on the entry's own copy of the box), and the pair is
-    written at the next free row whether it counts or not. Against the branching test with
-    the boxes gathered by entity: 2x faster for the particle pass (every entry passes the
-    cheap tests there, and the gather missed the cache), 1.5-2x for the edge-edge pass.
-    Unsigned entry indices: numba does not test them for wraparound."""
+    (the once-only rule, the box overlap on the entity's row of ``boxes``, one cache line), and
+    the pair is written at the next free row whether it counts or not. Against the branching
+    test on boxes split in two arrays: 2x faster for the particle pass (every entry passes the
+    cheap tests there, and each gather missed the cache twice), 1.3-1.6x for the edge-edge
+    pass. Unsigned indices: numba does not test them for wraparound."""
     cap = o1 - o0
     n = 0
     for i in range(i0, i1):
@@ -201,10 +197,11 @@ def _query_rows(i0, i1, qlo, qhi, qent, qbody, eent, ebody, same_set, self_conta
                         if keys[k] == key and j >= jmin and (
                                 ebody[j] != qb
                                 or (self_contact and not _shares_node(qent, i, eent, j))):
+                            uj = np.uint64(j)
                             hit = (((first[k] & need) == need)
-                                   & (ql0 <= boxes[k, 3]) & (boxes[k, 0] <= qh0)
-                                   & (ql1 <= boxes[k, 4]) & (boxes[k, 1] <= qh1)
-                                   & (ql2 <= boxes[k, 5]) & (boxes[k, 2] <= qh2))
+                                   & (ql0 <= boxes[uj, 3]) & (boxes[uj, 0] <= qh0)
+                                   & (ql1 <= boxes[uj, 4]) & (boxes[uj, 1] <= qh1)
+                                   & (ql2 <= boxes[uj, 5]) & (boxes[uj, 2] <= qh2))
                             if n < cap:
                                 out[o0 + n, 0] = i
                                 out[o0 + n, 1] = j
@@ -386,6 +383,7 @@ class SpatialHash:
         self.pairs_buf = np.zeros((max(pair_capacity, 16), 2), dtype=np.int64)
         self.grows = 0  # how often a buffer had to grow (reported in the pass summary)
         self.chunk_counts = np.zeros(1, dtype=np.int64)
+        self.box_rows = np.zeros((16, 8))  # the hashed boxes, one row (lo, hi, 2 unused) each
         self.n_entries = 0
 
     def _alloc_entries(self, cap: int) -> None:
@@ -395,7 +393,6 @@ class SpatialHash:
         self.tmp_first = np.zeros(cap, dtype=np.uint8)
         self.keys = np.zeros(cap, dtype=np.int64)
         self.ents = np.zeros(cap, dtype=np.int64)
-        self.boxes = np.zeros((cap, 6))
         self.first = np.zeros(cap, dtype=np.uint8)
         self.tbits = max(4, int(math.ceil(math.log2(cap))))
         self.bucket_start = np.zeros((1 << self.tbits) + 1, dtype=np.int64)
@@ -406,10 +403,14 @@ class SpatialHash:
         self.h = float(h)
         self.inv_h = 1.0 / self.h
         self.lo, self.hi = lo, hi
+        if self.box_rows.shape[0] < lo.shape[0]:
+            self.grows += 1
+            self.box_rows = np.zeros((int(lo.shape[0] * 1.5) + 16, 8))
+        self.boxes = self.box_rows[:lo.shape[0]]
         while True:
             n = build_hash(lo, hi, self.origin, self.inv_h, self.tbits, self.tmp_keys,
                            self.tmp_ents, self.tmp_first, self.bucket_start, self.keys,
-                           self.ents, self.boxes, self.first)
+                           self.ents, self.first, self.boxes)
             if n <= self.keys.shape[0]:
                 self.n_entries = n
                 return
@@ -421,7 +422,7 @@ class SpatialHash:
         The result is a view of this hash's pair buffer: valid until its next query."""
         nq = qlo.shape[0]
         n_chunk = -(-nq // QUERY_CHUNK)
-        chunked = n_chunk > 1 and numba.get_num_threads() > 1
+        chunked = n_chunk >= QUERY_MIN_CHUNKS and numba.get_num_threads() > 1
         if chunked and self.chunk_counts.shape[0] < n_chunk:
             self.chunk_counts = np.zeros(n_chunk, dtype=np.int64)
         while True:

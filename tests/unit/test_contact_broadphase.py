@@ -113,6 +113,7 @@ def test_threaded_query_gives_the_serial_pairs(monkeypatch, same_set, self_conta
     ref = np.array(serial.query(lo, hi, ent, body, ent, body, same_set, self_contact))
     assert ref.shape[0] > 100
     monkeypatch.setattr(broadphase, "QUERY_CHUNK", 64)  # 11 chunks
+    monkeypatch.setattr(broadphase, "QUERY_MIN_CHUNKS", 2)
     threads = numba.get_num_threads()
     try:
         for n_threads in sorted({1, threads}):
