@@ -6,9 +6,9 @@ four). Each entity's box covers its nodes over one step, [x, x + tau U] (tau = 0
 padded by ``pad``. Boxes are inserted into a uniform grid of cell size h (about the mean surface
 edge length): the grid is a hash table of 2**tbits buckets over packed cell keys, filled by a
 stable counting sort, so building it costs O(entries) and every query scans only the entries of
-the cells its own box covers. Each entry holds the bits saying whether its cell is the entity's
-first along each axis, and the boxes are kept one row (a cache line) each. A pair of
-overlapping boxes is reported once, in the cell that holds the lower corner of their
+the cells its own box covers. Each entry holds, beside its cell key, the bits saying whether its
+cell is the entity's first along each axis; the boxes are kept one row (a cache line) each. A
+pair of overlapping boxes is reported once, in the cell that holds the lower corner of their
 intersection, so no deduplication pass is needed. The pairs of a query row are sorted by entry,
 so the pairs come sorted by (query, entry): the order is canonical (independent of the grid
 parameters and of the number of threads, which run fixed chunks of query rows).
@@ -24,7 +24,7 @@ import math
 import numba
 import numpy as np
 
-_AXIS_BITS = 21
+_AXIS_BITS = 20  # per axis of a cell key; the key is shifted by 3 in an entry (its first-cell bits)
 _AXIS_CELLS = 1 << _AXIS_BITS
 _GOLDEN = np.uint64(11400714819323198485)
 QUERY_CHUNK = 1024  # query rows per chunk of the threaded query (fixed: results do not depend
@@ -72,8 +72,8 @@ def _cell(p, o, inv_h):
 
 @numba.njit(cache=True)
 def _key(ix, iy, iz):
-    """Packed int64 key of cell (ix, iy, iz), 21 bits each (ALGORITHMS.md 3.2 hash)."""
-    return (np.int64(ix) << 42) | (np.int64(iy) << 21) | np.int64(iz)
+    """Packed int64 key of cell (ix, iy, iz), 20 bits each (ALGORITHMS.md 3.2 hash)."""
+    return (np.int64(ix) << 40) | (np.int64(iy) << 20) | np.int64(iz)
 
 
 @numba.njit(cache=True)
@@ -83,13 +83,14 @@ def _bucket(key, tbits):
 
 
 @numba.njit(cache=True)
-def build_hash(lo, hi, origin, inv_h, tbits, tmp_keys, tmp_ents, tmp_first, bucket_start, keys,
-               ents, first, boxes):
+def build_hash(lo, hi, origin, inv_h, tbits, tmp_keys, tmp_ents, bucket_start, keys, ents,
+               boxes):
     """Insert every box into each grid cell it covers (ALGORITHMS.md 3.2, spatial hash).
 
-    Counting sort by bucket: ``bucket_start (2**tbits + 1,)`` offsets into the entries: ``keys``
-    (cell key), ``ents`` (entity) and ``first`` (bit d set when the entry's cell is the
-    entity's first cell along axis d: the query's once-only rule without floors). The boxes go
+    Counting sort by bucket: ``bucket_start (2**tbits + 1,)`` offsets into the entries:
+    ``keys`` (the cell key shifted left by 3, its low bits d = 0, 1, 2 set when the cell is the
+    entity's first along axis d: the query's once-only rule without floors, in the word it
+    loads anyway) and ``ents`` (entity). The boxes go
     to ``boxes (n, 8)`` (lo, hi and two unused columns: one cache line per entity, so the
     query gathers a box with one load). Returns the number of entries needed; when it exceeds
     the capacity (len(keys)) nothing usable is built and the caller grows the buffers."""
@@ -112,10 +113,9 @@ def build_hash(lo, hi, origin, inv_h, tbits, tmp_keys, tmp_ents, tmp_first, buck
         for ix in range(x0, x1 + 1):
             for iy in range(y0, y1 + 1):
                 for iz in range(z0, z1 + 1):
-                    tmp_keys[n] = _key(ix, iy, iz)
+                    tmp_keys[n] = ((_key(ix, iy, iz) << 3) | np.int64(ix == x0)
+                                   | (np.int64(iy == y0) << 1) | (np.int64(iz == z0) << 2))
                     tmp_ents[n] = i
-                    tmp_first[n] = (np.uint8(ix == x0) | (np.uint8(iy == y0) << 1)
-                                    | (np.uint8(iz == z0) << 2))
                     n += 1
     if n > cap:
         return n
@@ -123,15 +123,14 @@ def build_hash(lo, hi, origin, inv_h, tbits, tmp_keys, tmp_ents, tmp_first, buck
     for b in range(nb + 1):
         bucket_start[b] = 0
     for k in range(n):
-        bucket_start[_bucket(tmp_keys[k], tbits) + 1] += 1
+        bucket_start[_bucket(tmp_keys[k] >> 3, tbits) + 1] += 1
     for b in range(nb):
         bucket_start[b + 1] += bucket_start[b]
     for k in range(n):  # stable scatter; bucket_start[b] runs from the start to the end of b
-        b = _bucket(tmp_keys[k], tbits)
+        b = _bucket(tmp_keys[k] >> 3, tbits)
         q = bucket_start[b]
         keys[q] = tmp_keys[k]
         ents[q] = tmp_ents[k]
-        first[q] = tmp_first[k]
         bucket_start[b] = q + 1
     for b in range(nb, 0, -1):
         bucket_start[b] = bucket_start[b - 1]
@@ -151,7 +150,7 @@ def _shares_node(qent, i, eent, j):
 
 @numba.njit(cache=True)
 def _query_rows(i0, i1, qlo, qhi, qent, qbody, eent, ebody, same_set, self_contact, origin,
-                inv_h, tbits, bucket_start, keys, ents, boxes, first, out, o0, o1):
+                inv_h, tbits, bucket_start, keys, ents, boxes, out, o0, o1):
     """The pairs of query rows [i0, i1) (see ``query_pairs``) into out[o0:o1]; returns their
     number (more than o1 - o0: only the first ones were written).
 
@@ -194,11 +193,12 @@ def _query_rows(i0, i1, qlo, qhi, qent, qbody, eent, ebody, same_set, self_conta
                     k1 = np.uint64(bucket_start[b + 1])
                     while k < k1:
                         j = ents[k]
-                        if keys[k] == key and j >= jmin and (
+                        e = keys[k]
+                        if (e >> 3) == key and j >= jmin and (
                                 ebody[j] != qb
                                 or (self_contact and not _shares_node(qent, i, eent, j))):
                             uj = np.uint64(j)
-                            hit = (((first[k] & need) == need)
+                            hit = (((e & need) == need)
                                    & (ql0 <= boxes[uj, 3]) & (boxes[uj, 0] <= qh0)
                                    & (ql1 <= boxes[uj, 4]) & (boxes[uj, 1] <= qh1)
                                    & (ql2 <= boxes[uj, 5]) & (boxes[uj, 2] <= qh2))
@@ -220,7 +220,7 @@ def _query_rows(i0, i1, qlo, qhi, qent, qbody, eent, ebody, same_set, self_conta
 
 @numba.njit(cache=True)
 def query_pairs(qlo, qhi, qent, qbody, eent, ebody, same_set, self_contact, origin, inv_h, tbits,
-                bucket_start, keys, ents, boxes, first, out):
+                bucket_start, keys, ents, boxes, out):
     """Candidate pairs (ALGORITHMS.md 3.2, "Cost": the broad phase before the cubic).
 
     (i, j): query box i overlaps hashed box j, of different bodies (or of the
@@ -231,16 +231,16 @@ def query_pairs(qlo, qhi, qent, qbody, eent, ebody, same_set, self_contact, orig
     A pair is reported in the cell that holds the lower corner of the two boxes' intersection:
     along each axis the cell of max(lo_i, lo_j), which is the larger of the two boxes' first
     cells (the cell index is monotone in the coordinate), so the entry in cell ix counts when ix
-    is the query's first cell or the entry's (its ``first`` bit). The pairs of a query row are
+    is the query's first cell or the entry's (its first-cell bit). The pairs of a query row are
     sorted by j before the next row."""
     return _query_rows(0, qlo.shape[0], qlo, qhi, qent, qbody, eent, ebody, same_set,
                        self_contact, origin, inv_h, tbits, bucket_start, keys, ents, boxes,
-                       first, out, 0, out.shape[0])
+                       out, 0, out.shape[0])
 
 
 @numba.njit(cache=True, parallel=True)
 def query_pairs_chunked(chunk, counts, qlo, qhi, qent, qbody, eent, ebody, same_set, self_contact,
-                        origin, inv_h, tbits, bucket_start, keys, ents, boxes, first, out):
+                        origin, inv_h, tbits, bucket_start, keys, ents, boxes, out):
     """``query_pairs`` over the threads: query rows in fixed chunks of ``chunk`` rows
     (``counts (n_chunk,)``, n_chunk = ceil(n_query / chunk)), chunk c writing to its share
     out[c * per:(c + 1) * per], per = len(out) // n_chunk; the shares are then moved together
@@ -255,7 +255,7 @@ def query_pairs_chunked(chunk, counts, qlo, qhi, qent, qbody, eent, ebody, same_
         i0 = c * chunk
         counts[c] = _query_rows(i0, min(nq, i0 + chunk), qlo, qhi, qent, qbody, eent, ebody,
                                 same_set, self_contact, origin, inv_h, tbits, bucket_start,
-                                keys, ents, boxes, first, out, c * per, (c + 1) * per)
+                                keys, ents, boxes, out, c * per, (c + 1) * per)
     worst = 0
     for c in range(nc):
         worst = max(worst, counts[c])
@@ -390,10 +390,8 @@ class SpatialHash:
         cap = max(int(cap), 16)
         self.tmp_keys = np.zeros(cap, dtype=np.int64)
         self.tmp_ents = np.zeros(cap, dtype=np.int64)
-        self.tmp_first = np.zeros(cap, dtype=np.uint8)
         self.keys = np.zeros(cap, dtype=np.int64)
         self.ents = np.zeros(cap, dtype=np.int64)
-        self.first = np.zeros(cap, dtype=np.uint8)
         self.tbits = max(4, int(math.ceil(math.log2(cap))))
         self.bucket_start = np.zeros((1 << self.tbits) + 1, dtype=np.int64)
 
@@ -409,8 +407,7 @@ class SpatialHash:
         self.boxes = self.box_rows[:lo.shape[0]]
         while True:
             n = build_hash(lo, hi, self.origin, self.inv_h, self.tbits, self.tmp_keys,
-                           self.tmp_ents, self.tmp_first, self.bucket_start, self.keys,
-                           self.ents, self.first, self.boxes)
+                           self.tmp_ents, self.bucket_start, self.keys, self.ents, self.boxes)
             if n <= self.keys.shape[0]:
                 self.n_entries = n
                 return
@@ -428,7 +425,7 @@ class SpatialHash:
         while True:
             args = (qlo, qhi, qent, qbody, eent, ebody, same_set, self_contact, self.origin,
                     self.inv_h, self.tbits, self.bucket_start, self.keys, self.ents, self.boxes,
-                    self.first, self.pairs_buf)
+                    self.pairs_buf)
             if chunked:
                 n = query_pairs_chunked(QUERY_CHUNK, self.chunk_counts[:n_chunk], *args)
             else:

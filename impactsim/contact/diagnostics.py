@@ -104,7 +104,7 @@ def nearest_face_distance(px, py, pz, body, faces, face_body, x, origin, inv_h, 
                     key = _key(ix, iy, iz)
                     b = _bucket(key, tbits)
                     for q in range(bucket_start[b], bucket_start[b + 1]):
-                        if keys[q] != key:
+                        if keys[q] >> 3 != key:  # (the low 3 bits: first-cell flags)
                             continue
                         f = ents[q]
                         if face_body[f] != body:
