@@ -112,3 +112,93 @@ def test_particle_sums():
     assert ke == pytest.approx(0.5 * np.sum(pa.m[:40, None] * pa.v[:40] ** 2), rel=1e-14)
     assert ie == pytest.approx(pa.energy[:40].sum(), rel=1e-14)
     assert np.allclose(p, pa.m[:40] @ pa.v[:40], rtol=1e-14, atol=0)
+
+
+def _particles_over_a_plate(n, collisions):
+    """A plate (2 x 2 x 0.5 mm, 0.25 mm cells) with n particles in a slab over and under it,
+    moving at random towards it; the particle pass and its state."""
+    from impactsim.case.schema import Failure, Fracture
+    from impactsim.fracture import make_fracture_passes
+    from tests.builders import box_model, material
+
+    mat = material(name="m", failure=Failure(spall_strength=5e9))
+    model, case = box_model(mat, size=(2e-3, 2e-3, 0.5e-3), h=0.25e-3)
+    case.fracture = Fracture(particle_collisions=collisions)
+    ppass = make_fracture_passes(case, model)[0]
+    rng = np.random.default_rng(9)
+    model.v[:] = rng.normal(0.0, 20.0, model.v.shape)
+    pa = ppass.s.particles
+    pa.reserve(n)
+    side = rng.integers(0, 2, n) * 2 - 1
+    pa.x[:n, :2] = rng.uniform(-1.1e-3, 1.1e-3, (n, 2))
+    pa.x[:n, 2] = side * rng.uniform(0.25e-3, 0.35e-3, n)
+    pa.v[:n] = rng.normal(0.0, 300.0, (n, 3))
+    pa.v[:n, 2] -= side * 2000.0
+    pa.m[:n] = rng.uniform(0.5e-11, 2e-11, n)
+    pa.radius[:n] = rng.uniform(30e-6, 100e-6, n)
+    pa.n = n
+    return model, ppass
+
+
+def _brute_pairs(qlo, qhi, elo, ehi, same_set):
+    over = np.all((qlo[:, None, :] <= ehi[None, :, :]) & (elo[None, :, :] <= qhi[:, None, :]),
+                  axis=2)
+    if same_set:
+        over &= np.arange(len(elo))[None, :] > np.arange(len(qlo))[:, None]
+    return np.argwhere(over).astype(np.int64)  # sorted by (query, entry)
+
+
+@pytest.mark.parametrize("collisions", [False, True])
+def test_particle_pass_equals_the_sweeps_over_brute_force_pairs(monkeypatch, collisions):
+    """The particle pass (particle boxes, faces near them, spatial hash, sweeps, motion) gives,
+    bit for bit, what the sweeps give over every pair of overlapping boxes in sorted order:
+    the broad phase finds exactly those pairs, in Gauss-Seidel order, on one thread or two and
+    with the query split in chunks."""
+    import numba
+
+    from impactsim.contact import broadphase
+    from impactsim.fracture import passes as FPass
+    from impactsim.fracture.particles import move_particles, particle_particle_sweep
+
+    dt = 2e-9
+    n = 1500
+    model, ppass = _particles_over_a_plate(n, collisions)
+    s = ppass.s
+    b = s.boundary
+    pa = s.particles
+    # the reference: boxes as the pass makes them, every overlapping pair, the same sweeps
+    ref_model, ref_pass = _particles_over_a_plate(n, collisions)
+    rpa = ref_pass.s.particles
+    pad = FPass.PAD * s.h_face
+    plo, phi, cloud = np.empty((n, 3)), np.empty((n, 3)), np.empty((2, 3))
+    particle_boxes(rpa.x, rpa.v, rpa.radius, n, dt, pad, plo, phi, cloud)
+    flo, fhi = np.empty((b.n, 3)), np.empty((b.n, 3))
+    sel, sel_body, bounds = np.empty((b.n, 3), np.int32), np.empty(b.n, np.int32), cloud.copy()
+    k = faces_near(ref_model.x, ref_model.v, dt, b.faces, b.face_body, b.n, pad, cloud, flo,
+                   fhi, sel, sel_body, bounds)
+    pairs = _brute_pairs(plo, phi, flo[:k], fhi[:k], False)
+    applied, work = particle_face_sweep(pairs, rpa.x, rpa.v, rpa.m, rpa.radius, sel,
+                                        ref_model.x, ref_model.v, ref_model.mass,
+                                        ref_model.force, ref_model.dtv, dt, FPass.EPS_BARY)
+    assert applied > 50 and pairs.shape[0] > 3 * applied
+    if collisions:
+        pp = _brute_pairs(plo, phi, plo, phi, True)
+        hits, dke = particle_particle_sweep(pp, rpa.x, rpa.v, rpa.m, rpa.radius, dt)
+        assert hits > 5
+        work += dke
+    move_particles(rpa.x, rpa.v, n, dt)
+    monkeypatch.setattr(broadphase, "QUERY_CHUNK", 128)  # 12 chunks of particle queries
+    threads = numba.get_num_threads()
+    try:
+        for n_threads in sorted({1, threads}):
+            numba.set_num_threads(n_threads)
+            m, p = _particles_over_a_plate(n, collisions)
+            m.energy_terms["contact_dissipated"] = 0.0
+            p.run(m, dt)
+            assert p.impacts == applied
+            np.testing.assert_array_equal(p.s.particles.v[:n], rpa.v[:n])
+            np.testing.assert_array_equal(p.s.particles.x[:n], rpa.x[:n])
+            np.testing.assert_array_equal(m.v, ref_model.v)
+            assert m.energy_terms["contact_dissipated"] == -work
+    finally:
+        numba.set_num_threads(threads)
