@@ -24,6 +24,8 @@ import math
 import numba
 import numpy as np
 
+from impactsim.contact.geometry import segment
+
 _AXIS_BITS = 20  # per axis of a cell key; the key is shifted by 3 in an entry (its first-cell bits)
 _AXIS_CELLS = 1 << _AXIS_BITS
 _GOLDEN = np.uint64(11400714819323198485)
@@ -366,12 +368,7 @@ def mean_length(x, edges):
         return 0.0
     total = 0.0
     for g in range(edges.shape[0]):
-        a = edges[g, 0]
-        b = edges[g, 1]
-        dx = x[b, 0] - x[a, 0]
-        dy = x[b, 1] - x[a, 1]
-        dz = x[b, 2] - x[a, 2]
-        total += math.sqrt(dx * dx + dy * dy + dz * dz)
+        total += segment(x, edges[g, 0], x, edges[g, 1])[3]
     return total / edges.shape[0]
 
 

@@ -25,6 +25,7 @@ from impactsim.contact.broadphase import (_AXIS_CELLS, SpatialHash, _bucket, _ce
                                           body_bounds, grid_from_bounds, select_boxes,
                                           swept_boxes)
 from impactsim.contact.cubic import det3
+from impactsim.contact.geometry import barycentric_numerators, triangle_normal
 
 
 @numba.njit(cache=True)
@@ -54,22 +55,15 @@ def point_triangle_distance(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
     """Euclidean distance of point p from triangle (a, b, c): the plane distance when the
     projection falls inside, else the distance to the nearest side (penetration measure,
     ALGORITHMS.md 3)."""
-    e1x = bx - ax
-    e1y = by - ay
-    e1z = bz - az
-    e2x = cx - ax
-    e2y = cy - ay
-    e2z = cz - az
-    nx = e1y * e2z - e1z * e2y
-    ny = e1z * e2x - e1x * e2z
-    nz = e1x * e2y - e1y * e2x
-    nn = nx * nx + ny * ny + nz * nz
+    e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz, nn = triangle_normal(ax, ay, az, bx, by, bz, cx,
+                                                                   cy, cz)
     if nn > 0.0:
         rx = px - ax
         ry = py - ay
         rz = pz - az
-        wb = _dot(ry * e2z - rz * e2y, rz * e2x - rx * e2z, rx * e2y - ry * e2x, nx, ny, nz) / nn
-        wc = _dot(e1y * rz - e1z * ry, e1z * rx - e1x * rz, e1x * ry - e1y * rx, nx, ny, nz) / nn
+        sb, sc = barycentric_numerators(rx, ry, rz, e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz)
+        wb = sb / nn
+        wc = sc / nn
         if wb >= 0.0 and wc >= 0.0 and wb + wc <= 1.0:
             return abs(_dot(rx, ry, rz, nx, ny, nz)) / math.sqrt(nn)
     d = point_segment_distance(px, py, pz, ax, ay, az, bx, by, bz)
@@ -192,16 +186,8 @@ def _crossing(p, q, a, b, c, x):
     Parameter t in [0, 1] along p -> q where the segment crosses triangle (a, b, c), and +1
     when it enters the body behind the face (outward normal (b - a) x (c - a)), -1 when it
     leaves; (-1.0, 0) when it does not cross the triangle."""
-    e1x = x[b, 0] - x[a, 0]
-    e1y = x[b, 1] - x[a, 1]
-    e1z = x[b, 2] - x[a, 2]
-    e2x = x[c, 0] - x[a, 0]
-    e2y = x[c, 1] - x[a, 1]
-    e2z = x[c, 2] - x[a, 2]
-    nx = e1y * e2z - e1z * e2y
-    ny = e1z * e2x - e1x * e2z
-    nz = e1x * e2y - e1y * e2x
-    nn = nx * nx + ny * ny + nz * nz
+    e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz, nn = triangle_normal(
+        x[a, 0], x[a, 1], x[a, 2], x[b, 0], x[b, 1], x[b, 2], x[c, 0], x[c, 1], x[c, 2])
     if not nn > 0.0:
         return -1.0, 0
     sp = _dot(x[p, 0] - x[a, 0], x[p, 1] - x[a, 1], x[p, 2] - x[a, 2], nx, ny, nz)
@@ -209,11 +195,11 @@ def _crossing(p, q, a, b, c, x):
     if (sp >= 0.0 and sq >= 0.0) or (sp <= 0.0 and sq <= 0.0):
         return -1.0, 0
     t = sp / (sp - sq)
-    rx = x[p, 0] + t * (x[q, 0] - x[p, 0]) - x[a, 0]
-    ry = x[p, 1] + t * (x[q, 1] - x[p, 1]) - x[a, 1]
-    rz = x[p, 2] + t * (x[q, 2] - x[p, 2]) - x[a, 2]
-    wb = _dot(ry * e2z - rz * e2y, rz * e2x - rx * e2z, rx * e2y - ry * e2x, nx, ny, nz) / nn
-    wc = _dot(e1y * rz - e1z * ry, e1z * rx - e1x * rz, e1x * ry - e1y * rx, nx, ny, nz) / nn
+    sb, sc = barycentric_numerators(
+        x[p, 0] + t * (x[q, 0] - x[p, 0]) - x[a, 0], x[p, 1] + t * (x[q, 1] - x[p, 1]) - x[a, 1],
+        x[p, 2] + t * (x[q, 2] - x[p, 2]) - x[a, 2], e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz)
+    wb = sb / nn
+    wc = sc / nn
     if wb < 0.0 or wc < 0.0 or wb + wc > 1.0:
         return -1.0, 0
     return t, (1 if sp > 0.0 else -1)

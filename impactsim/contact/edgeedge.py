@@ -34,6 +34,9 @@ Parallel edges (|(b-a) x (f-e)| <= 1e-6 |b-a| |f-e|) have no crossing point; the
 A corrected pair keeps alpha, beta, n and its gap term as a constraint row with its accumulated
 impulse, as in the node-face pass: later sweeps push it through that row
 (``edge_edge_relax``), the projected rounds of ``impactsim.contact.rows`` may take impulse back.
+
+The sum of eq. 11 and the corrections of eq. 12 (with friction, and with prescribed velocity
+components) are ``impactsim.contact.impulse``, the algebra of the node-face pass too.
 """
 
 from __future__ import annotations
@@ -45,13 +48,13 @@ import numba
 import numpy as np
 
 from impactsim.contact.cubic import cubic_coefficients, cubic_roots_in
-from impactsim.contact.nodeface import NO_LOCK
+from impactsim.contact.geometry import triangle_normal
+from impactsim.contact.impulse import NO_LOCK, VEL_TOL, inverse_mass, lock_row, push
 
 PARALLEL_SIN = 1e-6  # edges closer to parallel than this (sine of the angle) are skipped
 SEGMENT_EPS = 1e-9  # tolerance of 0 <= alpha, beta <= 1
 NU_RELIABLE = 0.2  # nu orients n only when |n . nu| >= this * |nu|
 GEO_COLS = 7  # a constraint row: lam, alpha, beta, nx, ny, nz, gap / tau
-VEL_TOL = 1e-12  # a row is satisfied when its velocity error is below this share of the speeds
 
 
 @numba.njit(cache=True)
@@ -72,73 +75,37 @@ def line_parameters(ax, ay, az, d1x, d1y, d1z, ex, ey, ez, d2x, d2y, d2z):
     return (B * F - C * E) / den, (A * F - B * C) / den, den, A * E
 
 
+@numba.njit(cache=True, inline="always")
+def _inverse_mass(al, be, nx, ny, nz, ia, ib, ie, jf, mass, lock):
+    """The sum of the weighted inverse masses of [D19 eq. 11] along n,
+    (1-b)^2/m_e + b^2/m_f + (1-a)^2/m_a + a^2/m_b, with prescribed velocity components
+    (``lock``) each 1/m_k along n counting only its free axes (``impactsim.contact.impulse``:
+    the points (e, f, a, b), coefficients (1 - beta, beta, -(1 - alpha), -alpha))."""
+    le0, le1, le2 = lock_row(lock, ie)
+    return inverse_mass(nx, ny, nz, 1.0 - be, mass[ie], le0, le1, le2, be, mass[jf], jf,
+                        -(1.0 - al), mass[ia], ia, -al, mass[ib], ib, lock)
+
+
 @numba.njit(cache=True)
-def _apply(J, mu, S, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass):
+def _apply(J, mu, S, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass, lock):
     """The corrections of [D19 eq. 12] for the normal impulse J = tau N_c > 0 (m_b in the last
-    one, ALGORITHMS.md 3.2 [note]), then optional Coulomb friction. S: the sum of the weighted
-    inverse masses of [D19 eq. 11]."""
+    one, ALGORITHMS.md 3.2 [note]), then optional Coulomb friction along the relative sliding
+    velocity of body 1's point d over body 2's c after the normal correction: at most the
+    impulse that stops sliding and at most mu J. S: the sum of the weighted inverse masses of
+    [D19 eq. 11] (``_inverse_mass``). With prescribed velocity components (``lock``) each node's
+    velocity changes only along its free axes (the constraint takes the rest of the impulse),
+    friction with the effective mass along the sliding direction
+    (``impactsim.contact.impulse``)."""
     ma = mass[ia]
     mb = mass[ib]
     me = mass[ie]
     mf = mass[jf]
+    le0, le1, le2 = lock_row(lock, ie)
     # [D19 eq. 12], m_b in the last correction (ALGORITHMS.md 3.2 [note])
-    for d in range(3):
-        nd = nx if d == 0 else (ny if d == 1 else nz)
-        v[ie, d] += (1.0 - be) * J / me * nd
-        v[jf, d] += be * J / mf * nd
-        v[ia, d] -= (1.0 - al) * J / ma * nd
-        v[ib, d] -= al * J / mb * nd
+    push(J, nx, ny, nz, v, ie, 1.0 - be, me, le0, le1, le2, v, jf, be, mf, ia, -(1.0 - al), ma,
+         ib, -al, mb, lock)
     if mu > 0.0:
         # Coulomb friction: relative tangential velocity of body 1's point d over body 2's c
-        vx = ((1.0 - al) * v[ia, 0] + al * v[ib, 0]) - ((1.0 - be) * v[ie, 0] + be * v[jf, 0])
-        vy = ((1.0 - al) * v[ia, 1] + al * v[ib, 1]) - ((1.0 - be) * v[ie, 1] + be * v[jf, 1])
-        vz = ((1.0 - al) * v[ia, 2] + al * v[ib, 2]) - ((1.0 - be) * v[ie, 2] + be * v[jf, 2])
-        vn = vx * nx + vy * ny + vz * nz
-        vx -= vn * nx
-        vy -= vn * ny
-        vz -= vn * nz
-        vt = math.sqrt(vx * vx + vy * vy + vz * vz)
-        if vt > 0.0:
-            Jt = min(vt / S, mu * J)
-            for d in range(3):
-                td = (vx if d == 0 else (vy if d == 1 else vz)) / vt
-                v[ie, d] += (1.0 - be) * Jt / me * td
-                v[jf, d] += be * Jt / mf * td
-                v[ia, d] -= (1.0 - al) * Jt / ma * td
-                v[ib, d] -= al * Jt / mb * td
-
-
-@numba.njit(cache=True)
-def _locked_sum(al, be, nx, ny, nz, ia, ib, ie, jf, mass, lock):
-    """The sum of the weighted inverse masses of [D19 eq. 11] with prescribed velocity
-    components (``lock``, see ``nodeface.locked_point_face_impulse``): each node's 1/m_k
-    along direction n counts only its free axes, s_k / m_k with s_k = sum_d lock_k,d n_d^2."""
-    qx = nx * nx
-    qy = ny * ny
-    qz = nz * nz
-    return ((1.0 - be) ** 2 * (lock[ie, 0] * qx + lock[ie, 1] * qy + lock[ie, 2] * qz) / mass[ie]
-            + be * be * (lock[jf, 0] * qx + lock[jf, 1] * qy + lock[jf, 2] * qz) / mass[jf]
-            + (1.0 - al) ** 2 * (lock[ia, 0] * qx + lock[ia, 1] * qy + lock[ia, 2] * qz)
-            / mass[ia]
-            + al * al * (lock[ib, 0] * qx + lock[ib, 1] * qy + lock[ib, 2] * qz) / mass[ib])
-
-
-@numba.njit(cache=True)
-def _apply_locked(J, mu, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass, lock):
-    """``_apply`` with prescribed velocity components: each node's velocity changes only along
-    its free axes (the constraint takes the rest of the impulse); friction with the effective
-    mass along the sliding direction (``_locked_sum``)."""
-    ma = mass[ia]
-    mb = mass[ib]
-    me = mass[ie]
-    mf = mass[jf]
-    for d in range(3):
-        nd = nx if d == 0 else (ny if d == 1 else nz)
-        v[ie, d] += (1.0 - be) * J / me * nd * lock[ie, d]
-        v[jf, d] += be * J / mf * nd * lock[jf, d]
-        v[ia, d] -= (1.0 - al) * J / ma * nd * lock[ia, d]
-        v[ib, d] -= al * J / mb * nd * lock[ib, d]
-    if mu > 0.0:
         vx = ((1.0 - al) * v[ia, 0] + al * v[ib, 0]) - ((1.0 - be) * v[ie, 0] + be * v[jf, 0])
         vy = ((1.0 - al) * v[ia, 1] + al * v[ib, 1]) - ((1.0 - be) * v[ie, 1] + be * v[jf, 1])
         vz = ((1.0 - al) * v[ia, 2] + al * v[ib, 2]) - ((1.0 - be) * v[ie, 2] + be * v[jf, 2])
@@ -151,15 +118,13 @@ def _apply_locked(J, mu, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass, lock):
             tx = vx / vt
             ty = vy / vt
             tz = vz / vt
-            St = _locked_sum(al, be, tx, ty, tz, ia, ib, ie, jf, mass, lock)
+            St = S
+            if lock.shape[0] > 0:
+                St = _inverse_mass(al, be, tx, ty, tz, ia, ib, ie, jf, mass, lock)
             if St > 0.0:
                 Jt = min(vt / St, mu * J)
-                for d in range(3):
-                    td = tx if d == 0 else (ty if d == 1 else tz)
-                    v[ie, d] += (1.0 - be) * Jt / me * td * lock[ie, d]
-                    v[jf, d] += be * Jt / mf * td * lock[jf, d]
-                    v[ia, d] -= (1.0 - al) * Jt / ma * td * lock[ia, d]
-                    v[ib, d] -= al * Jt / mb * td * lock[ib, d]
+                push(Jt, tx, ty, tz, v, ie, 1.0 - be, me, le0, le1, le2, v, jf, be, mf, ia,
+                     -(1.0 - al), ma, ib, -al, mb, lock)
 
 
 @numba.njit(cache=True)
@@ -232,21 +197,15 @@ def _edge_edge_at(t, force_nu, band, restore, ia, ib, ie, jf, x, v, mass, tau, m
     mf = mass[jf]
     if not (ma > 0.0 and mb > 0.0 and me > 0.0 and mf > 0.0):
         return -1.0  # a massless node (orphaned by erosion) takes no impulse
-    if lock.shape[0] == 0:
-        S = ((1.0 - be) ** 2 / me + be * be / mf + (1.0 - al) ** 2 / ma + al * al / mb)
-    else:
-        S = _locked_sum(al, be, nx, ny, nz, ia, ib, ie, jf, mass, lock)
-        if not S > 0.0:
-            return 0.0  # every node is held along n: the constraints take it all
+    S = _inverse_mass(al, be, nx, ny, nz, ia, ib, ie, jf, mass, lock)
+    if not S > 0.0:
+        return 0.0  # every node is held along n: the constraints take it all
     # [D19 eq. 11] (with the gap term for touching edges, see the docstring)
     Nc = ((1.0 - al) * una + al * unb - (1.0 - be) * une - be * unf - gap / tau) / (tau * S)
     if not Nc > 0.0:
         return 0.0
     J = tau * Nc
-    if lock.shape[0] == 0:
-        _apply(J, mu, S, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass)
-    else:
-        _apply_locked(J, mu, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass, lock)
+    _apply(J, mu, S, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass, lock)
     geo[k, 0] = J
     geo[k, 1] = al
     geo[k, 2] = be
@@ -274,7 +233,7 @@ def edge_edge_detect(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, n
     (nu_x, nu_y, nu_z) = nu_1 - nu_2, the difference of the bodies' outward normals at the two
     edges, orients n only for touching edges (``band``, ``restore``: see the module
     docstring). An applied impulse leaves its constraint row in row k of ``geo (*, GEO_COLS)``.
-    ``lock``: prescribed velocity components, left alone by the impulse (``_apply_locked``; an
+    ``lock``: prescribed velocity components, left alone by the impulse (``_apply``; an
     empty array when there are none)."""
     ax = x[ia, 0]
     ay = x[ia, 1]
@@ -338,17 +297,11 @@ def edge_edge_relax(ia, ib, ie, jf, v, mass, mu, geo, k, slack, lock):
              + abs(gt))
     if not (err > slack and err > VEL_TOL * scale):
         return 0.0
-    if lock.shape[0] == 0:
-        S = ((1.0 - be) ** 2 / mass[ie] + be * be / mass[jf] + (1.0 - al) ** 2 / mass[ia]
-             + al * al / mass[ib])
-        J = err / S
-        _apply(J, mu, S, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass)
-    else:
-        S = _locked_sum(al, be, nx, ny, nz, ia, ib, ie, jf, mass, lock)
-        if not S > 0.0:
-            return 0.0
-        J = err / S
-        _apply_locked(J, mu, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass, lock)
+    S = _inverse_mass(al, be, nx, ny, nz, ia, ib, ie, jf, mass, lock)
+    if not S > 0.0:
+        return 0.0
+    J = err / S
+    _apply(J, mu, S, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass, lock)
     geo[k, 0] = lam + J
     return J
 
@@ -366,16 +319,9 @@ def edge_normals(x, faces, face_edges, out):
         a = faces[f, 0]
         b = faces[f, 1]
         c = faces[f, 2]
-        e1x = x[b, 0] - x[a, 0]
-        e1y = x[b, 1] - x[a, 1]
-        e1z = x[b, 2] - x[a, 2]
-        e2x = x[c, 0] - x[a, 0]
-        e2y = x[c, 1] - x[a, 1]
-        e2z = x[c, 2] - x[a, 2]
-        nx = e1y * e2z - e1z * e2y
-        ny = e1z * e2x - e1x * e2z
-        nz = e1x * e2y - e1y * e2x
-        nn = math.sqrt(nx * nx + ny * ny + nz * nz)
+        nx, ny, nz, nn = triangle_normal(x[a, 0], x[a, 1], x[a, 2], x[b, 0], x[b, 1], x[b, 2],
+                                         x[c, 0], x[c, 1], x[c, 2])[6:]
+        nn = math.sqrt(nn)
         if nn > 0.0:
             for j in range(3):
                 g = face_edges[f, j]
@@ -395,8 +341,9 @@ def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band, restore, a
     constraint row is then row k of ``geo (k, GEO_COLS)``: later visits in the same step update
     that row (``edge_edge_relax``, projected Gauss-Seidel) instead of testing the crossing again.
     ``stamp``, ``sweep``, ``since``: the skipping of unchanged pairs in repeated sweeps, as in
-    ``nodeface.node_face_sweep``; ``lock``: prescribed velocity components, as there. Returns (pairs corrected in this sweep, sum of the normal
-    impulse changes [N s], largest velocity change of a corrected node [m/s])."""
+    ``nodeface.node_face_sweep``; ``lock``: prescribed velocity components, as there. Returns
+    (pairs corrected in this sweep, sum of the normal impulse changes [N s], largest velocity
+    change of a corrected node [m/s])."""
     applied = 0
     total = 0.0
     jump = 0.0

@@ -15,7 +15,9 @@ with the outward normal and J = tau N). Compressive only: nothing is done for a 
 Optional Coulomb friction: a tangential impulse along the relative sliding direction, at most the
 one that stops sliding and at most mu times the normal impulse, with the same weights (momentum is
 conserved). This algebra is ``point_face_impulse``, the pointwise law shared with the
-particle-face contact (impactsim.fracture.particles: the same algebra with the particle's radius).
+particle-face contact (impactsim.fracture.particles: the same algebra with the particle's radius);
+its sums and updates are those of ``impactsim.contact.impulse``, which the edge-edge pass uses too,
+and its geometry (edges, normal, barycentric weights) that of ``impactsim.contact.geometry``.
 
 Departure from the paper, for persistent contact: after a correction the node ends the step on
 the face's plane only up to round-off and second-order terms (the face turns and slides during
@@ -36,8 +38,8 @@ pushed it apart (departure from [D19], see ``impactsim.contact.passes`` and docs
 Prescribed velocity components (the boundary-conditions pass runs before contact): with a
 ``lock`` array (0.0 on prescribed components, 1.0 on free ones; ``passes.ContactContext.lock``)
 a prescribed component is an infinite mass along its axis, and the impulses change node
-velocities only along free axes with the matching effective mass
-(``locked_point_face_impulse``). Without prescribed components the plain code runs.
+velocities only along free axes with the matching effective mass (``point_face_impulse``,
+``impactsim.contact.impulse``). Without prescribed components the plain sums run.
 """
 
 from __future__ import annotations
@@ -49,10 +51,11 @@ import numba
 import numpy as np
 
 from impactsim.contact.cubic import cubic_coefficients, cubic_roots_in
+from impactsim.contact.geometry import (barycentric_numerators, clamped_weights, triangle_normal,
+                                        unit_normal)
+from impactsim.contact.impulse import NO_LOCK, VEL_TOL, inverse_mass, lock_row, push
 
-NO_LOCK = np.ones((0, 3))  # no prescribed velocity components (see ``locked_point_face_impulse``)
 GEO_COLS = 8  # a constraint row: lam, wa, wb, wc, nx, ny, nz, vmin
-VEL_TOL = 1e-12  # a row is satisfied when its velocity error is below this share of the speeds
 
 
 @numba.njit(cache=True)
@@ -67,45 +70,25 @@ def _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary, vmin, geo, k, lock
     ax = x[ia, 0] + t * v[ia, 0]
     ay = x[ia, 1] + t * v[ia, 1]
     az = x[ia, 2] + t * v[ia, 2]
-    e1x = x[ib, 0] + t * v[ib, 0] - ax
-    e1y = x[ib, 1] + t * v[ib, 1] - ay
-    e1z = x[ib, 2] + t * v[ib, 2] - az
-    e2x = x[ic, 0] + t * v[ic, 0] - ax
-    e2y = x[ic, 1] + t * v[ic, 1] - ay
-    e2z = x[ic, 2] + t * v[ic, 2] - az
-    rx = x[p, 0] + t * v[p, 0] - ax
-    ry = x[p, 1] + t * v[p, 1] - ay
-    rz = x[p, 2] + t * v[p, 2] - az
-    nx = e1y * e2z - e1z * e2y
-    ny = e1z * e2x - e1x * e2z
-    nz = e1x * e2y - e1y * e2x
-    nn = nx * nx + ny * ny + nz * nz
+    e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz, nn = triangle_normal(
+        ax, ay, az, x[ib, 0] + t * v[ib, 0], x[ib, 1] + t * v[ib, 1], x[ib, 2] + t * v[ib, 2],
+        x[ic, 0] + t * v[ic, 0], x[ic, 1] + t * v[ic, 1], x[ic, 2] + t * v[ic, 2])
     if not nn > 0.0:
         return -1.0
-    # barycentric weights of the node's projection:
-    # w_b = (r x e2).n / |n|^2, w_c = (e1 x r).n / |n|^2
-    wb = ((ry * e2z - rz * e2y) * nx + (rz * e2x - rx * e2z) * ny + (rx * e2y - ry * e2x) * nz) / nn
-    wc = ((e1y * rz - e1z * ry) * nx + (e1z * rx - e1x * rz) * ny + (e1x * ry - e1y * rx) * nz) / nn
+    # barycentric weights of the node's projection
+    sb, sc = barycentric_numerators(x[p, 0] + t * v[p, 0] - ax, x[p, 1] + t * v[p, 1] - ay,
+                                    x[p, 2] + t * v[p, 2] - az, e1x, e1y, e1z, e2x, e2y, e2z,
+                                    nx, ny, nz)
+    wb = sb / nn
+    wc = sc / nn
     wa = 1.0 - wb - wc
     if wa < -eps_bary or wb < -eps_bary or wc < -eps_bary:
         return -1.0
-    wa = max(wa, 0.0)
-    wb = max(wb, 0.0)
-    wc = max(wc, 0.0)
-    ws = wa + wb + wc
-    wa /= ws
-    wb /= ws
-    wc /= ws
-    inv = 1.0 / math.sqrt(nn)
-    nx *= inv
-    ny *= inv
-    nz *= inv
-    if lock.shape[0] == 0:
-        J = point_face_impulse(v, p, mass[p], v, mass, ia, ib, ic, wa, wb, wc, nx, ny, nz, vmin,
-                               mu)
-    else:
-        J = locked_point_face_impulse(v, p, mass[p], lock[p, 0], lock[p, 1], lock[p, 2], v, mass,
-                                      lock, ia, ib, ic, wa, wb, wc, nx, ny, nz, vmin, mu)
+    wa, wb, wc = clamped_weights(wa, wb, wc)
+    nx, ny, nz = unit_normal(nx, ny, nz, nn)
+    lpx, lpy, lpz = lock_row(lock, p)
+    J = point_face_impulse(v, p, mass[p], lpx, lpy, lpz, v, mass, lock, ia, ib, ic, wa, wb, wc,
+                           nx, ny, nz, vmin, mu)
     if J > 0.0:
         geo[k, 0] = J
         geo[k, 1] = wa
@@ -118,8 +101,19 @@ def _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary, vmin, geo, k, lock
     return J
 
 
+@numba.njit(cache=True, inline="always")
+def relative_normal_velocity(vp, p, v, ia, ib, ic, wa, wb, wc, nx, ny, nz):
+    """Velocity of point p (row p of vp) relative to the point of face (ia, ib, ic) with
+    barycentric weights w (rows of v), and its component along n: (vrx, vry, vrz, u)."""
+    vrx = vp[p, 0] - (wa * v[ia, 0] + wb * v[ib, 0] + wc * v[ic, 0])
+    vry = vp[p, 1] - (wa * v[ia, 1] + wb * v[ib, 1] + wc * v[ic, 1])
+    vrz = vp[p, 2] - (wa * v[ia, 2] + wb * v[ib, 2] + wc * v[ic, 2])
+    return vrx, vry, vrz, vrx * nx + vry * ny + vrz * nz
+
+
 @numba.njit(cache=True)
-def point_face_impulse(vp, p, mp, v, mass, ia, ib, ic, wa, wb, wc, nx, ny, nz, vmin, mu):
+def point_face_impulse(vp, p, mp, lpx, lpy, lpz, v, mass, lock, ia, ib, ic, wa, wb, wc, nx, ny,
+                       nz, vmin, mu):
     """The impulse algebra of ALGORITHMS.md 3.1, pointwise: a point of mass mp (row p of vp: a
     boundary node, vp is v, or a particle of impactsim.fracture.particles) against the point of
     face (ia, ib, ic) with barycentric weights w (rows of v, masses in mass), along the face's
@@ -130,70 +124,24 @@ def point_face_impulse(vp, p, mp, v, mass, ia, ib, ic, wa, wb, wc, nx, ny, nz, v
 
     is applied (compressive only, momentum conserved), then, with mu > 0, Coulomb friction: a
     tangential impulse along the relative sliding velocity, at most the one that stops sliding
-    and at most mu J, with the same weights. Returns J [N s], 0 when nothing was needed, -1 when
-    a massless node (orphaned by erosion) would take part (nothing is applied)."""
-    vrx = vp[p, 0] - (wa * v[ia, 0] + wb * v[ib, 0] + wc * v[ic, 0])
-    vry = vp[p, 1] - (wa * v[ia, 1] + wb * v[ib, 1] + wc * v[ic, 1])
-    vrz = vp[p, 2] - (wa * v[ia, 2] + wb * v[ib, 2] + wc * v[ic, 2])
-    vn = vrx * nx + vry * ny + vrz * nz
-    if not vn < vmin:
-        return 0.0
-    ma = mass[ia]
-    mb = mass[ib]
-    mc = mass[ic]
-    if not (mp > 0.0 and ma > 0.0 and mb > 0.0 and mc > 0.0):
-        return -1.0  # a massless node (orphaned by erosion) takes no impulse
-    minv = 1.0 / mp + wa * wa / ma + wb * wb / mb + wc * wc / mc
-    J = (vmin - vn) / minv
-    for d in range(3):
-        nd = nx if d == 0 else (ny if d == 1 else nz)
-        vp[p, d] += J / mp * nd
-        v[ia, d] -= wa * J / ma * nd
-        v[ib, d] -= wb * J / mb * nd
-        v[ic, d] -= wc * J / mc * nd
-    if mu > 0.0:
-        # Coulomb friction: relative tangential velocity after the normal correction
-        vtx = vrx - vn * nx
-        vty = vry - vn * ny
-        vtz = vrz - vn * nz
-        vt = math.sqrt(vtx * vtx + vty * vty + vtz * vtz)
-        if vt > 0.0:
-            Jt = min(vt / minv, mu * J)
-            tx = vtx / vt
-            ty = vty / vt
-            tz = vtz / vt
-            for d in range(3):
-                td = tx if d == 0 else (ty if d == 1 else tz)
-                vp[p, d] -= Jt / mp * td
-                v[ia, d] += wa * Jt / ma * td
-                v[ib, d] += wb * Jt / mb * td
-                v[ic, d] += wc * Jt / mc * td
-    return J
+    and at most mu J, with the same weights. That is ``impactsim.contact.impulse`` for the four
+    points (p, a, b, c) with coefficients (1, -w_a, -w_b, -w_c).
 
-
-@numba.njit(cache=True)
-def locked_point_face_impulse(vp, p, mp, lpx, lpy, lpz, v, mass, lock, ia, ib, ic, wa, wb, wc,
-                              nx, ny, nz, vmin, mu):
-    """``point_face_impulse`` with prescribed velocity components. ``lock (n_node, 3)``: 1.0
-    where a node's velocity component is free, 0.0 where the case prescribes it (the
-    boundary-conditions pass runs before contact, ALGORITHMS.md 1 step 3); (lpx, lpy, lpz) the
-    point's own row (1, 1, 1 for a particle). A prescribed component is a kinematic constraint,
-    an infinite mass along that axis: its share of the impulse goes to the constraint's reaction
-    and a node's velocity changes only along its free axes, dU_k = +-c_k J (lock_k * n) / m_k
-    (c = 1 for the point, w_i for the face nodes). The impulse that brings the relative normal
-    velocity to vmin uses the matching effective mass,
+    Prescribed velocity components (``lock (n_node, 3)``, 0.0 on a prescribed component, else
+    1.0; ``NO_LOCK`` when the case prescribes none; (lpx, lpy, lpz) the point's own row, 1, 1, 1
+    for a particle): an infinite mass along that axis. Its share of the impulse goes to the
+    constraint's reaction and a node's velocity changes only along its free axes,
+    dU_k = +-c_k J (lock_k * n) / m_k, with the matching effective mass
 
         1/m_eff = s_p / m_p + sum w_i^2 s_i / m_i,   s_k = sum_d lock_k,d n_d^2,
 
-    and is 0 when every node is held along n (the constraints take it all). Friction likewise
-    with the tangent t: at most the impulse that stops sliding along t (effective mass with
-    t_d^2) and at most mu J. Momentum is conserved along every free axis of all four nodes.
-    Without locks (all 1.0) this is point_face_impulse up to round-off; the passes call
-    point_face_impulse then (bit-identical results)."""
-    vrx = vp[p, 0] - (wa * v[ia, 0] + wb * v[ib, 0] + wc * v[ic, 0])
-    vry = vp[p, 1] - (wa * v[ia, 1] + wb * v[ib, 1] + wc * v[ic, 1])
-    vrz = vp[p, 2] - (wa * v[ia, 2] + wb * v[ib, 2] + wc * v[ic, 2])
-    vn = vrx * nx + vry * ny + vrz * nz
+    and no impulse when every node is held along n (the constraints take it all). Friction
+    likewise with the tangent t: at most the impulse that stops sliding along t (effective mass
+    with t_d^2) and at most mu J; without prescribed components the normal's effective mass, as
+    above. Momentum is conserved along every free axis of all four nodes.
+    Returns J [N s], 0 when nothing was needed, -1 when a massless node (orphaned by erosion)
+    would take part (nothing is applied)."""
+    vrx, vry, vrz, vn = relative_normal_velocity(vp, p, v, ia, ib, ic, wa, wb, wc, nx, ny, nz)
     if not vn < vmin:
         return 0.0
     ma = mass[ia]
@@ -201,24 +149,15 @@ def locked_point_face_impulse(vp, p, mp, lpx, lpy, lpz, v, mass, lock, ia, ib, i
     mc = mass[ic]
     if not (mp > 0.0 and ma > 0.0 and mb > 0.0 and mc > 0.0):
         return -1.0  # a massless node (orphaned by erosion) takes no impulse
-    qx = nx * nx
-    qy = ny * ny
-    qz = nz * nz
-    minv = ((lpx * qx + lpy * qy + lpz * qz) / mp
-            + wa * wa * (lock[ia, 0] * qx + lock[ia, 1] * qy + lock[ia, 2] * qz) / ma
-            + wb * wb * (lock[ib, 0] * qx + lock[ib, 1] * qy + lock[ib, 2] * qz) / mb
-            + wc * wc * (lock[ic, 0] * qx + lock[ic, 1] * qy + lock[ic, 2] * qz) / mc)
+    minv = inverse_mass(nx, ny, nz, 1.0, mp, lpx, lpy, lpz, -wa, ma, ia, -wb, mb, ib, -wc, mc,
+                        ic, lock)
     if not minv > 0.0:
         return 0.0  # every node is held along n
     J = (vmin - vn) / minv
-    for d in range(3):
-        nd = nx if d == 0 else (ny if d == 1 else nz)
-        lp = lpx if d == 0 else (lpy if d == 1 else lpz)
-        vp[p, d] += J / mp * nd * lp
-        v[ia, d] -= wa * J / ma * nd * lock[ia, d]
-        v[ib, d] -= wb * J / mb * nd * lock[ib, d]
-        v[ic, d] -= wc * J / mc * nd * lock[ic, d]
+    push(J, nx, ny, nz, vp, p, 1.0, mp, lpx, lpy, lpz, v, ia, -wa, ma, ib, -wb, mb, ic, -wc, mc,
+         lock)
     if mu > 0.0:
+        # Coulomb friction: relative tangential velocity before the normal correction
         vtx = vrx - vn * nx
         vty = vry - vn * ny
         vtz = vrz - vn * nz
@@ -227,22 +166,14 @@ def locked_point_face_impulse(vp, p, mp, lpx, lpy, lpz, v, mass, lock, ia, ib, i
             tx = vtx / vt
             ty = vty / vt
             tz = vtz / vt
-            qx = tx * tx
-            qy = ty * ty
-            qz = tz * tz
-            tinv = ((lpx * qx + lpy * qy + lpz * qz) / mp
-                    + wa * wa * (lock[ia, 0] * qx + lock[ia, 1] * qy + lock[ia, 2] * qz) / ma
-                    + wb * wb * (lock[ib, 0] * qx + lock[ib, 1] * qy + lock[ib, 2] * qz) / mb
-                    + wc * wc * (lock[ic, 0] * qx + lock[ic, 1] * qy + lock[ic, 2] * qz) / mc)
+            tinv = minv
+            if lock.shape[0] > 0:
+                tinv = inverse_mass(tx, ty, tz, 1.0, mp, lpx, lpy, lpz, -wa, ma, ia, -wb, mb,
+                                    ib, -wc, mc, ic, lock)
             if tinv > 0.0:
                 Jt = min(vt / tinv, mu * J)
-                for d in range(3):
-                    td = tx if d == 0 else (ty if d == 1 else tz)
-                    lp = lpx if d == 0 else (lpy if d == 1 else lpz)
-                    vp[p, d] -= Jt / mp * td * lp
-                    v[ia, d] += wa * Jt / ma * td * lock[ia, d]
-                    v[ib, d] += wb * Jt / mb * td * lock[ib, d]
-                    v[ic, d] += wc * Jt / mc * td * lock[ic, d]
+                push(-Jt, tx, ty, tz, vp, p, 1.0, mp, lpx, lpy, lpz, v, ia, -wa, ma, ib, -wb, mb,
+                     ic, -wc, mc, lock)
     return J
 
 
@@ -254,7 +185,7 @@ def node_face_correct(p, ia, ib, ic, x, v, mass, tau, mu, band, eps_bary, restor
     only, with optional Coulomb friction. Corrects v in place; returns the normal impulse [N s]
     (0 when nothing was done). ``band`` [m]: a node at most this far behind the face's plane at
     t = 0 is treated as touching, and ``restore`` of its depth is undone in the step (see the
-    module docstring). ``lock``: prescribed velocity components (``locked_point_face_impulse``;
+    module docstring). ``lock``: prescribed velocity components (``point_face_impulse``;
     an empty array when there are none)."""
     return node_face_detect(p, ia, ib, ic, x, v, mass, tau, mu, band, eps_bary, restore,
                             np.empty((1, GEO_COLS)), 0, lock)
@@ -265,24 +196,14 @@ def node_face_detect(p, ia, ib, ic, x, v, mass, tau, mu, band, eps_bary, restore
                      lock):
     """``node_face_correct`` that also stores the constraint row of an applied impulse in row k
     of ``geo (*, GEO_COLS)``: accumulated impulse, weights, unit normal, target velocity."""
-    e1x = x[ib, 0] - x[ia, 0]
-    e1y = x[ib, 1] - x[ia, 1]
-    e1z = x[ib, 2] - x[ia, 2]
-    e2x = x[ic, 0] - x[ia, 0]
-    e2y = x[ic, 1] - x[ia, 1]
-    e2z = x[ic, 2] - x[ia, 2]
-    rx = x[p, 0] - x[ia, 0]
-    ry = x[p, 1] - x[ia, 1]
-    rz = x[p, 2] - x[ia, 2]
+    e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz, nn = triangle_normal(
+        x[ia, 0], x[ia, 1], x[ia, 2], x[ib, 0], x[ib, 1], x[ib, 2], x[ic, 0], x[ic, 1], x[ic, 2])
     a, b, c, d = cubic_coefficients(
-        e1x, e1y, e1z, e2x, e2y, e2z, rx, ry, rz,
+        e1x, e1y, e1z, e2x, e2y, e2z, x[p, 0] - x[ia, 0], x[p, 1] - x[ia, 1], x[p, 2] - x[ia, 2],
         v[ib, 0] - v[ia, 0], v[ib, 1] - v[ia, 1], v[ib, 2] - v[ia, 2],
         v[ic, 0] - v[ia, 0], v[ic, 1] - v[ia, 1], v[ic, 2] - v[ia, 2],
         v[p, 0] - v[ia, 0], v[p, 1] - v[ia, 1], v[p, 2] - v[ia, 2])
-    nx = e1y * e2z - e1z * e2y
-    ny = e1z * e2x - e1x * e2z
-    nz = e1x * e2y - e1y * e2x
-    area2 = math.sqrt(nx * nx + ny * ny + nz * nz)
+    area2 = math.sqrt(nn)
     if not area2 > 0.0:
         return 0.0
     dist0 = d / area2  # signed distance of the node from the face's plane at t = 0 (+ outside)
@@ -325,12 +246,9 @@ def node_face_relax(p, ia, ib, ic, v, mass, mu, geo, k, slack, lock):
     if not (err > slack and err > VEL_TOL * (abs(up) + wa * abs(ua) + wb * abs(ub)
                                              + wc * abs(uc) + abs(vmin))):
         return 0.0
-    if lock.shape[0] == 0:
-        J = point_face_impulse(v, p, mass[p], v, mass, ia, ib, ic, wa, wb, wc, nx, ny, nz, vmin,
-                               mu)
-    else:
-        J = locked_point_face_impulse(v, p, mass[p], lock[p, 0], lock[p, 1], lock[p, 2], v, mass,
-                                      lock, ia, ib, ic, wa, wb, wc, nx, ny, nz, vmin, mu)
+    lpx, lpy, lpz = lock_row(lock, p)
+    J = point_face_impulse(v, p, mass[p], lpx, lpy, lpz, v, mass, lock, ia, ib, ic, wa, wb, wc,
+                           nx, ny, nz, vmin, mu)
     if J > 0.0:
         geo[k, 0] = lam + J
         return J
@@ -356,7 +274,7 @@ def node_face_sweep(pairs, nodes, faces, x, v, mass, tau, mu, band, eps_bary, re
     result is the same as visiting it. The first sweep passes since = 0 and visits every pair.
     ``lock (n_node, 3)``: 0.0 on prescribed velocity components, else 1.0 (an empty array
     when the case prescribes none): the impulses leave prescribed components alone
-    (``locked_point_face_impulse``).
+    (``point_face_impulse``).
     Returns (pairs corrected in this sweep, sum of the normal impulse changes [N s], largest
     velocity change of a corrected node |dJ| / m_node [m/s])."""
     applied = 0

@@ -65,8 +65,8 @@ from impactsim.contact.diagnostics import PenetrationMeter
 from impactsim.contact.edgeedge import GEO_COLS as EE_GEO_COLS
 from impactsim.contact.edgeedge import edge_edge_sweep, edge_normals
 from impactsim.contact.energy import impulse_work
+from impactsim.contact.impulse import NO_LOCK as _NO_LOCK
 from impactsim.contact.nodeface import GEO_COLS as NF_GEO_COLS
-from impactsim.contact.nodeface import NO_LOCK as _NO_LOCK
 from impactsim.contact.nodeface import node_face_sweep
 from impactsim.contact.rows import (gather_edge_edge, gather_node_face, row_partners,
                                    rows_round)
@@ -209,7 +209,7 @@ def prescribed_lock(model) -> np.ndarray:
     none (the kernels then run their plain code, bit-identical to a scene without boundary
     conditions). The boundary-conditions pass runs before contact (ALGORITHMS.md 1 step 3); a
     prescribed component is an infinite mass along its axis and the contact impulses leave it
-    alone (``nodeface.locked_point_face_impulse``; also the ``lock`` argument of
+    alone (``impactsim.contact.impulse``; also the ``lock`` argument of
     ``impactsim.fracture.particles.particle_face_sweep``)."""
     bc_nodes = getattr(model, "bc_nodes", None)
     bc_mask = getattr(model, "bc_mask", None)

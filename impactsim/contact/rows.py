@@ -30,7 +30,7 @@ array when the case prescribes none, and then the plain code below runs): an imp
 node i's velocity only along its free axes, c_i dlam (lock_i * n) / m_i, so every inverse mass
 1/m_i along a pair of directions (n_r, n_s) becomes sum_d lock_i,d n_r,d n_s,d / m_i, in the
 diagonal D_r, the couplings C_rs (mirror rows included) and the update alike
-(``nodeface.locked_point_face_impulse``).
+(``impactsim.contact.impulse``).
 """
 
 from __future__ import annotations
@@ -40,10 +40,9 @@ import math
 import numba
 import numpy as np
 
-from impactsim.contact.nodeface import NO_LOCK
+from impactsim.contact.impulse import NO_LOCK, VEL_TOL
 
 RHO_BLOCK = 0.5  # rows coupled more strongly than this (normalised, helping) are solved in pairs
-VEL_TOL = 1e-12  # a row is satisfied when its velocity error is below this share of the speeds
 
 
 @numba.njit(cache=True)

@@ -35,12 +35,13 @@ Rigid walls of the case stop particles the same way (``particle_walls``).
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 
-from impactsim.contact.nodeface import NO_LOCK, locked_point_face_impulse, point_face_impulse
+from impactsim.contact.geometry import (barycentric_numerators, clamped_weights, segment,
+                                        triangle_normal, unit_normal)
+from impactsim.contact.impulse import NO_LOCK
+from impactsim.contact.nodeface import point_face_impulse
 
 
 class Particles:
@@ -102,7 +103,8 @@ def particle_face_sweep(pairs, px, pv, pm, pr, faces, x, v, mass, force, dtv, ta
     """Gauss-Seidel particle-face corrections over sorted ``pairs (k,2)`` (particle, face row);
     the impulse is ``impactsim.contact.nodeface.point_face_impulse``, the node-face algebra.
     ``lock (n_node, 3)``: 0.0 on the face nodes' prescribed velocity components, else 1.0
-    (empty: none), left alone by the impulse (``nodeface.locked_point_face_impulse``).
+    (empty: none), left alone by the impulse (``nodeface.point_face_impulse``); the geometry is
+    ``impactsim.contact.geometry``'s, as in the node-face pass.
     Returns (pairs corrected, work of the impulses on nodes and particles [J])."""
     applied = 0
     work = 0.0
@@ -116,39 +118,22 @@ def particle_face_sweep(pairs, px, pv, pm, pr, faces, x, v, mass, force, dtv, ta
         ax = x[ia, 0] + tau * v[ia, 0]
         ay = x[ia, 1] + tau * v[ia, 1]
         az = x[ia, 2] + tau * v[ia, 2]
-        e1x = x[ib, 0] + tau * v[ib, 0] - ax
-        e1y = x[ib, 1] + tau * v[ib, 1] - ay
-        e1z = x[ib, 2] + tau * v[ib, 2] - az
-        e2x = x[ic, 0] + tau * v[ic, 0] - ax
-        e2y = x[ic, 1] + tau * v[ic, 1] - ay
-        e2z = x[ic, 2] + tau * v[ic, 2] - az
-        nx = e1y * e2z - e1z * e2y
-        ny = e1z * e2x - e1x * e2z
-        nz = e1x * e2y - e1y * e2x
-        nn = nx * nx + ny * ny + nz * nz
+        e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz, nn = triangle_normal(
+            ax, ay, az, x[ib, 0] + tau * v[ib, 0], x[ib, 1] + tau * v[ib, 1],
+            x[ib, 2] + tau * v[ib, 2], x[ic, 0] + tau * v[ic, 0], x[ic, 1] + tau * v[ic, 1],
+            x[ic, 2] + tau * v[ic, 2])
         if not nn > 0.0:
             continue
-        rx = px[p, 0] + tau * pv[p, 0] - ax
-        ry = px[p, 1] + tau * pv[p, 1] - ay
-        rz = px[p, 2] + tau * pv[p, 2] - az
-        wb = ((ry * e2z - rz * e2y) * nx + (rz * e2x - rx * e2z) * ny
-              + (rx * e2y - ry * e2x) * nz) / nn
-        wc = ((e1y * rz - e1z * ry) * nx + (e1z * rx - e1x * rz) * ny
-              + (e1x * ry - e1y * rx) * nz) / nn
+        sb, sc = barycentric_numerators(
+            px[p, 0] + tau * pv[p, 0] - ax, px[p, 1] + tau * pv[p, 1] - ay,
+            px[p, 2] + tau * pv[p, 2] - az, e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz)
+        wb = sb / nn
+        wc = sc / nn
         wa = 1.0 - wb - wc
         if wa < -eps_bary or wb < -eps_bary or wc < -eps_bary:
             continue
-        wa = max(wa, 0.0)
-        wb = max(wb, 0.0)
-        wc = max(wc, 0.0)
-        ws = wa + wb + wc
-        wa /= ws
-        wb /= ws
-        wc /= ws
-        inv = 1.0 / math.sqrt(nn)
-        nx *= inv
-        ny *= inv
-        nz *= inv
+        wa, wb, wc = clamped_weights(wa, wb, wc)
+        nx, ny, nz = unit_normal(nx, ny, nz, nn)
         # the centre's distance from the face's plane at the start of the step: a particle
         # meets a face from its outer side only
         d0 = ((px[p, 0] - x[ia, 0]) * nx + (px[p, 1] - x[ia, 1]) * ny
@@ -161,12 +146,8 @@ def particle_face_sweep(pairs, px, pv, pm, pr, faces, x, v, mass, force, dtv, ta
         a0, a1, a2 = v[ia, 0], v[ia, 1], v[ia, 2]
         b0, b1, b2 = v[ib, 0], v[ib, 1], v[ib, 2]
         c0, c1, c2 = v[ic, 0], v[ic, 1], v[ic, 2]
-        if lock.shape[0] == 0:
-            jn = point_face_impulse(pv, p, pm[p], v, mass, ia, ib, ic, wa, wb, wc, nx, ny, nz,
-                                    umin, 0.0)
-        else:
-            jn = locked_point_face_impulse(pv, p, pm[p], 1.0, 1.0, 1.0, v, mass, lock, ia, ib,
-                                           ic, wa, wb, wc, nx, ny, nz, umin, 0.0)
+        jn = point_face_impulse(pv, p, pm[p], 1.0, 1.0, 1.0, v, mass, lock, ia, ib, ic, wa, wb,
+                                wc, nx, ny, nz, umin, 0.0)
         if not jn > 0.0:
             continue
         work += 0.5 * pm[p] * ((pv[p, 0] - p0) * (pv[p, 0] + p0)
@@ -200,10 +181,7 @@ def particle_particle_sweep(pairs, px, pv, pm, pr, tau):
     for k in range(pairs.shape[0]):
         i = pairs[k, 0]
         j = pairs[k, 1]
-        dx = px[j, 0] - px[i, 0]
-        dy = px[j, 1] - px[i, 1]
-        dz = px[j, 2] - px[i, 2]
-        dist = math.sqrt(dx * dx + dy * dy + dz * dz)
+        dx, dy, dz, dist = segment(px, i, px, j)
         if not dist > 0.0:
             continue
         nx, ny, nz = dx / dist, dy / dist, dz / dist

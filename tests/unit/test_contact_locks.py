@@ -1,7 +1,7 @@
 """Contact impulses on nodes with prescribed velocity components (the boundary-conditions pass
 runs before contact): a prescribed component is an infinite mass along its axis, so an impulse
 changes a node's velocity only along its free axes and uses the matching effective mass
-(impactsim.contact.nodeface.locked_point_face_impulse, edgeedge._apply_locked, rows)."""
+(impactsim.contact.impulse, used by nodeface.point_face_impulse and edgeedge._apply; rows)."""
 
 import numpy as np
 import pytest

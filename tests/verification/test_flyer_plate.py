@@ -37,7 +37,7 @@ line that missed the flyer at the interface keeps lagging through the whole targ
 The asymmetric run also checks what the scene assumes: no node inside the other body
 (the contact's penetration measure) and every node still on its initial x and y (held). This
 needs contact impulses that leave prescribed velocity components alone (the boundary-conditions
-pass runs before contact; impactsim.contact.nodeface.locked_point_face_impulse): with impulses
+pass runs before contact; impactsim.contact.impulse): with impulses
 along the slightly tilted face normals, held nodes moved 22 um sideways, target nodes on the
 edges of the flyer's faces missed them and ended 185 um inside the flyer, and a node line that
 missed lagged at 123 m/s (momentum over mass 524 m/s, energy 165 kJ/kg).
