@@ -8,8 +8,9 @@ State (fixed size, one slot per element face / mesh edge / node):
   the edge is on the surface when it is positive);
 - ``node_count (n,) int32``: number of boundary faces using node ``k``.
 
-Removing an element (erosion) touches only its four faces (``remove_elements``): a boundary face
-of it disappears, an interior face becomes a boundary face of the neighbour. The compact arrays
+Removing an element (erosion) touches only its four faces (``remove_elements``,
+``free_face_changes``): a boundary face of it disappears, an interior face becomes a boundary face
+of the neighbour. The compact arrays
 the contact passes read are then regenerated from the flags in canonical order (faces by
 ``4*elem + local``, edges and nodes by index), so an incremental update gives exactly the arrays a
 recomputation gives.
@@ -33,13 +34,16 @@ ERODED = 3  # impactsim.model.ERODED (kept literal so this module stays free of 
 
 
 @numba.njit(cache=True)
-def _remove_elements_kernel(ids, conn, adj, elem_edges, alive, face_flag, edge_count, node_count,
-                            local_faces, face_edges):
-    """Incremental surface update for deleted elements (ALGORITHMS.md 4.2: the surface follows
-    erosion). For each newly deleted element e and local face i: a boundary face of e is removed;
-    an interior face (alive neighbour nb) becomes nb's boundary face, with nb's local numbering and
-    orientation. Reference counts of the faces' edges and nodes follow. Returns the number of
-    elements actually removed (already-dead ids are skipped)."""
+def free_face_changes(ids, adj, alive, face_flag, events):
+    """The free faces after removing elements ``ids`` in order (ALGORITHMS.md 4.2: the surface
+    follows erosion; already removed ids are skipped), for every structure that keeps them
+    (``Surface`` here, ``impactsim.fracture.boundary.Boundary``). For each newly removed element
+    e and local face i: a free face of e stops being one; an inner face (alive neighbour nb)
+    becomes nb's free face, with nb's local numbering. Updates ``alive`` and ``face_flag``
+    (slot ``4*elem + local``) and writes the changes in that order to ``events`` (room for 4
+    per id): slot s for a face that becomes free, -1 - s for one that stops being free.
+    Returns (events written, elements removed)."""
+    m = 0
     removed = 0
     for k in range(ids.shape[0]):
         e = ids[k]
@@ -51,19 +55,39 @@ def _remove_elements_kernel(ids, conn, adj, elem_edges, alive, face_flag, edge_c
             slot = 4 * e + i
             if face_flag[slot]:
                 face_flag[slot] = False
-                for j in range(3):
-                    edge_count[elem_edges[e, face_edges[i, j]]] -= 1
-                    node_count[conn[e, local_faces[i, j]]] -= 1
-            else:
-                nb = adj[e, i]
-                if nb >= 0 and alive[nb]:
-                    for jn in range(4):
-                        if adj[nb, jn] == e:
-                            face_flag[4 * nb + jn] = True
-                            for j in range(3):
-                                edge_count[elem_edges[nb, face_edges[jn, j]]] += 1
-                                node_count[conn[nb, local_faces[jn, j]]] += 1
-                            break
+                events[m] = -1 - slot
+                m += 1
+                continue
+            nb = adj[e, i]
+            if nb < 0 or not alive[nb]:
+                continue
+            for jn in range(4):
+                if adj[nb, jn] == e:
+                    face_flag[4 * nb + jn] = True
+                    events[m] = 4 * nb + jn
+                    m += 1
+                    break
+    return m, removed
+
+
+@numba.njit(cache=True)
+def _remove_elements_kernel(ids, conn, adj, elem_edges, alive, face_flag, edge_count, node_count,
+                            local_faces, face_edges, events):
+    """Incremental surface update for deleted elements: the face changes of
+    ``free_face_changes``, then the reference counts of the changed faces' edges and nodes.
+    Returns the number of elements actually removed."""
+    m, removed = free_face_changes(ids, adj, alive, face_flag, events)
+    for k in range(m):
+        s = events[k]
+        step = 1
+        if s < 0:
+            s = -1 - s
+            step = -1
+        e = s // 4
+        i = s % 4
+        for j in range(3):
+            edge_count[elem_edges[e, face_edges[i, j]]] += step
+            node_count[conn[e, local_faces[i, j]]] += step
     return removed
 
 
@@ -89,6 +113,7 @@ class Surface:
         self.mesh_edges, self.elem_edges = unique_edges(self.conn)
         self.adj = face_adjacency(self.conn)
         self.version = 0
+        self._events = np.empty(0, dtype=np.int64)  # scratch of remove_elements
         self.rebuild(status)
 
     @classmethod
@@ -117,9 +142,10 @@ class Surface:
     def remove_elements(self, elem_ids) -> int:
         """Delete elements from the surface (erosion); returns how many were newly removed."""
         ids = np.ascontiguousarray(elem_ids, dtype=np.int64).reshape(-1)
+        self._events = events_buffer(self._events, ids.shape[0])
         removed = _remove_elements_kernel(ids, self.conn, self.adj, self.elem_edges, self.alive,
                                           self.face_flag, self.edge_count, self.node_count,
-                                          LOCAL_FACES, FACE_EDGES)
+                                          LOCAL_FACES, FACE_EDGES, self._events)
         if removed:
             self._compact()
         return int(removed)
@@ -171,3 +197,13 @@ class Surface:
     def mean_edge_length(self, x) -> float:
         """Mean length [m] of the boundary edges at positions x (0 when there are none)."""
         return float(mean_length(x, self.edges))
+
+
+
+def events_buffer(buf, n_ids) -> np.ndarray:
+    """A buffer for the ``events`` of ``free_face_changes`` for n_ids removed elements: ``buf``
+    when it is large enough, else one half as large again (no allocation while it suffices)."""
+    need = 4 * int(n_ids)
+    if buf.shape[0] >= need:
+        return buf
+    return np.empty(max(need, 64, int(1.5 * buf.shape[0])), dtype=np.int64)

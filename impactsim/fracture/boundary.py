@@ -12,10 +12,11 @@ State (``Boundary``):
 
 Removing an element touches only its four faces: a free face of it leaves the list (the last row
 takes its place), an inner face becomes a free face of the neighbour (appended, with the
-neighbour's local numbering and orientation). The cost is O(removed elements), nothing is
-regenerated. Row order is that history: deterministic (same input, same order), not the
-canonical order of ``Surface`` (which also keeps the edges and nodes the contact passes need and
-regenerates its compact arrays on every change).
+neighbour's local numbering and orientation); which faces change is
+``impactsim.contact.surface.free_face_changes``, the update of the contact surface too. The cost
+is O(removed elements), nothing is regenerated. Row order is that history: deterministic (same
+input, same order), not the canonical order of ``Surface`` (which also keeps the edges and
+nodes the contact passes need and regenerates its compact arrays on every change).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from impactsim.contact.surface import events_buffer, free_face_changes
 from impactsim.mesh.topology import LOCAL_FACES, face_adjacency
 
 
@@ -54,33 +56,19 @@ def _drop(s, faces, face_slot, face_body, pos, n):
 
 @numba.njit(cache=True)
 def remove_cells(ids, conn, elem_body, adj, alive, face_flag, local_faces, faces, face_slot,
-                 face_body, pos, n):
+                 face_body, pos, n, events):
     """Remove elements ``ids`` in order (already removed ones are skipped) and update the free
-    faces (module docstring). The face arrays need room for 4 more rows per id.
+    faces (module docstring): the face changes of
+    ``impactsim.contact.surface.free_face_changes`` (``events``: room for 4 per id), applied in
+    their order. The face arrays need room for 4 more rows per id.
     Returns (new row count, elements removed)."""
-    removed = 0
-    for k in range(ids.shape[0]):
-        e = ids[k]
-        if not alive[e]:
-            continue
-        alive[e] = False
-        removed += 1
-        for i in range(4):
-            s = 4 * e + i
-            if face_flag[s]:
-                face_flag[s] = False
-                n = _drop(s, faces, face_slot, face_body, pos, n)
-                continue
-            nb = adj[e, i]
-            if nb < 0 or not alive[nb]:
-                continue
-            for j in range(4):
-                if adj[nb, j] == e:
-                    t = 4 * nb + j
-                    face_flag[t] = True
-                    n = _append(t, conn, elem_body, local_faces, faces, face_slot, face_body,
-                                pos, n)
-                    break
+    m, removed = free_face_changes(ids, adj, alive, face_flag, events)
+    for k in range(m):
+        s = events[k]
+        if s < 0:
+            n = _drop(-1 - s, faces, face_slot, face_body, pos, n)
+        else:
+            n = _append(s, conn, elem_body, local_faces, faces, face_slot, face_body, pos, n)
     return n, removed
 
 
@@ -119,6 +107,7 @@ class Boundary:
         self.pos = np.full(4 * n_elem, -1, dtype=np.int64)
         self.grows = 0
         self.n = 0
+        self._events = np.empty(0, dtype=np.int64)  # scratch of remove
         nb_alive = np.where(self.adj >= 0, self.alive[np.maximum(self.adj, 0)], False)
         self._alloc(2 * int(np.count_nonzero(self.alive[:, None] & ~nb_alive)))
         self.n = int(_initial(self.conn, self.elem_body, self.adj, self.alive, self.face_flag,
@@ -154,7 +143,8 @@ class Boundary:
         if need > self.capacity:
             self.grows += 1
             self._alloc(max(need, int(1.5 * self.capacity)))
+        self._events = events_buffer(self._events, ids.shape[0])
         self.n, removed = remove_cells(ids, self.conn, self.elem_body, self.adj, self.alive,
                                        self.face_flag, LOCAL_FACES, self.faces, self.face_slot,
-                                       self.face_body, self.pos, self.n)
+                                       self.face_body, self.pos, self.n, self._events)
         return int(removed)
