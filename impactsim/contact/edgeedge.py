@@ -49,7 +49,8 @@ import numpy as np
 
 from impactsim.contact.cubic import cubic_coefficients, cubic_roots_in
 from impactsim.contact.geometry import triangle_normal
-from impactsim.contact.impulse import NO_LOCK, VEL_TOL, inverse_mass, lock_row, push
+from impactsim.contact.impulse import NO_LOCK, inverse_mass, lock_row, push
+from impactsim.contact.rows import first_visit, pushes_again, stamp_nodes, unchanged_since
 
 PARALLEL_SIN = 1e-6  # edges closer to parallel than this (sine of the angle) are skipped
 SEGMENT_EPS = 1e-9  # tolerance of 0 <= alpha, beta <= 1
@@ -295,7 +296,7 @@ def edge_edge_relax(ia, ib, ie, jf, v, mass, mu, geo, k, slack, lock):
     err = (1.0 - al) * una + al * unb - (1.0 - be) * une - be * unf - gt
     scale = ((1.0 - al) * abs(una) + al * abs(unb) + (1.0 - be) * abs(une) + be * abs(unf)
              + abs(gt))
-    if not (err > slack and err > VEL_TOL * scale):
+    if not pushes_again(err, slack, scale):
         return 0.0
     S = _inverse_mass(al, be, nx, ny, nz, ia, ib, ie, jf, mass, lock)
     if not S > 0.0:
@@ -354,26 +355,20 @@ def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band, restore, a
         ib = edges[g1, 1]
         ie = edges[g2, 0]
         jf = edges[g2, 1]
-        if max(max(stamp[ia], stamp[ib]), max(stamp[ie], stamp[jf])) < since:
+        if unchanged_since(stamp, since, ia, ib, ie, jf):
             continue
         if active[k]:
             J = edge_edge_relax(ia, ib, ie, jf, v, mass, mu, geo, k, slack, lock)
         else:
-            J = edge_edge_detect(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore,
-                                 normals[g1, 0] - normals[g2, 0],
-                                 normals[g1, 1] - normals[g2, 1],
-                                 normals[g1, 2] - normals[g2, 2], geo, k, lock)
-            if J > 0.0:
-                active[k] = 1
-            else:
-                J = 0.0
+            J = first_visit(edge_edge_detect(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore,
+                                             normals[g1, 0] - normals[g2, 0],
+                                             normals[g1, 1] - normals[g2, 1],
+                                             normals[g1, 2] - normals[g2, 2], geo, k, lock),
+                            active, k)
         if J != 0.0:
             applied += 1
             total += J
-            stamp[ia] = sweep
-            stamp[ib] = sweep
-            stamp[ie] = sweep
-            stamp[jf] = sweep
+            stamp_nodes(stamp, sweep, ia, ib, ie, jf)
             for m in (mass[ia], mass[ib], mass[ie], mass[jf]):
                 if abs(J) / m > jump:
                     jump = abs(J) / m

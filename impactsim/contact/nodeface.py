@@ -53,7 +53,8 @@ import numpy as np
 from impactsim.contact.cubic import cubic_coefficients, cubic_roots_in
 from impactsim.contact.geometry import (barycentric_numerators, clamped_weights, triangle_normal,
                                         unit_normal)
-from impactsim.contact.impulse import NO_LOCK, VEL_TOL, inverse_mass, lock_row, push
+from impactsim.contact.impulse import NO_LOCK, inverse_mass, lock_row, push
+from impactsim.contact.rows import first_visit, pushes_again, stamp_nodes, unchanged_since
 
 GEO_COLS = 8  # a constraint row: lam, wa, wb, wc, nx, ny, nz, vmin
 
@@ -243,8 +244,8 @@ def node_face_relax(p, ia, ib, ic, v, mass, mu, geo, k, slack, lock):
     ub = v[ib, 0] * nx + v[ib, 1] * ny + v[ib, 2] * nz
     uc = v[ic, 0] * nx + v[ic, 1] * ny + v[ic, 2] * nz
     err = vmin - (up - wa * ua - wb * ub - wc * uc)
-    if not (err > slack and err > VEL_TOL * (abs(up) + wa * abs(ua) + wb * abs(ub)
-                                             + wc * abs(uc) + abs(vmin))):
+    if not pushes_again(err, slack, abs(up) + wa * abs(ua) + wb * abs(ub) + wc * abs(uc)
+                        + abs(vmin)):
         return 0.0
     lpx, lpy, lpz = lock_row(lock, p)
     J = point_face_impulse(v, p, mass[p], lpx, lpy, lpz, v, mass, lock, ia, ib, ic, wa, wb, wc,
@@ -286,24 +287,17 @@ def node_face_sweep(pairs, nodes, faces, x, v, mass, tau, mu, band, eps_bary, re
         a = faces[f, 0]
         b = faces[f, 1]
         c = faces[f, 2]
-        if max(max(stamp[p], stamp[a]), max(stamp[b], stamp[c])) < since:
+        if unchanged_since(stamp, since, p, a, b, c):
             continue
         if active[k]:
             J = node_face_relax(p, a, b, c, v, mass, mu, geo, k, slack, lock)
         else:
-            J = node_face_detect(p, a, b, c, x, v, mass, tau, mu, band, eps_bary, restore,
-                                 geo, k, lock)
-            if J > 0.0:
-                active[k] = 1
-            else:
-                J = 0.0
+            J = first_visit(node_face_detect(p, a, b, c, x, v, mass, tau, mu, band, eps_bary,
+                                             restore, geo, k, lock), active, k)
         if J != 0.0:
             applied += 1
             total += J
-            stamp[p] = sweep
-            stamp[a] = sweep
-            stamp[b] = sweep
-            stamp[c] = sweep
+            stamp_nodes(stamp, sweep, p, a, b, c)
             if abs(J) / mass[p] > jump:
                 jump = abs(J) / mass[p]
     return applied, total, jump

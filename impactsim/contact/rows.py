@@ -45,6 +45,40 @@ from impactsim.contact.impulse import NO_LOCK, VEL_TOL
 RHO_BLOCK = 0.5  # rows coupled more strongly than this (normalised, helping) are solved in pairs
 
 
+@numba.njit(cache=True, inline="always")
+def unchanged_since(stamp, since, i0, i1, i2, i3):
+    """True when none of a pair's four nodes changed velocity in sweep ``since`` or later
+    (``stamp (n_node,)``: the number of the sweep that last changed a node; numbers only
+    grow): a repeated sweep may skip the pair, its answer would be the same."""
+    return max(max(stamp[i0], stamp[i1]), max(stamp[i2], stamp[i3])) < since
+
+
+@numba.njit(cache=True, inline="always")
+def first_visit(J, active, k):
+    """The result of testing pair k afresh (it was no row): an impulse J > 0 makes it a row
+    (active[k] = 1, its geometry in row k of the pass's table); anything else counts as 0."""
+    if J > 0.0:
+        active[k] = 1
+        return J
+    return 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def stamp_nodes(stamp, sweep, i0, i1, i2, i3):
+    """A pair's four nodes changed velocity in sweep ``sweep``."""
+    stamp[i0] = sweep
+    stamp[i1] = sweep
+    stamp[i2] = sweep
+    stamp[i3] = sweep
+
+
+@numba.njit(cache=True, inline="always")
+def pushes_again(err, slack, scale):
+    """A row's later visit pushes when its relative normal velocity falls short of its target
+    by err > slack [m/s] and by more than VEL_TOL of the speeds in it (``scale``)."""
+    return err > slack and err > VEL_TOL * scale
+
+
 @numba.njit(cache=True)
 def gather_node_face(rows, pairs, nodes, faces, geo, off, idx, coef, nrm, tgt, lam):
     """Rows ``rows`` (indices into the node-face pairs; geo columns lam, w_a, w_b, w_c, n, vmin)
