@@ -48,7 +48,7 @@ import numba
 import numpy as np
 
 from impactsim.contact.cubic import cubic_coefficients, cubic_roots_in
-from impactsim.contact.geometry import triangle_normal
+from impactsim.contact.geometry import point_at, triangle_normal
 from impactsim.contact.impulse import NO_LOCK, inverse_mass, lock_row, push
 from impactsim.contact.rows import first_visit, pushes_again, stamp_nodes, unchanged_since
 
@@ -140,18 +140,16 @@ def _edge_edge_at(t, force_nu, band, restore, ia, ib, ie, jf, x, v, mass, tau, m
     uses the approach speed minus g / tau (restore * g / tau for g < 0). Returns -1 when not a
     valid crossing, 0 when valid but needing no impulse, else tau N_c [N s], and then row k of
     ``geo`` holds the constraint (``edge_edge_relax``)."""
-    ax = x[ia, 0] + t * v[ia, 0]
-    ay = x[ia, 1] + t * v[ia, 1]
-    az = x[ia, 2] + t * v[ia, 2]
-    d1x = x[ib, 0] + t * v[ib, 0] - ax
-    d1y = x[ib, 1] + t * v[ib, 1] - ay
-    d1z = x[ib, 2] + t * v[ib, 2] - az
-    ex = x[ie, 0] + t * v[ie, 0]
-    ey = x[ie, 1] + t * v[ie, 1]
-    ez = x[ie, 2] + t * v[ie, 2]
-    d2x = x[jf, 0] + t * v[jf, 0] - ex
-    d2y = x[jf, 1] + t * v[jf, 1] - ey
-    d2z = x[jf, 2] + t * v[jf, 2] - ez
+    ax, ay, az = point_at(x, v, t, ia)
+    bx, by, bz = point_at(x, v, t, ib)
+    ex, ey, ez = point_at(x, v, t, ie)
+    fx, fy, fz = point_at(x, v, t, jf)
+    d1x = bx - ax
+    d1y = by - ay
+    d1z = bz - az
+    d2x = fx - ex
+    d2y = fy - ey
+    d2z = fz - ez
     al, be, den, ae = line_parameters(ax, ay, az, d1x, d1y, d1z, ex, ey, ez, d2x, d2y, d2z)
     if not den > PARALLEL_SIN * PARALLEL_SIN * ae:
         return -1.0

@@ -1,5 +1,6 @@
-"""Pointwise geometry of the contact tests (ALGORITHMS.md 3.1, 3.2): a triangle's edges and normal,
-the barycentric weights of a point's projection onto its plane, a segment's length.
+"""Pointwise geometry of the contact tests (ALGORITHMS.md 3.1, 3.2): a node's position in the step,
+a triangle's edges and normal, the barycentric weights of a point's projection onto its plane, a
+segment's length.
 
 One formula for every place that needs it: the node-face pass at a root of its cubic and at
 t = 0 (``nodeface``), the particle-face contact at the end of the step
@@ -18,6 +19,12 @@ from __future__ import annotations
 import math
 
 import numba
+
+
+@numba.njit(cache=True, inline="always")
+def point_at(x, v, t, i):
+    """Position of node i at time t of the step, moving linearly: x_i + t v_i."""
+    return x[i, 0] + t * v[i, 0], x[i, 1] + t * v[i, 1], x[i, 2] + t * v[i, 2]
 
 
 @numba.njit(cache=True, inline="always")

@@ -51,8 +51,8 @@ import numba
 import numpy as np
 
 from impactsim.contact.cubic import cubic_coefficients, cubic_roots_in
-from impactsim.contact.geometry import (barycentric_numerators, clamped_weights, triangle_normal,
-                                        unit_normal)
+from impactsim.contact.geometry import (barycentric_numerators, clamped_weights, point_at,
+                                        triangle_normal, unit_normal)
 from impactsim.contact.impulse import NO_LOCK, inverse_mass, lock_row, push
 from impactsim.contact.rows import first_visit, pushes_again, stamp_nodes, unchanged_since
 
@@ -68,18 +68,17 @@ def _node_face_at(t, p, ia, ib, ic, x, v, mass, mu, eps_bary, vmin, geo, k, lock
     (or the face is degenerate), 0 when it is inside but needs no impulse, else the normal
     impulse J [N s] it applied to v, and then row k of ``geo`` holds the constraint (see
     ``node_face_relax``)."""
-    ax = x[ia, 0] + t * v[ia, 0]
-    ay = x[ia, 1] + t * v[ia, 1]
-    az = x[ia, 2] + t * v[ia, 2]
-    e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz, nn = triangle_normal(
-        ax, ay, az, x[ib, 0] + t * v[ib, 0], x[ib, 1] + t * v[ib, 1], x[ib, 2] + t * v[ib, 2],
-        x[ic, 0] + t * v[ic, 0], x[ic, 1] + t * v[ic, 1], x[ic, 2] + t * v[ic, 2])
+    ax, ay, az = point_at(x, v, t, ia)
+    bx, by, bz = point_at(x, v, t, ib)
+    cx, cy, cz = point_at(x, v, t, ic)
+    e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz, nn = triangle_normal(ax, ay, az, bx, by, bz, cx,
+                                                                   cy, cz)
     if not nn > 0.0:
         return -1.0
     # barycentric weights of the node's projection
-    sb, sc = barycentric_numerators(x[p, 0] + t * v[p, 0] - ax, x[p, 1] + t * v[p, 1] - ay,
-                                    x[p, 2] + t * v[p, 2] - az, e1x, e1y, e1z, e2x, e2y, e2z,
-                                    nx, ny, nz)
+    qx, qy, qz = point_at(x, v, t, p)
+    sb, sc = barycentric_numerators(qx - ax, qy - ay, qz - az, e1x, e1y, e1z, e2x, e2y, e2z, nx,
+                                    ny, nz)
     wb = sb / nn
     wc = sc / nn
     wa = 1.0 - wb - wc

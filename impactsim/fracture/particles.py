@@ -38,8 +38,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from impactsim.contact.geometry import (barycentric_numerators, clamped_weights, segment,
-                                        triangle_normal, unit_normal)
+from impactsim.contact.geometry import (barycentric_numerators, clamped_weights, point_at,
+                                        segment, triangle_normal, unit_normal)
 from impactsim.contact.impulse import NO_LOCK
 from impactsim.contact.nodeface import point_face_impulse
 
@@ -115,18 +115,16 @@ def particle_face_sweep(pairs, px, pv, pm, pr, faces, x, v, mass, force, dtv, ta
         if not (mass[ia] > 0.0 and mass[ib] > 0.0 and mass[ic] > 0.0):
             continue
         # geometry at the end of the step (predicted positions)
-        ax = x[ia, 0] + tau * v[ia, 0]
-        ay = x[ia, 1] + tau * v[ia, 1]
-        az = x[ia, 2] + tau * v[ia, 2]
-        e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz, nn = triangle_normal(
-            ax, ay, az, x[ib, 0] + tau * v[ib, 0], x[ib, 1] + tau * v[ib, 1],
-            x[ib, 2] + tau * v[ib, 2], x[ic, 0] + tau * v[ic, 0], x[ic, 1] + tau * v[ic, 1],
-            x[ic, 2] + tau * v[ic, 2])
+        ax, ay, az = point_at(x, v, tau, ia)
+        bx, by, bz = point_at(x, v, tau, ib)
+        cx, cy, cz = point_at(x, v, tau, ic)
+        e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz, nn = triangle_normal(ax, ay, az, bx, by, bz,
+                                                                       cx, cy, cz)
         if not nn > 0.0:
             continue
-        sb, sc = barycentric_numerators(
-            px[p, 0] + tau * pv[p, 0] - ax, px[p, 1] + tau * pv[p, 1] - ay,
-            px[p, 2] + tau * pv[p, 2] - az, e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz)
+        qx, qy, qz = point_at(px, pv, tau, p)
+        sb, sc = barycentric_numerators(qx - ax, qy - ay, qz - az, e1x, e1y, e1z, e2x, e2y, e2z,
+                                        nx, ny, nz)
         wb = sb / nn
         wc = sc / nn
         wa = 1.0 - wb - wc
