@@ -404,6 +404,29 @@ class ContactPass(Pass):
     def _candidates(self, model, dt, h) -> np.ndarray:
         """Broad phase: sorted candidate pairs (k, 2) int64 of this step."""
 
+    def _broad_phase(self, model, dt, h, hashed, queries=None) -> np.ndarray:
+        """Sorted pairs (query row, hashed row) of rows of entity arrays whose swept, padded
+        boxes overlap: ``hashed`` and ``queries`` are (buffer name, rows (k, w), bodies (k,)),
+        only rows near another body take part (all with self-contact), and without
+        ``queries`` the hashed rows are queried against themselves (each pair once, i < j)."""
+        ctx = self.ctx
+        pad = BOX_PAD * h
+        blo, bhi = ctx.bounds(model, dt, pad)
+        name, ent, body = hashed
+        esel, elo, ehi = ctx.select(name, model, dt, ent, pad, body, blo, bhi)
+        if queries is None:
+            qsel, qlo, qhi, qent, qbody = esel, elo, ehi, ent, body
+        else:
+            qname, qent, qbody = queries
+            qsel, qlo, qhi = ctx.select(qname, model, dt, qent, pad, qbody, blo, bhi)
+        if qsel.shape[0] == 0 or esel.shape[0] == 0:
+            return _NO_PAIRS
+        origin, cell = ctx.grid(blo, bhi, h)
+        self.hash.build(elo, ehi, origin, cell)
+        pairs = self.hash.query(qlo, qhi, qent[qsel], qbody[qsel], ent[esel], body[esel],
+                                queries is None, ctx.self_contact)
+        return _lift(pairs, qsel, esel)
+
     @abc.abstractmethod
     def _sweep(self, model, dt, h, pairs, active, stamp, sweep, since, geo, slack):
         """One push-only Gauss-Seidel sweep: (pairs corrected, impulse [N s], largest velocity
@@ -451,22 +474,11 @@ class NodeFacePass(ContactPass):
     geo_cols = NF_GEO_COLS
 
     def _candidates(self, model, dt, h):
-        ctx = self.ctx
-        s = ctx.surface
+        s = self.ctx.surface
         if s.n_faces == 0:
             return _NO_PAIRS
-        pad = BOX_PAD * h
-        nodes2 = s.nodes.reshape(-1, 1)
-        blo, bhi = ctx.bounds(model, dt, pad)
-        qsel, qlo, qhi = ctx.select("nf.node", model, dt, nodes2, pad, s.node_body, blo, bhi)
-        esel, elo, ehi = ctx.select("nf.face", model, dt, s.faces, pad, s.face_body, blo, bhi)
-        if qsel.shape[0] == 0 or esel.shape[0] == 0:
-            return _NO_PAIRS
-        origin, cell = ctx.grid(blo, bhi, h)
-        self.hash.build(elo, ehi, origin, cell)
-        pairs = self.hash.query(qlo, qhi, nodes2[qsel], s.node_body[qsel], s.faces[esel],
-                                s.face_body[esel], False, ctx.self_contact)
-        return _lift(pairs, qsel, esel)
+        return self._broad_phase(model, dt, h, ("nf.face", s.faces, s.face_body),
+                                 ("nf.node", s.nodes.reshape(-1, 1), s.node_body))
 
     def _sweep(self, model, dt, h, pairs, active, stamp, sweep, since, geo, slack):
         ctx = self.ctx
@@ -493,20 +505,12 @@ class EdgeEdgePass(ContactPass):
         s = ctx.surface
         if s.n_edges == 0:
             return _NO_PAIRS
-        pad = BOX_PAD * h
-        blo, bhi = ctx.bounds(model, dt, pad)
-        sel, lo, hi = ctx.select("ee.edge", model, dt, s.edges, pad, s.edge_body, blo, bhi)
-        if sel.shape[0] < 2:
-            return _NO_PAIRS
-        origin, cell = ctx.grid(blo, bhi, h)
-        self.hash.build(lo, hi, origin, cell)
-        ent, body = s.edges[sel], s.edge_body[sel]
-        pairs = self.hash.query(lo, hi, ent, body, ent, body, True, ctx.self_contact)
+        pairs = self._broad_phase(model, dt, h, ("ee.edge", s.edges, s.edge_body))
         if pairs.shape[0]:
             # outward normals at the edges, for touching pairs (edgeedge module docstring)
             self.normals = ctx.buffer("ee.normals", (s.n_edges, 3))
             edge_normals(model.x, s.faces, s.face_edges, self.normals)
-        return _lift(pairs, sel, sel)
+        return pairs
 
     def _sweep(self, model, dt, h, pairs, active, stamp, sweep, since, geo, slack):
         ctx = self.ctx
