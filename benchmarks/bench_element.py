@@ -9,12 +9,15 @@ alone; "cpu ns" the whole step in process CPU time per thread, which a busy shar
 disturbs less than the wall clock (with 1 thread it is the figure to compare). Then
 `impactsim run cases/elastic-bar-wall.toml` runs twice in a subprocess (the first run fills
 numba's cache if needed) and the second run's seconds_to_first_step (summary.json) is the time
-to the first step with a warm cache. Prints a table and returns the figures.
+to the first step with a warm cache; once more with numba's cache in an empty folder gives it
+with a cold cache (what the first run after an install waits for the kernels to compile;
+benchmarks/compile_times.py says which take how long). Prints a table and returns the figures.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -86,13 +89,15 @@ def time_steps(threads: int, steps: int = 60, warm: int = 20, elastic: bool = Fa
             "plastic_elements": int(np.count_nonzero(model.eps_p))}
 
 
-def time_to_first_step(case: str = "cases/elastic-bar-wall.toml") -> float:
-    """seconds_to_first_step of `impactsim run` with a warm numba cache (second of two runs)."""
+def time_to_first_step(case: str = "cases/elastic-bar-wall.toml", cold: bool = False) -> float:
+    """seconds_to_first_step of `impactsim run` with a warm numba cache (second of two runs), or
+    with a cold one (numba's cache in an empty folder: every kernel the run uses compiles)."""
     root = Path(__file__).resolve().parents[1]
-    with tempfile.TemporaryDirectory() as tmp:
-        for _ in range(2):
+    with tempfile.TemporaryDirectory() as tmp, tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache) if cold else None
+        for _ in range(1 if cold else 2):
             subprocess.run([sys.executable, "-m", "impactsim.cli", "run", case, "-o", tmp, "-q"],
-                           cwd=root, check=True, capture_output=True)
+                           cwd=root, check=True, capture_output=True, env=env)
         return json.loads((Path(tmp) / "summary.json").read_text())["seconds_to_first_step"]
 
 
@@ -105,7 +110,8 @@ def main() -> list[dict]:
         print(f"{r['material']:>9}{r['threads']:>8}{r['elements']:>10}{r['steps']:>7}"
               f"{r['ns_per_element_step']:>14.1f}{r['cpu_ns_per_element_step']:>8.1f}"
               f"{r['element_kernel_ns']:>11.1f}{r['plastic_elements']:>9}")
-    print(f"time to first step (elastic-bar-wall, warm cache): {time_to_first_step():.2f} s")
+    print(f"time to first step (elastic-bar-wall): warm cache {time_to_first_step():.2f} s, "
+          f"cold cache {time_to_first_step(cold=True):.1f} s")
     return rows
 
 
