@@ -103,3 +103,39 @@ def test_eroded_elements_do_not_count():
     status = np.zeros(len(a[1]) + len(b[1]), np.int8)
     status[:] = 3  # everything eroded
     assert measure([a, b], status)["max_penetration"] == 0.0
+
+
+def approach(n=12):
+    """Two boxes, the upper one tilted and moving down into the lower one from apart to deeper
+    than a cell: conn, elem_body, surface and the positions of each frame."""
+    a = box((1, 1, 1), 0.25, (0, 0, 0))
+    p, t = structured_box((0.5, 0.5, 0.5), 0.125)
+    p = p @ rot(0, 3.0).T @ rot(1, 2.0).T
+    frames = []
+    for k in range(n):
+        x, conn, eb, s = assemble([a, (p + [0.1, 0.05, 0.8 - 0.03 * k], t)])
+        frames.append(x)
+    return conn, eb, s, frames
+
+
+def test_a_meter_kept_over_calls_gives_what_a_new_one_gives():
+    # the meter keeps its buffers and hashes from call to call; nothing of a call may leak
+    conn, eb, s, frames = approach()
+    kept = PenetrationMeter()
+    seen = set()
+    for x in frames + frames[::-1]:
+        got = kept.measure(x, conn, eb, None, s)
+        assert got == PenetrationMeter().measure(x, conn, eb, None, s)
+        seen.add((got["nodes_inside"] > 0, got["edge_cuts"] > 0))
+    assert (False, False) in seen and (True, True) in seen
+
+
+def test_the_zone_hash_gives_the_depths_of_the_hash_of_every_face(monkeypatch):
+    from impactsim.contact import diagnostics
+
+    conn, eb, s, frames = approach()
+    zone = [PenetrationMeter().measure(x, conn, eb, None, s) for x in frames]
+    monkeypatch.setattr(diagnostics, "ZONE_CELLS", 1)  # no search closes: all in the full hash
+    full = PenetrationMeter()
+    assert [full.measure(x, conn, eb, None, s) for x in frames] == zone
+    assert full.full_searches == sum(z["max_penetration"] > 0 for z in zone)
