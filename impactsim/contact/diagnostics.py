@@ -11,9 +11,10 @@ Two measures at the current positions, from the mesh alone (conn, status, the bo
   grazing edge gives about 0, an edge sliced through a corner of B about the depth of the cut).
 
 Both use the spatial hash of the broad phase (no quadratic search), on the entities near another
-body only; the nearest-face search runs first in a hash of the faces near the points it is asked
-about and, for a point deeper than it resolves, in a hash of every boundary face (the same
-distance either way: ``PenetrationMeter``). Self-penetration of one body is not measured.
+body only, with candidate pairs kept from row to row while nodes move less than a skin; the
+nearest-face search runs first in a hash of the faces near another body and, for a point deeper
+than that resolves, in a hash of every boundary face (the same pairs and the same distances as a
+search afresh: ``PenetrationMeter``). Self-penetration of one body is not measured.
 """
 
 from __future__ import annotations
@@ -120,21 +121,37 @@ def nearest_face_distance(px, py, pz, body, faces, face_body, x, origin, inv_h, 
 
 
 @numba.njit(cache=True)
-def nodes_in_tets(pairs, tets, nodes, conn, x, inside):
+def nodes_in_tets(cand, near, nodes, conn, status, eroded, x, inside):
     """Penetration measure, nodes (ALGORITHMS.md 3: no body crosses another).
 
-    For candidate (tet row, node row) pairs, the tet ``conn[tets[i]]`` of one body and the
-    boundary node ``nodes[j]`` of another: inside[k] = 1 when the node lies in the tet (all
-    barycentric coordinates >= 0). Returns the number of such pairs."""
-    count = 0
-    for k in range(pairs.shape[0]):
-        inside[k] = 0
-        t = tets[pairs[k, 0]]
-        p = nodes[pairs[k, 1]]
+    ``cand (m, 2)`` (tet, boundary node row) candidates, a tet of one body and the node
+    ``nodes[j]`` of another. A candidate is a pair of the broad phase when the tet is alive
+    (``status`` != ``eroded``; an empty status: all alive), the node is near another body
+    (``near[j]``) and the tet's box holds the node; its node is inside when it lies in the tet
+    (all barycentric coordinates >= 0). Writes those (tet, row) pairs to ``inside``, in order,
+    and returns how many."""
+    n = 0
+    some_eroded = status.shape[0] > 0
+    for k in range(cand.shape[0]):
+        t = cand[k, 0]
+        j = cand[k, 1]
+        if not near[j] or (some_eroded and status[t] == eroded):
+            continue
+        p = nodes[j]
         i0 = conn[t, 0]
         i1 = conn[t, 1]
         i2 = conn[t, 2]
         i3 = conn[t, 3]
+        px = x[p, 0]
+        py = x[p, 1]
+        pz = x[p, 2]
+        if not (min(x[i0, 0], x[i1, 0], x[i2, 0], x[i3, 0]) <= px
+                <= max(x[i0, 0], x[i1, 0], x[i2, 0], x[i3, 0])
+                and min(x[i0, 1], x[i1, 1], x[i2, 1], x[i3, 1]) <= py
+                <= max(x[i0, 1], x[i1, 1], x[i2, 1], x[i3, 1])
+                and min(x[i0, 2], x[i1, 2], x[i2, 2], x[i3, 2]) <= pz
+                <= max(x[i0, 2], x[i1, 2], x[i2, 2], x[i3, 2])):
+            continue
         ax = x[i0, 0]
         ay = x[i0, 1]
         az = x[i0, 2]
@@ -148,9 +165,9 @@ def nodes_in_tets(pairs, tets, nodes, conn, x, inside):
         c3x = x[i3, 0] - ax
         c3y = x[i3, 1] - ay
         c3z = x[i3, 2] - az
-        rx = x[p, 0] - ax
-        ry = x[p, 1] - ay
-        rz = x[p, 2] - az
+        rx = px - ax
+        ry = py - ay
+        rz = pz - az
         det = det3(c1x, c1y, c1z, c2x, c2y, c2z, c3x, c3y, c3z)
         if det == 0.0:
             continue
@@ -159,9 +176,10 @@ def nodes_in_tets(pairs, tets, nodes, conn, x, inside):
         l3 = det3(c1x, c1y, c1z, c2x, c2y, c2z, rx, ry, rz) / det
         if l1 < 0.0 or l2 < 0.0 or l3 < 0.0 or l1 + l2 + l3 > 1.0:
             continue
-        inside[k] = 1
-        count += 1
-    return count
+        inside[n, 0] = t
+        inside[n, 1] = j
+        n += 1
+    return n
 
 
 @numba.njit(cache=True)
@@ -174,21 +192,20 @@ def _resolved(d, kmax, h, strict):
 
 
 @numba.njit(cache=True)
-def inside_node_depths(pairs, inside, tets, elem_body, nodes, x, hfaces, hbody, origin, inv_h, h,
-                       tbits, bucket_start, keys, ents, kmax, strict):
-    """Penetration measure, nodes (ALGORITHMS.md 3). Depth [m] of the deepest node flagged by
-    ``nodes_in_tets``: its distance to the boundary surface of the tet's body (nearest face,
-    searched in a face hash: faces ``hfaces``, bodies ``hbody``, the rows its entries name).
-    Returns (depth, searches not resolved: see ``_resolved``; none without ``strict``)."""
+def inside_node_depths(inside, elem_body, nodes, x, hfaces, hbody, origin, inv_h, h, tbits,
+                       bucket_start, keys, ents, kmax, strict):
+    """Penetration measure, nodes (ALGORITHMS.md 3). Depth [m] of the deepest node of the
+    (tet, node row) pairs ``inside`` of ``nodes_in_tets``: its distance to the boundary surface
+    of the tet's body (nearest face, searched in a face hash: faces ``hfaces``, bodies
+    ``hbody``, the rows its entries name). Returns (depth, searches not resolved: see
+    ``_resolved``; none without ``strict``)."""
     deepest = 0.0
     unresolved = 0
-    for k in range(pairs.shape[0]):
-        if not inside[k]:
-            continue
-        p = nodes[pairs[k, 1]]
-        d = nearest_face_distance(x[p, 0], x[p, 1], x[p, 2], elem_body[tets[pairs[k, 0]]],
-                                  hfaces, hbody, x, origin, inv_h, h, tbits, bucket_start, keys,
-                                  ents, kmax)
+    for k in range(inside.shape[0]):
+        p = nodes[inside[k, 1]]
+        d = nearest_face_distance(x[p, 0], x[p, 1], x[p, 2], elem_body[inside[k, 0]], hfaces,
+                                  hbody, x, origin, inv_h, h, tbits, bucket_start, keys, ents,
+                                  kmax)
         if not _resolved(d, kmax, h, strict):
             unresolved += 1
             continue
@@ -224,20 +241,32 @@ def _crossing(p, q, a, b, c, x):
 
 
 @numba.njit(cache=True)
-def crossing_pairs(pairs, esel, fsel, edges, faces, x):
+def crossing_pairs(cand, edges, faces, x, cuts):
     """Penetration measure, edges cutting through faces (ALGORITHMS.md 3.2).
 
-    ``pairs (k, 2)`` of (edge row, face row) of the selections ``esel``, ``fsel``: the pairs
-    whose edge crosses the triangle are moved to the front, in order, as (edge, face) indices
-    into ``edges``, ``faces``; returns how many."""
+    ``cand (m, 2)`` (boundary edge, boundary face of another body) candidates: those whose
+    boxes overlap (the pairs of the broad phase) and whose edge crosses the triangle are written
+    to ``cuts``, in order; returns how many."""
     n = 0
-    for k in range(pairs.shape[0]):
-        g = esel[pairs[k, 0]]
-        f = fsel[pairs[k, 1]]
-        t, sgn = _crossing(edges[g, 0], edges[g, 1], faces[f, 0], faces[f, 1], faces[f, 2], x)
+    for k in range(cand.shape[0]):
+        g = cand[k, 0]
+        f = cand[k, 1]
+        p = edges[g, 0]
+        q = edges[g, 1]
+        a = faces[f, 0]
+        b = faces[f, 1]
+        c = faces[f, 2]
+        if not (min(x[p, 0], x[q, 0]) <= max(x[a, 0], x[b, 0], x[c, 0])
+                and min(x[a, 0], x[b, 0], x[c, 0]) <= max(x[p, 0], x[q, 0])
+                and min(x[p, 1], x[q, 1]) <= max(x[a, 1], x[b, 1], x[c, 1])
+                and min(x[a, 1], x[b, 1], x[c, 1]) <= max(x[p, 1], x[q, 1])
+                and min(x[p, 2], x[q, 2]) <= max(x[a, 2], x[b, 2], x[c, 2])
+                and min(x[a, 2], x[b, 2], x[c, 2]) <= max(x[p, 2], x[q, 2])):
+            continue
+        t, sgn = _crossing(p, q, a, b, c, x)
         if sgn != 0:
-            pairs[n, 0] = g
-            pairs[n, 1] = f
+            cuts[n, 0] = g
+            cuts[n, 1] = f
             n += 1
     return n
 
@@ -382,80 +411,118 @@ def edge_cut_depths(pairs, edges, faces, face_body, x, floor, search, strict, hf
 
 
 @numba.njit(cache=True)
-def depth_zones(pairs, inside, nodes, node_body, cuts, edges, edge_body, x, pad, zlo, zhi):
-    """Where the depth searches of one measure start (penetration measure, ALGORITHMS.md 3):
-    per body A, the bounding box (zlo, zhi) (n_body, 3) of its boundary nodes flagged inside
-    another body (``pairs``, ``inside`` of ``nodes_in_tets``, node rows ``nodes``, bodies
-    ``node_body``) and of its edges in the crossings ``cuts`` (the pieces of an edge lie in the
-    edge's box), padded by ``pad``; +inf / -inf for a body with neither."""
-    for b in range(zlo.shape[0]):
+def near_other_body(x, nodes, node_body, blo, bhi, near):
+    """near[j] = 1 for the nodes ``nodes[j]`` that lie in the box (blo, bhi) of a body other
+    than their own ``node_body[j]`` (the broad phase's selection of points, ALGORITHMS.md 3.2
+    "Cost"); returns how many."""
+    n = 0
+    for j in range(nodes.shape[0]):
+        p = nodes[j]
+        near[j] = 0
+        for b in range(blo.shape[0]):
+            if (b != node_body[j] and blo[b, 0] <= x[p, 0] <= bhi[b, 0]
+                    and blo[b, 1] <= x[p, 1] <= bhi[b, 1] and blo[b, 2] <= x[p, 2] <= bhi[b, 2]):
+                near[j] = 1
+                n += 1
+                break
+    return n
+
+
+@numba.njit(cache=True)
+def moved_beyond(x, ref, limit):
+    """True when a node has moved more than ``limit`` [m] along an axis from ``ref`` (the
+    positions the kept candidates of the penetration measure were found at)."""
+    for i in range(x.shape[0]):
         for d in range(3):
-            zlo[b, d] = np.inf
-            zhi[b, d] = -np.inf
+            if abs(x[i, d] - ref[i, d]) > limit:
+                return True
+    return False
+
+
+@numba.njit(cache=True)
+def came_back(status, ref, eroded):
+    """True when an element eroded in ``ref`` is not in ``status`` (the kept candidates of the
+    penetration measure leave eroded tets out)."""
+    for e in range(status.shape[0]):
+        if ref[e] == eroded and status[e] != eroded:
+            return True
+    return False
+
+
+@numba.njit(cache=True)
+def lift_rows(pairs, first, second):
+    """Pairs of rows of two selections -> pairs of what they select, in place (the order is
+    kept: the selections are increasing)."""
     for k in range(pairs.shape[0]):
-        if inside[k]:
-            j = pairs[k, 1]
-            b = node_body[j]
-            p = nodes[j]
-            for d in range(3):
-                zlo[b, d] = min(zlo[b, d], x[p, d])
-                zhi[b, d] = max(zhi[b, d], x[p, d])
-    for k in range(cuts.shape[0]):
-        g = cuts[k, 0]
-        b = edge_body[g]
-        for e in range(2):
-            p = edges[g, e]
-            for d in range(3):
-                zlo[b, d] = min(zlo[b, d], x[p, d])
-                zhi[b, d] = max(zhi[b, d], x[p, d])
-    for b in range(zlo.shape[0]):
-        if zlo[b, 0] <= zhi[b, 0]:
-            for d in range(3):
-                zlo[b, d] -= pad
-                zhi[b, d] += pad
+        pairs[k, 0] = first[pairs[k, 0]]
+        pairs[k, 1] = second[pairs[k, 1]]
 
 
 FLOOR = 1e-4  # cut pieces whose depth bound is below FLOOR x cell size report the bound
-ZONE_CELLS = 3  # the zone hash holds the faces within ZONE_CELLS cells of the depth queries; a
-#                 search that closes within ZONE_CELLS - 1 shells there is exact (the meter's
-#                 docstring), one that does not goes to the hash of every face
+NEAR_CELLS = 3  # the hash of the faces near another body holds those within NEAR_CELLS cells of
+#                 its box; a search there that closes within NEAR_CELLS - 1 shells is exact
+#                 (the meter's docstring), one that does not goes to the hash of every face
+SKIN = 0.1  # candidates are found with boxes padded by SKIN x cell size and kept until a node
+#             has moved that far
+PAIR_CELL = 1.5  # cell of the hashes that find the candidates, in cell sizes (cost only: the
+#                  pairs do not depend on it; 1.5 against 1: sphere-plate 8.5 -> 7.5 ms a row)
 
 
 class PenetrationMeter:
     """Measures penetration between bodies (see the module docstring); owns its buffers.
 
-    Only entities whose box meets another body's box take part (the rest cannot touch), so on a
-    history row the cost follows the size of the contact zone:
+    The pairs to test are those of the broad phase at the current positions: (boundary node,
+    alive tet of another body) whose tet's box holds the node, the node lying in the box of
+    another body; (boundary edge, boundary face of another body) whose boxes overlap. Only
+    entities whose box meets another body's box take part (the rest cannot touch), so on a
+    history row the cost follows the size of the contact zone.
 
-    - nodes in tets: the boundary nodes near another body are hashed (one cell each) and the
-      alive tets are the queries, only those that meet the box of another body's hashed nodes
-      (a tet that holds such a node meets it), so the (tet, node) pairs are the pairs of
-      overlapping boxes, the same as with the tets hashed and the nodes as queries;
-    - edges through faces: the boundary faces near another body are hashed, the boundary edges
-      near another body are the queries;
-    - depths: the nearest face of the penetrated body is first searched in a hash of only the
-      faces of other bodies that meet, padded by ZONE_CELLS cells h, the box of the points a
-      body has inside others (``depth_zones``). A search there that closes within
-      ZONE_CELLS - 1 shells (best distance <= (ZONE_CELLS - 1) h) is exact: every face within
-      that distance of the point has its box within (ZONE_CELLS - 1) h of the zone and is in
-      that hash (the last cell is a margin for round-off), and it has been seen, so the distance
-      is the minimum over all faces of the body, the same number the hash of every face gives.
-      A search that does not close there (a point deeper than about h) is run again in the hash
-      of every boundary face, built only then (``full_searches`` counts those measures).
+    Candidates kept over rows: the pairs are taken from candidate lists found with every box
+    padded by ``skin`` (SKIN h, h the cell size then). They hold every pair of the broad phase
+    as long as no node has moved more than ``skin`` along an axis since (a pair's boxes then
+    lie within the padded boxes of the lists, and so does a node's body box), the surface is
+    the same (its ``version``) and no eroded element has come back (the lists leave out the
+    tets eroded then). Each row tests the candidates at the current positions
+    (``nodes_in_tets``, ``crossing_pairs``): the same pairs, in the same order, as a broad
+    phase run afresh. When a condition fails the lists are found again (``builds`` counts it):
+    the boundary nodes near another body are hashed, one cell each, and the alive tets near
+    them are the queries; the boundary faces near another body are hashed and the boundary
+    edges near another body are the queries. While the surface changes from row to row
+    (erosion) the lists would not outlive a row, and they are found with no skin.
+
+    Depths: the nearest face of the penetrated body is first searched in a hash, kept with the
+    candidates, of the faces (boxes padded by the skin) that meet the box of another body
+    padded by skin + R, R = NEAR_CELLS cells. A search there that closes within
+    NEAR_CELLS - 1 shells (best distance d <= R - 1 cell) is exact. The point lies in the box
+    of its own body A, so a face f of the other body at distance d has a point within d of
+    A's box; since the lists were found, A's box and f have moved at most ``skin``, so f's
+    padded box meets A's box padded by 2 skin + d < skin + R and f is in the hash, registered
+    in every cell it now covers: the search has seen every face within d and its distance is
+    the minimum over all faces of the body, the number the hash of every face gives (the same
+    triangles, the same arithmetic). A search that does not close there (a point deeper than
+    about 2 cells) runs again in the hash of every boundary face, built only then
+    (``full_searches`` counts those measures).
 
     Buffers are kept from call to call and grow when they must (no allocation per call once
     they have grown)."""
 
-    def __init__(self):
+    def __init__(self, skin: float = SKIN):
+        self.skin_rel = float(skin)
         self.node_hash = SpatialHash()  # boundary nodes near another body (queried by tets)
         self.cut_hash = SpatialHash()  # boundary faces near another body (queried by edges)
-        self.zone_hash = SpatialHash()  # faces near the depth queries
-        self.depth_hash = SpatialHash()  # every boundary face, for searches the zone leaves open
+        self.near_hash = SpatialHash()  # boundary faces near another body, for the depths
+        self.depth_hash = SpatialHash()  # every boundary face, for searches not closed near
+        self.builds = 0
         self.full_searches = 0
         self._ts = np.empty(256)
         self._signs = np.empty(256, np.int64)
         self._faces = np.empty(256, np.int64)
         self._buf = {}
+        self._key = None  # what the kept candidates were found for
+        self._skin = 0.0
+        self._node_tet = _NO_PAIRS
+        self._edge_face = _NO_PAIRS
+        self._near = None
 
     def measure(self, x, conn, elem_body, status, surface) -> dict:
         """{"max_penetration" [m], "node_depth" [m], "edge_depth" [m], "nodes_inside",
@@ -471,102 +538,123 @@ class PenetrationMeter:
         bhi = self._buffer("body.hi", (n_body, 3))
         if not body_bounds(x, x, 0.0, s.nodes, s.node_body, 0.0, blo, bhi):
             raise FloatingPointError("non-finite position in the penetration measure")
-        qsel, qlo, qhi = self._select("node", x, s.nodes.reshape(-1, 1), s.node_body, blo, bhi)
-        if qsel.shape[0] == 0:
+        near = self._buffer("node.near", s.n_nodes, np.uint8)
+        if near_other_body(x, s.nodes, s.node_body, blo, bhi, near) == 0:
             return out
         live = blo[:, 0] <= bhi[:, 0]
         h = s.mean_edge_length(x)
         origin, h = grid_from_bounds(blo[live].min(axis=0), bhi[live].max(axis=0), h)
         floor = FLOOR * h
-        nodes = self._take("node.id", s.nodes, qsel)
-        node_body = self._take("node.body", s.node_body, qsel)
+        status = _ALL_ALIVE if status is None else np.asarray(status)
+        self._candidates(x, conn, elem_body, status, s, n_body, blo, bhi, h)
         # boundary nodes inside tets of another body
-        pairs, inside, tets, count = self._nodes_in_tets(x, conn, elem_body, status, n_body,
-                                                         origin, h, qlo, qhi, nodes, node_body)
+        inside = self._buffer("inside", (self._node_tet.shape[0], 2), np.int64)
+        inside = inside[:nodes_in_tets(self._node_tet, near, s.nodes, conn, status, ERODED, x,
+                                       inside)]
+        count = inside.shape[0]
         # boundary edges cutting through boundary faces of another body
-        cuts = self._cuts(x, s, blo, bhi, origin, h)
+        cuts = self._buffer("cuts", (self._edge_face.shape[0], 2), np.int64)
+        cuts = cuts[:crossing_pairs(self._edge_face, s.edges, s.faces, x, cuts)]
+        # depths below the other body's surface: nearest boundary face, first among those near
         need = False
         if cuts.shape[0]:
-            unread = self._grid(self.cut_hash, s.faces, s.face_body, 0)  # not read: no search
             depth, n_cut, need = edge_cut_depths(cuts, s.edges, s.faces, s.face_body, x, floor,
-                                                 False, False, *unread, self._ts, self._signs,
-                                                 self._faces)
+                                                 False, False, *self._near, self._ts,
+                                                 self._signs, self._faces)
             out["edge_depth"] = float(depth)
             out["edge_cuts"] = int(n_cut)
-        if count or need:
-            # depths below the other body's surface: nearest boundary face, from the zone hash
-            zone = self._zone_hash(x, s, n_body, origin, h, pairs, inside, nodes, node_body,
-                                   cuts)
-            redo_nodes = redo_edges = False
-            if count:
-                depth, left = inside_node_depths(pairs, inside, tets, elem_body, nodes, x, *zone,
-                                                 True)
-                out["node_depth"] = float(depth)
-                out["nodes_inside"] = int(count)
-                redo_nodes = left > 0
-            if need:
-                depth, _, redo_edges = edge_cut_depths(cuts, s.edges, s.faces, s.face_body, x,
-                                                       floor, True, True, *zone, self._ts,
-                                                       self._signs, self._faces)
-                out["edge_depth"] = float(depth)
-            if redo_nodes or redo_edges:
-                self.full_searches += 1
-                full = self._full_hash(x, s, origin, h)
-                if redo_nodes:
-                    out["node_depth"] = float(inside_node_depths(
-                        pairs, inside, tets, elem_body, nodes, x, *full, False)[0])
-                if redo_edges:
-                    out["edge_depth"] = float(edge_cut_depths(
-                        cuts, s.edges, s.faces, s.face_body, x, floor, True, False, *full,
-                        self._ts, self._signs, self._faces)[0])
+        redo_nodes = redo_edges = False
+        if count:
+            depth, left = inside_node_depths(inside, elem_body, s.nodes, x, *self._near, True)
+            out["node_depth"] = float(depth)
+            out["nodes_inside"] = int(count)
+            redo_nodes = left > 0
+        if need:
+            depth, _, redo_edges = edge_cut_depths(cuts, s.edges, s.faces, s.face_body, x, floor,
+                                                   True, True, *self._near, self._ts,
+                                                   self._signs, self._faces)
+            out["edge_depth"] = float(depth)
+        if redo_nodes or redo_edges:
+            self.full_searches += 1
+            full = self._full_hash(x, s, origin, h)
+            if redo_nodes:
+                out["node_depth"] = float(inside_node_depths(inside, elem_body, s.nodes, x,
+                                                             *full, False)[0])
+            if redo_edges:
+                out["edge_depth"] = float(edge_cut_depths(
+                    cuts, s.edges, s.faces, s.face_body, x, floor, True, False, *full, self._ts,
+                    self._signs, self._faces)[0])
         out["max_penetration"] = max(out["node_depth"], out["edge_depth"])
         return out
 
-    def _nodes_in_tets(self, x, conn, elem_body, status, n_body, origin, h, qlo, qhi, nodes,
-                       node_body):
-        """(pairs (tet row, node row), inside flags, tets (rows -> conn), count): the boundary
-        nodes ``nodes`` (boxes qlo, qhi) tested against the alive tets that can hold one."""
-        nlo = self._buffer("node.body.lo", (n_body, 3))
-        nhi = self._buffer("node.body.hi", (n_body, 3))
-        body_bounds(x, x, 0.0, nodes, node_body, 0.0, nlo, nhi)
+    def _candidates(self, x, conn, elem_body, status, s, n_body, blo, bhi, h) -> None:
+        """Keep the candidate lists and the hash of the faces near another body, or find them
+        again (class docstring); blo, bhi: the bodies' boxes now."""
+        key = (id(conn), conn.shape, id(elem_body), id(s), s.version, x.shape, status.shape,
+               status.dtype)
+        ref_x = self._buffer("ref.x", x.shape)
+        ref_status = self._buffer("ref.status", status.shape, status.dtype)
+        if key == self._key:
+            if not (moved_beyond(x, ref_x, 0.999 * self._skin)
+                    or (status.shape[0] and came_back(status, ref_status, ERODED))):
+                return
+            skin = self.skin_rel * h
+        else:
+            skin = self.skin_rel * h if self._key is None else 0.0  # a changing surface
+        self.builds += 1
+        plo = self._buffer("pad.lo", (n_body, 3))
+        phi = self._buffer("pad.hi", (n_body, 3))
+        np.subtract(blo, skin, out=plo)
+        np.add(bhi, skin, out=phi)
+        live = plo[:, 0] <= phi[:, 0]
+        origin, cell = grid_from_bounds(plo[live].min(axis=0), phi[live].max(axis=0),
+                                        PAIR_CELL * h)
+        # (tet, node row): boundary nodes near another body, hashed, against the tets near them
+        nsel, nlo, nhi = self._select("cand.node", x, s.nodes.reshape(-1, 1), s.node_body, plo,
+                                      phi, skin)
+        nodes = self._take("cand.node.id", s.nodes, nsel)
+        node_body = self._take("cand.node.body", s.node_body, nsel)
+        zlo = self._buffer("cand.zone.lo", (n_body, 3))
+        zhi = self._buffer("cand.zone.hi", (n_body, 3))
+        body_bounds(x, x, 0.0, nodes, node_body, skin, zlo, zhi)
         skip = _NO_SKIP
-        if status is not None:
-            eroded = self._buffer("tet.eroded", conn.shape[0], np.bool_)
-            np.equal(status, ERODED, out=eroded)
-            skip = eroded.view(np.uint8)
-        tets, tlo, thi = self._select("tet", x, conn, elem_body, nlo, nhi, skip)
-        if tets.shape[0] == 0:
-            return _NO_PAIRS, _NO_FLAGS, tets, 0
-        self.node_hash.build(qlo, qhi, origin, h)
-        pairs = self.node_hash.query(tlo, thi, _NO_ROWS, self._take("tet.body", elem_body, tets),
-                                     _NO_ROWS, node_body, False, False)
-        inside = self._buffer("tet.inside", pairs.shape[0], np.uint8)
-        count = nodes_in_tets(pairs, tets, nodes, conn, x, inside)
-        return pairs, inside, tets, count
-
-    def _cuts(self, x, s, blo, bhi, origin, h):
-        """(edge, face) pairs (k, 2), sorted, of boundary edges crossing boundary faces of
-        another body (a view of the cut hash's pair buffer)."""
-        fsel, flo, fhi = self._select("face", x, s.faces, s.face_body, blo, bhi)
-        esel, elo, ehi = self._select("edge", x, s.edges, s.edge_body, blo, bhi)
-        if fsel.shape[0] == 0 or esel.shape[0] == 0:
-            return _NO_PAIRS
-        self.cut_hash.build(flo, fhi, origin, h)
-        pairs = self.cut_hash.query(elo, ehi, _NO_ROWS, self._take("edge.body", s.edge_body, esel),
-                                    _NO_ROWS, self._take("face.body", s.face_body, fsel), False,
-                                    False)
-        return pairs[:crossing_pairs(pairs, esel, fsel, s.edges, s.faces, x)]
-
-    def _zone_hash(self, x, s, n_body, origin, h, pairs, inside, nodes, node_body, cuts):
-        """The zone hash (class docstring) as the face-hash arguments of the depth kernels."""
-        zlo = self._buffer("zone.body.lo", (n_body, 3))
-        zhi = self._buffer("zone.body.hi", (n_body, 3))
-        depth_zones(pairs, inside, nodes, node_body, cuts, s.edges, s.edge_body, x,
-                    ZONE_CELLS * h, zlo, zhi)
-        zsel, flo, fhi = self._select("zone", x, s.faces, s.face_body, zlo, zhi)
-        self.zone_hash.build(flo, fhi, origin, h)
-        return self._grid(self.zone_hash, self._take("zone.faces", s.faces, zsel),
-                          self._take("zone.body", s.face_body, zsel), ZONE_CELLS - 1)
+        if status.shape[0]:
+            skip = self._buffer("cand.eroded", status.shape[0], np.bool_)
+            np.equal(status, ERODED, out=skip)
+            skip = skip.view(np.uint8)
+        tsel, tlo, thi = self._select("cand.tet", x, conn, elem_body, zlo, zhi, skin, skip)
+        self._node_tet = _NO_PAIRS
+        if nsel.shape[0] and tsel.shape[0]:
+            self.node_hash.build(nlo, nhi, origin, cell)
+            self._node_tet = self.node_hash.query(
+                tlo, thi, _NO_ROWS, self._take("cand.tet.body", elem_body, tsel), _NO_ROWS,
+                node_body, False, False)  # kept in the hash's pair buffer until the next build
+            lift_rows(self._node_tet, tsel, nsel)
+        # (edge, face): boundary faces near another body, hashed, against the edges near one
+        fsel, flo, fhi = self._select("cand.face", x, s.faces, s.face_body, plo, phi, skin)
+        esel, elo, ehi = self._select("cand.edge", x, s.edges, s.edge_body, plo, phi, skin)
+        self._edge_face = _NO_PAIRS
+        if fsel.shape[0] and esel.shape[0]:
+            self.cut_hash.build(flo, fhi, origin, cell)
+            self._edge_face = self.cut_hash.query(
+                elo, ehi, _NO_ROWS, self._take("cand.edge.body", s.edge_body, esel), _NO_ROWS,
+                self._take("cand.face.body", s.face_body, fsel), False, False)
+            lift_rows(self._edge_face, esel, fsel)
+        # the faces near another body, for the depths
+        _, cell = grid_from_bounds(blo[live].min(axis=0), bhi[live].max(axis=0), h)
+        reach = NEAR_CELLS * cell
+        np.subtract(blo, skin + reach, out=plo)
+        np.add(bhi, skin + reach, out=phi)
+        origin, cell = grid_from_bounds(plo[live].min(axis=0), phi[live].max(axis=0), cell)
+        rsel, rlo, rhi = self._select("near", x, s.faces, s.face_body, plo, phi, skin)
+        self.near_hash.build(rlo, rhi, origin, cell)
+        self._near = self._grid(self.near_hash, self._take("near.faces", s.faces, rsel),
+                                self._take("near.body", s.face_body, rsel),
+                                max(int(reach / cell) - 1, 0))
+        ref_x[:] = x
+        ref_status[:] = status
+        self._skin = skin
+        self._key = key
 
     def _full_hash(self, x, s, origin, h):
         """The hash of every boundary face as the face-hash arguments of the depth kernels."""
@@ -579,17 +667,18 @@ class PenetrationMeter:
 
     @staticmethod
     def _grid(fh, hfaces, hbody, kmax):
+        """A face hash as the arguments hfaces .. kmax of the depth kernels."""
         return (hfaces, hbody, fh.origin, fh.inv_h, fh.h, fh.tbits, fh.bucket_start, fh.keys,
                 fh.ents, kmax)
 
-    def _select(self, name, x, ent, body, blo, bhi, skip=None):
-        """Rows of ent whose (static) box meets another body's box (blo, bhi), with their boxes
-        (``broadphase.select_boxes``; rows with skip != 0 left out)."""
+    def _select(self, name, x, ent, body, blo, bhi, pad=0.0, skip=None):
+        """Rows of ent whose (static) box, padded, meets another body's box (blo, bhi), with
+        their padded boxes (``broadphase.select_boxes``; rows with skip != 0 left out)."""
         n = ent.shape[0]
         sel = self._buffer(name + ".sel", n, np.int64)
         lo = self._buffer(name + ".lo", (n, 3))
         hi = self._buffer(name + ".hi", (n, 3))
-        k = select_boxes(x, x, 0.0, ent, 0.0, body, blo, bhi, False,
+        k = select_boxes(x, x, 0.0, ent, pad, body, blo, bhi, False,
                          _NO_SKIP if skip is None else skip, sel, lo, hi)
         return sel[:k], lo[:k], hi[:k]
 
@@ -612,7 +701,7 @@ class PenetrationMeter:
 
 
 _NO_SKIP = np.zeros(0, np.uint8)
-_NO_FLAGS = np.zeros(0, np.uint8)
+_ALL_ALIVE = np.zeros(0, np.int8)  # no status: no element eroded
 _NO_PAIRS = np.zeros((0, 2), np.int64)
 _NO_ROWS = np.zeros((0, 1), np.int32)  # entity rows the hash query reads only for self-contact
 

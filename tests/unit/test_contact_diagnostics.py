@@ -105,37 +105,59 @@ def test_eroded_elements_do_not_count():
     assert measure([a, b], status)["max_penetration"] == 0.0
 
 
-def approach(n=12):
-    """Two boxes, the upper one tilted and moving down into the lower one from apart to deeper
-    than a cell: conn, elem_body, surface and the positions of each frame."""
+def approach(n=12, step=0.03, start=0.8):
+    """Two boxes, the upper one tilted and moving down into the lower one (from apart to deeper
+    than a cell with the defaults): conn, elem_body, surface and the positions of each frame."""
     a = box((1, 1, 1), 0.25, (0, 0, 0))
     p, t = structured_box((0.5, 0.5, 0.5), 0.125)
     p = p @ rot(0, 3.0).T @ rot(1, 2.0).T
     frames = []
     for k in range(n):
-        x, conn, eb, s = assemble([a, (p + [0.1, 0.05, 0.8 - 0.03 * k], t)])
+        x, conn, eb, s = assemble([a, (p + [0.1, 0.05, start - step * k], t)])
         frames.append(x)
     return conn, eb, s, frames
 
 
 def test_a_meter_kept_over_calls_gives_what_a_new_one_gives():
-    # the meter keeps its buffers and hashes from call to call; nothing of a call may leak
-    conn, eb, s, frames = approach()
+    # the meter keeps buffers, hashes and candidate pairs from call to call; what it gives
+    # must not depend on it: steps longer than the skin, shorter ones (candidates kept), back
+    conn, eb, s, coarse = approach()
+    fine = approach(40, 0.002, 0.54)[3]
     kept = PenetrationMeter()
     seen = set()
-    for x in frames + frames[::-1]:
+    for x in coarse + fine + fine[::-1] + coarse[::-1]:
         got = kept.measure(x, conn, eb, None, s)
         assert got == PenetrationMeter().measure(x, conn, eb, None, s)
         seen.add((got["nodes_inside"] > 0, got["edge_cuts"] > 0))
     assert (False, False) in seen and (True, True) in seen
+    assert kept.builds < len(coarse) + len(fine)  # (kept over the short steps)
 
 
-def test_the_zone_hash_gives_the_depths_of_the_hash_of_every_face(monkeypatch):
+def test_a_kept_meter_follows_erosion():
+    # elements of the lower box near the contact erode one by one (the surface changes under
+    # kept candidates), then all come back (a rebuilt surface)
+    conn, eb, s, frames = approach(30, 0.002, 0.54)
+    top = np.flatnonzero((eb == 0) & (np.arange(len(eb)) % 7 == 0))
+    status = np.zeros(len(eb), np.int8)
+    kept = PenetrationMeter()
+    for k, x in enumerate(frames):
+        if k % 3 == 0 and k < 24:
+            status[top[k // 3::8]] = 3
+        if k == 24:
+            status[:] = 0
+        s.sync(status)
+        fresh = Surface(conn, eb, status)
+        assert kept.measure(x, conn, eb, status, s) == \
+            PenetrationMeter().measure(x, conn, eb, status, fresh)
+    assert kept.builds < len(frames)
+
+
+def test_the_faces_near_give_the_depths_of_the_hash_of_every_face(monkeypatch):
     from impactsim.contact import diagnostics
 
     conn, eb, s, frames = approach()
-    zone = [PenetrationMeter().measure(x, conn, eb, None, s) for x in frames]
-    monkeypatch.setattr(diagnostics, "ZONE_CELLS", 1)  # no search closes: all in the full hash
+    near = [PenetrationMeter().measure(x, conn, eb, None, s) for x in frames]
+    monkeypatch.setattr(diagnostics, "NEAR_CELLS", 1)  # no search closes: all in the full hash
     full = PenetrationMeter()
-    assert [full.measure(x, conn, eb, None, s) for x in frames] == zone
-    assert full.full_searches == sum(z["max_penetration"] > 0 for z in zone)
+    assert [full.measure(x, conn, eb, None, s) for x in frames] == near
+    assert full.full_searches == sum(z["max_penetration"] > 0 for z in near)
