@@ -161,3 +161,24 @@ def test_the_faces_near_give_the_depths_of_the_hash_of_every_face(monkeypatch):
     full = PenetrationMeter()
     assert [full.measure(x, conn, eb, None, s) for x in frames] == near
     assert full.full_searches == sum(z["max_penetration"] > 0 for z in near)
+
+
+def test_nearest_face_distance_is_the_minimum_over_every_face():
+    # the shell search stops early (k h, or the boundary of the cells seen): never before the
+    # nearest face, whatever the point's place in its cell
+    from impactsim.contact.broadphase import SpatialHash, swept_boxes
+    from impactsim.contact.diagnostics import nearest_face_distance
+
+    x, conn, eb, s = assemble([box((1, 1, 1), 0.25, (0, 0, 0))])
+    h = s.mean_edge_length(x)
+    lo = np.empty((s.n_faces, 3))
+    hi = np.empty((s.n_faces, 3))
+    swept_boxes(x, x, 0.0, s.faces, 0.0, lo, hi)
+    fh = SpatialHash()
+    fh.build(lo, hi, lo.min(axis=0), h)
+    rng = np.random.default_rng(3)
+    for p in rng.uniform(-0.55, 0.55, (300, 3)):
+        got = nearest_face_distance(*p, 0, s.faces, s.face_body, x, fh.origin, fh.inv_h, fh.h,
+                                    fh.tbits, fh.bucket_start, fh.keys, fh.ents, 40)
+        want = min(point_triangle_distance(*p, *x[f[0]], *x[f[1]], *x[f[2]]) for f in s.faces)
+        assert got == want
