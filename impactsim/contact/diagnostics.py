@@ -526,7 +526,8 @@ class PenetrationMeter:
         self._signs = np.empty(256, np.int64)
         self._faces = np.empty(256, np.int64)
         self._buf = {}
-        self._key = None  # what the kept candidates were found for
+        self._key = None  # what the kept candidates were found for: sizes, surface version
+        self._of = (None, None, None)  # ... and arrays (conn, elem_body, surface)
         self._skin = 0.0
         self._node_tet = _NO_PAIRS
         self._edge_face = _NO_PAIRS
@@ -598,11 +599,12 @@ class PenetrationMeter:
     def _candidates(self, x, conn, elem_body, status, s, n_body, blo, bhi, h) -> None:
         """Keep the candidate lists and the hash of the faces near another body, or find them
         again (class docstring); blo, bhi: the bodies' boxes now."""
-        key = (id(conn), conn.shape, id(elem_body), id(s), s.version, x.shape, status.shape,
-               status.dtype)
+        key = (conn.shape, s.version, x.shape, status.shape, status.dtype)
+        same = (key == self._key and self._of[0] is conn and self._of[1] is elem_body
+                and self._of[2] is s)
         ref_x = self._buffer("ref.x", x.shape)
         ref_status = self._buffer("ref.status", status.shape, status.dtype)
-        if key == self._key:
+        if same:
             if not (moved_beyond(x, ref_x, 0.999 * self._skin)
                     or (status.shape[0] and came_back(status, ref_status, ERODED))):
                 return
@@ -658,11 +660,12 @@ class PenetrationMeter:
         self.near_hash.build(rlo, rhi, origin, cell)
         self._near = self._grid(self.near_hash, self._take("near.faces", s.faces, rsel),
                                 self._take("near.body", s.face_body, rsel),
-                                max(int(reach / cell) - 1, 0))
+                                max(int(reach / cell + 1e-9) - 1, 0))
         ref_x[:] = x
         ref_status[:] = status
         self._skin = skin
         self._key = key
+        self._of = (conn, elem_body, s)  # (held: compared by identity)
 
     def _full_hash(self, x, s, origin, h):
         """The hash of every boundary face as the face-hash arguments of the depth kernels."""
