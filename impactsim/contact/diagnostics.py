@@ -503,11 +503,12 @@ class PenetrationMeter:
     padded by skin + R, R = NEAR_CELLS cells. A search there that closes within
     NEAR_CELLS - 1 shells (best distance d <= R - 1 cell) is exact. The point lies in the box
     of its own body A, so a face f of the other body at distance d has a point within d of
-    A's box; since the lists were found, A's box and f have moved at most ``skin``, so f's
-    padded box meets A's box padded by 2 skin + d < skin + R and f is in the hash, registered
-    in every cell it now covers: the search has seen every face within d and its distance is
-    the minimum over all faces of the body, the number the hash of every face gives (the same
-    triangles, the same arithmetic). A search that does not close there (a point deeper than
+    A's box; since the lists were found, A's box and f have moved at most ``skin``, so f's box
+    then was within 2 skin + d of A's box then, f's padded box meets A's box padded by
+    skin + R (a cell to spare for round-off) and f is in the hash, registered in every cell it
+    now covers: the search has seen every face within d and its distance is the minimum over
+    all faces of the body, the number the hash of every face gives (the same triangles, the
+    same arithmetic). A search that does not close there (a point deeper than
     about 2 cells) runs again in the hash of every boundary face, built only then
     (``full_searches`` counts those measures).
 
