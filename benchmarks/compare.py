@@ -6,8 +6,8 @@ figures from two separate runs do not compare. This runs the bench scene of benc
 side by side: the revision's `impactsim` package is exported (`git archive`) into a temporary
 folder as `impactsim_rev`, each version builds its own Simulation, and the timed steps
 alternate between them in short runs, so both see the same machine. Prints process CPU ns per
-element-step for each version (wall ns with --threads > 1), their ratio, and how far apart the two end states are (the
-two versions should compute the same physics).
+element-step for each version (wall ns with --threads > 1), their ratio, and how far apart the
+two end states are (the two versions should compute the same physics).
 
     python benchmarks/compare.py REV [--steps 60] [--warm 20] [--run 5] [--elastic]
         [--cells 32] [--threads 1]

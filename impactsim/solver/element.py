@@ -243,8 +243,8 @@ def _element_scalar(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, e
                     temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
                     jnode, use_anp, half, dt, cq, cl, rows, fext):
     """The whole update of element e with every branch (the scalar path); adds its nodal forces
-    to its rows `rows[e]` of `fext` (`scatter.force_rows`). Called, not inlined: inlined into the parallel loop it doubled the cold compile
-    (time to the first step 22 -> 34 s).
+    to its rows `rows[e]` of `fext` (`scatter.force_rows`). Called, not inlined: inlined into
+    the parallel loop it doubled the cold compile (time to the first step 22 -> 34 s).
 
     Returns (stable dt, viscous work -q dV, 1 if the element inverted else 0). An eroded or
     inverted element adds no force.
@@ -749,8 +749,8 @@ def _pressure_block(buf, dt, anp, eos, rho0, bulk, c0, s, gamma0, shear, cq, cl)
 def _store_block(rows, sdev, pressure, q, eps_rate, energy, vol, vol_eos, fext, use_anp, e0,
                  buf):
     """Copy the block's results back to the element arrays (through views of the block, see
-    `_load_block`) and add its forces to the corners' rows of fext (in lane order); returns (min dt, its
-    element, viscous work), reduced in lane order."""
+    `_load_block`) and add its forces to the corners' rows of fext (in lane order); returns
+    (min dt, its element, viscous work), reduced in lane order."""
     sd = sdev[e0:e0 + B]
     for i in range(B):
         for c in range(6):
@@ -765,15 +765,15 @@ def _store_block(rows, sdev, pressure, q, eps_rate, energy, vol, vol_eos, fext, 
         vnew = buf[R_DET * B + i] * (1.0 / 6.0)
         vo[i] = vnew
         ve[i] = buf[R_VEOS * B + i] if use_anp else vnew
-    cn = rows[e0:e0 + B]
+    rw = rows[e0:e0 + B]
     dt_min = math.inf
     worst = -1
     qwork = 0.0
     for i in range(B):
         for k in range(4):
-            n = np.uint64(cn[i, k])
+            r = np.uint64(rw[i, k])
             for d in range(3):
-                fext[n, d] += buf[(R_F + 3 * k + d) * B + i]
+                fext[r, d] += buf[(R_F + 3 * k + d) * B + i]
         qwork += buf[R_QW * B + i]
         dte = buf[R_DTE * B + i]
         if dte < dt_min:
@@ -873,8 +873,8 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     caching the kernel), each part's chunks in order. Every corner adds its force to its row of
     `fext` (`rows`, `extra_ptr`, `extra_rows`: `scatter.force_rows` for parts of that size),
     which has that one writer, and each node's rows are then summed in part order into
-    `force`. Every node thus
-    gets its elements' forces in the same order whatever the number of threads.
+    `force`. Every node thus gets its elements' forces in the same order whatever the number of
+    threads.
 
     The stable dt of an element is L / (Q + sqrt(Q^2 + c^2)), L = 3V / max face area (smallest
     altitude), Q = C_l c + C_q^2 L |tr D| in compression, c the EOS sound speed with 4G/3rho.
