@@ -797,10 +797,10 @@ def _vector_block(elem_mat, status, e0):
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
 def _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
            hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp,
-           half, dt, cq, cl, rows, fext, chunk_out):
-    """The elements of chunk ch, block by block (see the module docstring)."""
+           half, dt, cq, cl, rows, fext, chunk_out, buf):
+    """The elements of chunk ch, block by block (see the module docstring); `buf` the block
+    buffer (ROWS * B) of the calling thread."""
     n_elem = conn.shape[0]
-    buf = np.empty(ROWS * B)
     dt_min = math.inf
     worst = -1
     qwork = 0.0
@@ -888,11 +888,13 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     n_ch = (n_elem + CHUNK - 1) // CHUNK
     n_parts = (n_ch + part_chunks - 1) // part_chunks
     for t in numba.prange(threads):
+        buf = np.empty(ROWS * B)  # one block buffer per thread and step
         for part in range(t, n_parts, threads):
             for ch in range(part * part_chunks, min(n_ch, (part + 1) * part_chunks)):
                 _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                        temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass,
-                       mat_params, jnode, use_anp, half, dt, cq, cl, rows, fext, chunk_out)
+                       mat_params, jnode, use_anp, half, dt, cq, cl, rows, fext, chunk_out,
+                       buf)
     for i in numba.prange(force.shape[0]):
         gather_node(i, fext, extra_ptr, extra_rows, force)
 
