@@ -359,9 +359,8 @@ def _element_scalar(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, e
     qq = 0.0
     if trd < 0.0:
         qq = cl * c + cq * cq * length * (-trd)
-    dte = length / (qq + math.sqrt(qq * qq + c2)) if c2 > 0.0 or qq > 0.0 else math.inf
-    if st == FRACTURED:
-        dte = math.inf
+    limits = st != FRACTURED and (c2 > 0.0 or qq > 0.0)
+    dte = length / (qq + math.sqrt(qq * qq + c2)) if limits else math.inf
     # --- nodal forces f_a = -V sigma grad N_a, sigma = s - (p + q) I
     ptot = pn + qn
     txx, tyy, tzz = nxx - ptot, nyy - ptot, nzz - ptot

@@ -11,7 +11,7 @@ row of its own in an extended force array `fext`:
   first of them and one extra row, after the n_node node rows, for each further part.
 
 A part is run by one thread, its elements in order, so every row has one writer and one order
-of summation. `gather` then sums each node's rows in part order. The result does not depend on
+of summation. `gather_node` then sums each node's rows in part order. The result does not depend on
 which thread ran which part, nor on how many threads there are, and each thread walks its
 parts in element (and so, after the Morton renumbering, in spatial) order, which keeps the node
 data in cache: chunks coloured so that chunks of one colour share no node were 15-20 % slower
@@ -54,8 +54,7 @@ def force_rows(conn: np.ndarray, n_node: int, part_size: int) -> ForceRows:
     key = conn.reshape(-1).astype(np.int64) * n_parts + part
     pairs, corner_pair = np.unique(key, return_inverse=True)  # sorted node-major, part-minor
     node = pairs // n_parts
-    extra = np.ones(pairs.shape[0], bool)
-    extra[0] = False
+    extra = np.zeros(pairs.shape[0], bool)
     extra[1:] = node[1:] == node[:-1]  # not the node's first part
     row = node.copy()
     # extra rows numbered part by part, so that a part's rows lie together in fext
