@@ -48,9 +48,14 @@ import numpy as np
 from impactsim.materials import params as P
 from impactsim.materials.laws import eos_linear_part
 from impactsim.model import DAMAGED, ERODED, FRACTURED
+from impactsim.solver import element as E
+from impactsim.solver import hex8_block as HB
+from impactsim.solver import vecmath as VM
 from impactsim.solver.element import FAST, _jaumann_trial, _return_map
+from impactsim.solver.hex8_block import _vol_der
 
-CHUNK = 256  # hexes per reduction chunk
+B = E.B  # lanes of a block of the vector path (hex8_block.py)
+CHUNK = 256  # hexes per reduction chunk (a multiple of B)
 PART = 4 * CHUNK  # hexes per part (the unit of work of a thread)
 OUT_DT, OUT_QWORK, OUT_INVERTED, OUT_WORST, OUT_HGWORK = 0, 1, 2, 3, 4
 N_OUT = 5
@@ -71,20 +76,6 @@ EDGES = np.array([[0, 1], [1, 2], [2, 3], [3, 0], [4, 5], [5, 6], [6, 7], [7, 4]
 
 def n_chunks(n_elem: int) -> int:
     return max(1, (n_elem + CHUNK - 1) // CHUNK)
-
-
-@numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
-def _vol_der(x0, x1, x2, x3, x4, x5, y0, y1, y2, y3, y4, y5, z0, z1, z2, z3, z4, z5):
-    """One node's dV/dx, dV/dy, dV/dz from the six other nodes that enter it (FB81 eq. 79,
-    written as the sums of pairs of LULESH's `VoluDer`)."""
-    dx = ((y1 + y2) * (z0 + z1) - (y0 + y1) * (z1 + z2) + (y0 + y4) * (z3 + z4)
-          - (y3 + y4) * (z0 + z4) - (y2 + y5) * (z3 + z5) + (y3 + y5) * (z2 + z5))
-    dy = (-(x1 + x2) * (z0 + z1) + (x0 + x1) * (z1 + z2) - (x0 + x4) * (z3 + z4)
-          + (x3 + x4) * (z0 + z4) + (x2 + x5) * (z3 + z5) - (x3 + x5) * (z2 + z5))
-    dz = (-(y1 + y2) * (x0 + x1) + (y0 + y1) * (x1 + x2) - (y0 + y4) * (x3 + x4)
-          + (y3 + y4) * (x0 + x4) + (y2 + y5) * (x3 + x5) - (y3 + y5) * (x2 + x5))
-    t = 1.0 / 12.0
-    return dx * t, dy * t, dz * t
 
 
 # for node I: the six nodes whose coordinates enter dV/dx_I, in `_vol_der`'s order
@@ -275,7 +266,7 @@ def _hex_element(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_
         # sound speed of the hourglass forms: the EOS one with 4G/3rho, also for damaged
         # elements (the mesh still needs its control there)
         chg = math.sqrt(max(c2a + c2b * max(pn, 0.0), 0.0) + 4.0 * shear / (3.0 * rho))
-        kv = cv * rho * chg * math.pow(vnew, 2.0 / 3.0)
+        kv = cv * rho * chg * VM.power(vnew, 2.0 / 3.0)
         ks = cs * dt * (bulk + 4.0 * shear / 3.0) * bb * vinv / 3.0
         for a in range(4):
             hx = hy = hz = 0.0  # Gamma_a . x_i
@@ -295,9 +286,12 @@ def _hex_element(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_
                 rx += vv[3 * n] * gam
                 ry += vv[3 * n + 1] * gam
                 rz += vv[3 * n + 2] * gam
-            s0x, s0y, s0z = hg[e, 3 * a], hg[e, 3 * a + 1], hg[e, 3 * a + 2]
+            s0x = s0y = s0z = 0.0  # the stiffness resultants exist with the stiffness form
+            if cs > 0.0:
+                s0x, s0y, s0z = hg[e, 3 * a], hg[e, 3 * a + 1], hg[e, 3 * a + 2]
             s1x, s1y, s1z = s0x + ks * rx, s0y + ks * ry, s0z + ks * rz
-            hg[e, 3 * a], hg[e, 3 * a + 1], hg[e, 3 * a + 2] = s1x, s1y, s1z
+            if cs > 0.0:
+                hg[e, 3 * a], hg[e, 3 * a + 1], hg[e, 3 * a + 2] = s1x, s1y, s1z
             qx, qy, qz = s1x + kv * rx, s1y + kv * ry, s1z + kv * rz
             hgwork += dt * ((0.5 * (s0x + s1x) + kv * rx) * rx + (0.5 * (s0y + s1y) + kv * ry) * ry
                             + (0.5 * (s0z + s1z) + kv * rz) * rz)
@@ -312,6 +306,55 @@ def _hex_element(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_
         fext[r, 1] += f[3 * n + 1]
         fext[r, 2] += f[3 * n + 2]
     return dte, -qn * dv, 0, hgwork
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _vector_block(elem_mat, status, e0):
+    """The block's material row if it can take the vector path (all intact, one material)."""
+    mat = elem_mat[e0:e0 + B]
+    st = status[e0:e0 + B]
+    mk = mat[0]
+    for i in range(B):
+        if st[i] != 0 or mat[i] != mk:
+            return -1
+    return mk
+
+
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def _block(e0, mk, x, v, conn, sdev, pressure, q, eps_p, eps_rate, temperature, hard, thermal,
+           energy, vol, elem_mass, hg, hg_visc, hg_stiff, mat_params, half, dt, cq, cl, rows,
+           fext, buf):
+    """The vector path of a full block of B intact hexes of material mk (hex8_block.py);
+    returns (min dt, its element, viscous work, hourglass work), or an infinite dt and
+    nothing written when a hex of the block inverted (the scalar path then counts it)."""
+    hourglass = False
+    stiff = False
+    for i in range(B):
+        if hg_visc[e0 + i] > 0.0:
+            hourglass = True
+        if hg_stiff[e0 + i] > 0.0:
+            stiff = True
+    HB.load_block(x, v, conn, sdev, pressure, energy, vol, elem_mass, hg, hg_visc, hg_stiff,
+                  e0, buf, stiff)
+    shear = mat_params[mk, P.G]
+    HB.kinematics_block(buf, half, dt, shear)
+    for i in range(B):
+        if not buf[E.R_DET * B + i] > 0.0:
+            return math.inf, -1, 0.0, 0.0
+    code = int(mat_params[mk, P.STRENGTH])
+    if code == P.JOHNSON_COOK and mat_params[mk, P.JC_C] >= 0.0:
+        E._jc_return_block(buf, mat_params, mk, shear, eps_p, temperature, hard, thermal, e0)
+    elif code != P.ELASTIC:
+        E._return_block(buf, code, mat_params, mk, shear, eps_p, temperature, hard, thermal,
+                        e0)
+    bulk = mat_params[mk, P.K]
+    HB.pressure_block(buf, dt, int(mat_params[mk, P.EOS]), mat_params[mk, P.RHO0], bulk,
+                      mat_params[mk, P.C0], mat_params[mk, P.S], mat_params[mk, P.GAMMA0],
+                      shear, cq, cl)
+    if hourglass or stiff:
+        HB.hourglass_block(buf, dt, bulk, shear)
+    return HB.store_block(rows, sdev, pressure, q, eps_rate, energy, vol, hg, fext, e0, buf,
+                          hourglass or stiff, stiff)
 
 
 # nogil: the frame writer's thread runs while the kernel does (as element.element_update)
@@ -336,6 +379,7 @@ def hex_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
     n_parts = (n_ch + part_chunks - 1) // part_chunks
     for t in numba.prange(threads):
         w = np.empty(SCRATCH)
+        buf = np.empty(HB.HROWS * B)  # the block buffer of the vector path
         for part in range(t, n_parts, threads):
             for ch in range(part * part_chunks, min(n_ch, (part + 1) * part_chunks)):
                 dt_min = math.inf
@@ -343,17 +387,32 @@ def hex_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                 qwork = 0.0
                 hgwork = 0.0
                 inverted = 0
-                for e in range(ch * CHUNK, min(n_elem, (ch + 1) * CHUNK)):
-                    dte, qw, inv, hw = _hex_element(
-                        e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
-                        temperature, hard, thermal, energy, vol, elem_mass, hg, hg_visc,
-                        hg_stiff, mat_params, half, dt, cq, cl, rows, fext, w)
-                    qwork += qw
-                    hgwork += hw
-                    inverted += inv
-                    if dte < dt_min:
-                        dt_min = dte
-                        worst = e
+                e_end = min(n_elem, (ch + 1) * CHUNK)
+                for e0 in range(ch * CHUNK, e_end, B):
+                    mk = _vector_block(elem_mat, status, e0) if e0 + B <= e_end else -1
+                    if mk >= 0:
+                        bdt, bworst, bq, bhg = _block(
+                            e0, mk, x, v, conn, sdev, pressure, q, eps_p, eps_rate, temperature,
+                            hard, thermal, energy, vol, elem_mass, hg, hg_visc, hg_stiff,
+                            mat_params, half, dt, cq, cl, rows, fext, buf)
+                        if bdt < math.inf:
+                            qwork += bq
+                            hgwork += bhg
+                            if bdt < dt_min:
+                                dt_min = bdt
+                                worst = bworst
+                            continue
+                    for e in range(e0, min(e0 + B, e_end)):
+                        dte, qw, inv, hw = _hex_element(
+                            e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
+                            eps_rate, temperature, hard, thermal, energy, vol, elem_mass, hg,
+                            hg_visc, hg_stiff, mat_params, half, dt, cq, cl, rows, fext, w)
+                        qwork += qw
+                        hgwork += hw
+                        inverted += inv
+                        if dte < dt_min:
+                            dt_min = dte
+                            worst = e
                 chunk_out[ch, OUT_DT] = dt_min
                 chunk_out[ch, OUT_QWORK] = qwork
                 chunk_out[ch, OUT_INVERTED] = inverted
