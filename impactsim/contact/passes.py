@@ -444,7 +444,7 @@ class ContactPass(Pass):
         ctx = self.ctx
         ctx.surface.sync(model.status)
         x, conn, elem_body, status = model.x, model.conn, model.elem_body, model.status
-        if model.blocks:  # hexes: measured against a tet cover of them (contact/hexes.py)
+        if getattr(model, "blocks", None):  # hexes: against a tet cover (contact/hexes.py)
             if getattr(ctx, "proxy", None) is None:
                 from impactsim.contact.hexes import ProxyTets
 
