@@ -1,6 +1,6 @@
 """Hex bodies in contact (contact/hexes.py): boundary quads, their split into two triangles
-(the same diagonal from both sides), true edges only, and the tet cover for the penetration
-measure."""
+(the same diagonal from both sides), the edges edge-edge sees, and the tet cover for the
+penetration measure."""
 
 import numpy as np
 
@@ -46,7 +46,10 @@ def test_split_is_the_same_from_both_sides():
         assert set(t1.ravel()) == set(q)
 
 
-def test_surface_has_true_edges_only():
+def test_surface_edges_are_the_quads_edges_and_the_split_creases():
+    """Edge-edge sees every element edge of the boundary quads and the diagonal of each split
+    (the crease of its two triangles, contact/hexes.py), never an edge inside the body; every
+    triangle lists its three edges."""
     pts, hexes = cylinder_hexes(0.5, 0.6, (0, 0, 1), 0.2)
     hexes, _ = fix_hex_orientation(pts, hexes)
     model = _model((pts, hexes.astype(np.int32)))
@@ -54,16 +57,16 @@ def test_surface_has_true_edges_only():
     quads, _, _ = boundary_quads(model.blocks[0].conn)
     assert s.n_faces == 2 * len(quads)
     true_edges = {frozenset(e) for q in quads for e in zip(q, np.roll(q, -1))}
-    assert {frozenset(e) for e in s.edges} == true_edges  # no diagonal
-    # each triangle lists its two quad edges and -1 for the diagonal
-    assert np.all((s.face_edges == -1).sum(axis=1) == 1)
+    tris = s.faces.reshape(-1, 2, 3)
+    creases = {frozenset(set(t[0]) & set(t[1])) for t in tris}
+    assert len(creases) == len(quads) and not (creases & true_edges)
+    assert {frozenset(e) for e in s.edges} == true_edges | creases
+    assert np.all(s.face_edges >= 0)
     for f, tri in enumerate(s.faces):
-        for g in s.face_edges[f]:
-            if g >= 0:
-                assert set(s.edges[g]) <= set(tri)
+        assert {frozenset(s.edges[g]) for g in s.face_edges[f]} == {
+            frozenset((tri[j], tri[(j + 1) % 3])) for j in range(3)}
     assert set(s.nodes) == set(np.unique(quads))
-    # the triangles close the surface: every true edge borders two triangles (of neighbouring
-    # quads), every diagonal the two triangles of its own quad
+    # the triangles close the surface: every edge borders two triangles
     tri_edges = np.sort(np.stack([s.faces, np.roll(s.faces, -1, axis=1)], -1).reshape(-1, 2), 1)
     _, counts = np.unique(tri_edges, axis=0, return_counts=True)
     assert np.all(counts == 2)
