@@ -20,6 +20,42 @@ ERODED = 3  # removed from the mesh; its arrays stay, its forces are zero
 
 
 @dataclass
+class ElementBlock:
+    """Elements of one further type (beside the tets, which are the Model's own element arrays),
+    like a meshio cell block: its own connectivity width, kernel and per-element state, with the
+    same names, shapes and units as the Model's element arrays. Nodes are shared with the tets.
+
+    kind "hex8": the one-point hex of solver/hex8.py, conn (n, 8) in the VTK node order.
+    """
+    kind: str
+    conn: np.ndarray  # (n, k) int32 node indices, positive orientation
+    elem_body: np.ndarray  # (n,) int32
+    elem_mat: np.ndarray  # (n,) int32
+    status: np.ndarray  # (n,) int8
+    sdev: np.ndarray  # (n, 6) float64 [Pa]
+    pressure: np.ndarray  # (n,) float64 [Pa]
+    q: np.ndarray  # (n,) float64 [Pa]
+    eps_p: np.ndarray  # (n,) float64 [-]
+    eps_rate: np.ndarray  # (n,) float64 [1/s]
+    temperature: np.ndarray  # (n,) float64 [K]
+    energy: np.ndarray  # (n,) float64 [J/kg]
+    damage: np.ndarray  # (n,) float64 [-]
+    vol: np.ndarray  # (n,) float64 [m^3]
+    vol0: np.ndarray  # (n,) float64 [m^3]
+    elem_mass: np.ndarray  # (n,) float64 [kg]
+    body_start: np.ndarray  # (n_body + 1,) int64: body b owns rows body_start[b]:body_start[b+1]
+    # hex8: hourglass resultants of the stiffness form (4 modes x 3) [N] and the coefficients of
+    # the viscous and stiffness forms per element [-] (solver/hex8.py)
+    hg: np.ndarray | None = None  # (n, 12) float64
+    hg_visc: np.ndarray | None = None  # (n,) float64
+    hg_stiff: np.ndarray | None = None  # (n,) float64
+
+    @property
+    def n_elem(self) -> int:
+        return self.conn.shape[0]
+
+
+@dataclass
 class Model:
     # --- nodes -------------------------------------------------------------------------------
     x: np.ndarray  # (n_node, 3) float64 [m] current positions
@@ -62,6 +98,8 @@ class Model:
     walls: np.ndarray  # (n_wall, 7) float64 point (3) [m], unit normal (3), friction coefficient
     # --- energy bookkeeping (all [J], accumulated since t = 0) ---------------------------------
     energy_terms: dict = field(default_factory=dict)
+    # --- further element blocks (hexahedra); the tets above are the first block -----------------
+    blocks: list = field(default_factory=list)  # ElementBlock
     time: float = 0.0  # [s]
     dtv: float = 0.0  # [s] velocity step of the current predictor U* = U + dtv F/m
     step: int = 0

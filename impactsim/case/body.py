@@ -7,7 +7,7 @@ from pathlib import Path
 
 from impactsim.case.errors import KeyPath
 from impactsim.case.read import Reader, non_negative, positive, type_name, unit_vector
-from impactsim.case.schema import Body, Constraint, NodeSelector, Wall
+from impactsim.case.schema import HOURGLASS_DEFAULTS, Body, Constraint, NodeSelector, Wall
 from impactsim.case.spec import (BODY, CONSTRAINT, SHAPE_KEYS, STRUCTURED_SHAPES,
                                  UNMESHED_SHAPES, WALL)
 
@@ -35,6 +35,16 @@ def read_body(raw: dict, path: KeyPath, index: int, base_dir: Path) -> Body:
         raise r.error("mesher", f"mesher 'structured' meshes {', '.join(STRUCTURED_SHAPES)} "
                                 f"only, not '{shape}'")
     position = r.get("position")
+    element = r.get("element")
+    hourglass = r.get("hourglass")
+    if element != "hex8":
+        for key in ("hourglass", "hourglass_coefficient"):
+            if r.has(key):
+                raise r.error(key, f"'{key}' applies to element = \"hex8\" bodies only")
+    if element == "hex8" and shape == "cube12":
+        raise r.error("element", "shape 'cube12' is the 12-tet cube; use shape 'box' for hexes")
+    hg_coef = (non_negative(r.get("hourglass_coefficient"), r.at("hourglass_coefficient"))
+               if r.has("hourglass_coefficient") else HOURGLASS_DEFAULTS[hourglass])
     body = Body(
         name=name,
         material=r.get("material"),
@@ -46,6 +56,9 @@ def read_body(raw: dict, path: KeyPath, index: int, base_dir: Path) -> Body:
         mesher=mesher,
         velocity=_velocity(r),
         angular_velocity=r.get("angular_velocity"),
+        element=element,
+        hourglass=hourglass,
+        hourglass_coefficient=hg_coef,
     )
     for raw_c, where in r.items("constraint"):
         body.constraints.append(read_constraint(raw_c, where, body))

@@ -75,6 +75,9 @@ def _body(b: Body) -> dict:
     if b.mesh_size > 0.0:
         out["mesh_size"] = b.mesh_size
     out.update(mesher=b.mesher, velocity=b.velocity, angular_velocity=b.angular_velocity)
+    if b.element != "tet":
+        out.update(element=b.element, hourglass=b.hourglass,
+                   hourglass_coefficient=b.hourglass_coefficient)
     if b.constraints:
         out["constraint"] = [_constraint(c) for c in b.constraints]
     return _plain(out)

@@ -108,6 +108,14 @@ class Body:
     velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)  # [m/s]
     angular_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)  # [rad/s] about `position`
     constraints: list[Constraint] = field(default_factory=list)
+    element: str = "tet"  # "tet" (run.element's tet) | "hex8" (one-point hex, solver/hex8.py)
+    hourglass: str = "viscous"  # hex8: "viscous" | "stiffness" (Flanagan & Belytschko 1981)
+    hourglass_coefficient: float = 0.1  # hex8: c_v (viscous) or c_s (stiffness) [-]
+
+
+# the usual hourglass coefficients of the two forms (ALGORITHMS.md 7.1: 0.05-0.15 viscous,
+# 0.01-0.05 stiffness; LS-DYNA's default QH = 0.1)
+HOURGLASS_DEFAULTS = {"viscous": 0.1, "stiffness": 0.03}
 
 
 @dataclass

@@ -91,6 +91,8 @@ EOS_MODELS = ("linear", "mie-gruneisen")
 EROSION_CRITERIA = ("plastic-strain", "jc-damage", "principal-strain", "fractured")
 SHAPES = ("box", "plate", "cylinder", "sphere", "file", "cube12")
 MESHERS = ("gmsh", "structured")
+BODY_ELEMENTS = ("tet", "hex8")
+HOURGLASS_FORMS = ("viscous", "stiffness")
 CONTACT_PASSES = ("node-face", "edge-edge")
 EROSION_REGIONS = ("surface", "anywhere")
 ELASTIC_CONSTANTS = ("youngs_modulus", "poisson_ratio", "shear_modulus", "bulk_modulus")
@@ -277,6 +279,14 @@ BODY = Table("body", "A body: a meshed primitive (or a mesh file) of one materia
         default_doc="required (not for cube12, file)"),
     Key("mesher", "choice", "Mesh generator; structured only for box, plate, cube12.",
         _d(schema.Body, "mesher"), choices=MESHERS),
+    Key("element", "choice", "Element type of the body: tet (the formulation of run.element) "
+        "or hex8, the one-point hexahedron with Flanagan-Belytschko hourglass control "
+        "(box, plate: structured; cylinder: O-grid; sphere: cube-sphere; file: hexahedron "
+        "cells).", _d(schema.Body, "element"), choices=BODY_ELEMENTS),
+    Key("hourglass", "choice", "hex8: hourglass control form, viscous or stiffness "
+        "(Flanagan & Belytschko 1981).", _d(schema.Body, "hourglass"), choices=HOURGLASS_FORMS),
+    Key("hourglass_coefficient", "number", "hex8: hourglass coefficient (>= 0; 0 turns the "
+        "control off).", COMPUTED, default_doc="0.1 viscous, 0.03 stiffness"),
     Key("velocity", "vector", "Initial velocity.", _d(schema.Body, "velocity"), dim="velocity"),
     Key("speed", "quantity", "Initial speed along `direction` (instead of velocity).", None,
         dim="velocity"),

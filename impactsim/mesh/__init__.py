@@ -89,6 +89,10 @@ def mesh_local(body: Body, use_cache: bool = True) -> tuple[np.ndarray, np.ndarr
 
     Taken from the on-disk cache when present (cache.py), else meshed and stored.
     """
+    if getattr(body, "element", "tet") == "hex8":  # hexahedra: hexes.py (not cached: fast)
+        from impactsim.mesh.hexes import hex_mesh_local
+
+        return hex_mesh_local(body)
     key = None
     if use_cache:
         try:
@@ -109,7 +113,8 @@ def mesh_local(body: Body, use_cache: bool = True) -> tuple[np.ndarray, np.ndarr
 
 
 def mesh_body(body: Body, *, use_cache: bool = True) -> tuple[np.ndarray, np.ndarray]:
-    """Mesh and place `body`: points (n, 3) float64 [m], tets (e, 4) int32 (module docstring).
+    """Mesh and place `body`: points (n, 3) float64 [m], tets (e, 4) int32 (module docstring);
+    hexes (e, 8) int32 for an element = "hex8" body (hexes.py).
 
     Raises MeshError (a CaseError) with a message naming the problem; the caller adds the body.
     """

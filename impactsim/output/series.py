@@ -78,8 +78,9 @@ class SeriesWriter:
     ) -> Path:
         """Write the frame at `time` [s] and return its path.
 
-        points: (n, 3) float [m]. cells: (e, 4) int tetrahedra, or None (or (e, 1)) for one vertex
-        cell per point (particles). point_data: name -> (n, ...) array. cell_data: name ->
+        points: (n, 3) float [m]. cells: (e, 4) int tetrahedra, (e, 8) hexahedra (VTK_HEXAHEDRON),
+        a list of such blocks (cell data and keep then run over their concatenation), or None
+        (or (e, 1)) for one vertex cell per point (particles). point_data: name -> (n, ...) array. cell_data: name ->
         (e, ...) array. keep: (e,) bool, False for cells left out of the file (eroded elements);
         their cell data is dropped with them, the points stay.
         """
@@ -90,23 +91,32 @@ class SeriesWriter:
         if pts.ndim != 2 or pts.shape[1] != 3:
             raise ValueError(f"points must have shape (n, 3), got {pts.shape}")
         n = pts.shape[0]
-        cell_type, conn = _cell_block(cells, n)
-        e = conn.shape[0]
+        # a list of cell arrays is a list of blocks (tets, hexes), the cell data and `keep`
+        # running over their concatenation
+        typed = [_cell_block(c, n) for c in (cells if isinstance(cells, list) else [cells])]
+        sizes = [conn.shape[0] for _, conn in typed]
+        e = sum(sizes)
         pdata = {name: _field(name, value, n, "point") for name, value in (point_data or {}).items()}
         cdata = {name: _field(name, value, e, "cell") for name, value in (cell_data or {}).items()}
         if keep is not None:
             keep = np.asarray(keep)
             if keep.dtype != np.bool_ or keep.shape != (e,):
                 raise ValueError(f"keep must be a ({e},) bool array, got {keep.dtype} {keep.shape}")
-            conn = conn[keep]
             cdata = {name: value[keep] for name, value in cdata.items()}
-        conn = np.ascontiguousarray(conn)
+            bounds = np.cumsum([0] + sizes)
+            typed = [(t, conn[keep[bounds[i]:bounds[i + 1]]]) for i, (t, conn) in enumerate(typed)]
+            sizes = [conn.shape[0] for _, conn in typed]
+        typed = [(t, np.ascontiguousarray(conn)) for t, conn in typed]
         if self._pool is not None:  # the caller goes on changing its arrays: a frame of copies
-            pts, conn = pts.copy(), conn.copy()
+            pts = pts.copy()
+            typed = [(t, conn.copy()) for t, conn in typed]
             pdata = {name: value.copy() for name, value in pdata.items()}
             cdata = {name: value.copy() for name, value in cdata.items()}
-        mesh = meshio.Mesh(pts, [(cell_type, conn)], point_data=pdata,
-                           cell_data={name: [value] for name, value in cdata.items()})
+        bounds = np.cumsum([0] + sizes)
+        live = [i for i, size in enumerate(sizes) if size or len(sizes) == 1]
+        mesh = meshio.Mesh(pts, [typed[i] for i in live], point_data=pdata,
+                           cell_data={name: [value[bounds[i]:bounds[i + 1]] for i in live]
+                                      for name, value in cdata.items()})
         name = f"{self.prefix}_{self._count:05d}.vtu"
         self._count += 1
         if self._pool is None:
@@ -167,11 +177,11 @@ def _cell_block(cells: np.ndarray | None, n_point: int) -> tuple[str, np.ndarray
     if cells is None:
         return "vertex", np.arange(n_point, dtype=np.int64).reshape(-1, 1)
     conn = np.asarray(cells)
-    if conn.ndim != 2 or conn.shape[1] not in (1, 4) or not np.issubdtype(conn.dtype, np.integer):
-        raise ValueError(f"cells must be an integer (e, 4) or (e, 1) array, got {conn.dtype} {conn.shape}")
+    if conn.ndim != 2 or conn.shape[1] not in (1, 4, 8) or not np.issubdtype(conn.dtype, np.integer):
+        raise ValueError(f"cells must be an integer (e, 4), (e, 8) or (e, 1) array, got {conn.dtype} {conn.shape}")
     if conn.size and (conn.min() < 0 or conn.max() >= n_point):
         raise ValueError(f"cells refer to points outside 0..{n_point - 1}")
-    return ("tetra" if conn.shape[1] == 4 else "vertex"), conn
+    return {4: "tetra", 8: "hexahedron", 1: "vertex"}[conn.shape[1]], conn
 
 
 def _field(name: str, value: np.ndarray, k: int, kind: str) -> np.ndarray:

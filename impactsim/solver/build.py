@@ -6,7 +6,7 @@ import numpy as np
 
 from impactsim.case.schema import Body, Case, NodeSelector
 from impactsim.materials.params import T_INIT, material_table
-from impactsim.model import Model
+from impactsim.model import ElementBlock, Model
 
 
 def select_nodes(sel: NodeSelector, x: np.ndarray) -> np.ndarray:
@@ -61,11 +61,15 @@ def build_model(case: Case, meshes: list[tuple[np.ndarray, np.ndarray]] | None =
     xs, conns, vs, node_body, elem_body, elem_mat = [], [], [], [], [], []
     node_start, elem_start = [0], [0]
     bc_nodes, bc_mask, bc_vel = [], [], []
+    hexes = HexCollector()
     for b, (body, (pts, tets)) in enumerate(zip(case.bodies, meshes)):
         pts = np.asarray(pts, dtype=np.float64)
         tets = np.asarray(tets, dtype=np.int64)
         off = node_start[-1]
         xs.append(pts)
+        hexes.body(b, body, tets if tets.shape[1] == 8 else None, off, mat_index[body.material])
+        if tets.shape[1] == 8:  # a hex body: its elements go to the hex block
+            tets = np.zeros((0, 4), np.int64)
         conns.append(tets + off)
         vs.append(_initial_velocity(body, pts))
         node_body.append(np.full(len(pts), b, dtype=np.int32))
@@ -91,6 +95,7 @@ def build_model(case: Case, meshes: list[tuple[np.ndarray, np.ndarray]] | None =
     elem_mass = mat_params[emat, 0] * vol0
     mass = np.zeros(n_node)
     np.add.at(mass, conn.ravel(), np.repeat(elem_mass / 4.0, 4))
+    blocks = hexes.blocks(x, mat_params, mass)
     ptr, n2e = node_to_element(conn, n_node)
 
     if bc_nodes:
@@ -122,7 +127,8 @@ def build_model(case: Case, meshes: list[tuple[np.ndarray, np.ndarray]] | None =
         node_start=np.array(node_start, np.int64), elem_start=np.array(elem_start, np.int64),
         bc_nodes=nodes.astype(np.int32), bc_mask=masks, bc_velocity=vels, walls=walls,
         energy_terms={"contact_dissipated": 0.0, "external_work": 0.0, "viscous": 0.0,
-                      "eroded": 0.0},
+                      "eroded": 0.0, **({"hourglass": 0.0} if blocks else {})},
+        blocks=blocks,
     )
 
 
@@ -132,3 +138,46 @@ def _initial_velocity(body: Body, pts: np.ndarray) -> np.ndarray:
     if np.any(w):
         v += np.cross(w, pts - np.asarray(body.position, dtype=np.float64))
     return v
+
+
+class HexCollector:
+    """Gathers the hex bodies of a case into one ElementBlock("hex8") (solver/hex8.py)."""
+
+    def __init__(self):
+        self.conns, self.bodies, self.mats, self.visc, self.stiff = [], [], [], [], []
+        self.start = [0]
+
+    def body(self, b: int, body: Body, cells, offset: int, mat: int) -> None:
+        n = 0 if cells is None else len(cells)
+        if n:
+            self.conns.append(np.asarray(cells, np.int64) + offset)
+            self.bodies.append(np.full(n, b, np.int32))
+            self.mats.append(np.full(n, mat, np.int32))
+            coef = float(body.hourglass_coefficient)
+            viscous = body.hourglass == "viscous"
+            self.visc.append(np.full(n, coef if viscous else 0.0))
+            self.stiff.append(np.full(n, 0.0 if viscous else coef))
+        self.start.append(self.start[-1] + n)
+
+    def blocks(self, x: np.ndarray, mat_params: np.ndarray, mass: np.ndarray) -> list:
+        """[] without hex bodies, else [the hex block]; adds the hexes' mass (1/8 per corner)."""
+        if not self.conns:
+            return []
+        from impactsim.solver.hex8 import hex_volumes
+
+        conn = np.ascontiguousarray(np.concatenate(self.conns).astype(np.int32))
+        emat = np.concatenate(self.mats)
+        vol0 = hex_volumes(x, conn)
+        if np.any(vol0 <= 0.0):
+            raise ValueError("the mesh has inverted or degenerate hexahedra")
+        elem_mass = mat_params[emat, 0] * vol0
+        np.add.at(mass, conn.ravel(), np.repeat(elem_mass / 8.0, 8))
+        n = len(conn)
+        return [ElementBlock(
+            kind="hex8", conn=conn, elem_body=np.concatenate(self.bodies), elem_mat=emat,
+            status=np.zeros(n, np.int8), sdev=np.zeros((n, 6)), pressure=np.zeros(n),
+            q=np.zeros(n), eps_p=np.zeros(n), eps_rate=np.zeros(n),
+            temperature=mat_params[emat, T_INIT].copy(), energy=np.zeros(n),
+            damage=np.zeros(n), vol=vol0.copy(), vol0=vol0, elem_mass=elem_mass,
+            body_start=np.array(self.start, np.int64), hg=np.zeros((n, 12)),
+            hg_visc=np.concatenate(self.visc), hg_stiff=np.concatenate(self.stiff))]

@@ -59,6 +59,11 @@ class Simulation:
         self.hardening, self.thermal = np.zeros(ne), np.zeros(ne)
         E.yield_cache(model.elem_mat, model.mat_params, model.eps_p, model.temperature,
                       self.hardening, self.thermal)
+        self.block_runners = []  # further element blocks (hexahedra: solver/blocks.py)
+        if getattr(model, "blocks", None):
+            from impactsim.solver.blocks import BlockRunner
+
+            self.block_runners = [BlockRunner(model, b) for b in model.blocks]
         for p in passes:  # passes that need the integrator (fracture: refresh_forces)
             if hasattr(p, "attach"):
                 p.attach(self)
@@ -105,8 +110,7 @@ class Simulation:
         elif dt < self.dt_collapse * self.dt_first and dt < limit:
             raise SimulationStopped(
                 f"time step collapsed to {dt:.3e} s (first step {self.dt_first:.3e} s) at "
-                f"t = {m.time:.6g} s; the smallest step is in element {self.worst_element} "
-                f"(body {m.body_names[m.elem_body[self.worst_element]]!r})")
+                f"t = {m.time:.6g} s; the smallest step is in {self._worst_name()}")
         dtv = 0.5 * (self.dt + dt) if self.dt > 0.0 else 0.5 * dt
         m.dtv = dtv
         t0 = wallclock.perf_counter()
@@ -139,6 +143,14 @@ class Simulation:
         m.step += 1
         return dt
 
+    def _worst_name(self) -> str:
+        """The element with the smallest stable step, with its body (a hex is -(1 + index))."""
+        m, k = self.model, self.worst_element
+        if k < 0 and getattr(m, "blocks", None):
+            b = m.blocks[0]
+            return f"hex {-1 - k} (body {m.body_names[b.elem_body[-1 - k]]!r})"
+        return f"element {k} (body {m.body_names[m.elem_body[k]]!r})"
+
     def _update_elements(self, dt: float) -> None:
         m = self.model
         fr = self.force_rows
@@ -157,8 +169,18 @@ class Simulation:
         self.dt_stable = float(out[k, E.OUT_DT])
         self.worst_element = int(out[k, E.OUT_WORST])
         m.energy_terms["viscous"] += float(out[:, E.OUT_QWORK].sum())
-        self.timings["element"] += wallclock.perf_counter() - t0
         inverted = int(out[:, E.OUT_INVERTED].sum())
+        if self.block_runners:  # after the tets: the blocks add their forces (blocks.py)
+            from impactsim.solver.blocks import update_blocks
+
+            bdt, bworst, bq, bhg, binv = update_blocks(self.block_runners, m, dt, self.cq,
+                                                       self.cl)
+            if bdt < self.dt_stable or m.n_elem == 0:
+                self.dt_stable, self.worst_element = bdt, bworst
+            m.energy_terms["viscous"] += bq
+            m.energy_terms["hourglass"] += bhg
+            inverted += binv
+        self.timings["element"] += wallclock.perf_counter() - t0
         if inverted:
             raise SimulationStopped(
                 f"{inverted} element(s) inverted (negative volume) at t = {m.time + dt:.6g} s")
@@ -177,15 +199,23 @@ class Simulation:
         m = self.model
         ke = kinetic_energy(m.v, m.mass)
         ie = internal_energy(m.energy, m.elem_mass, m.status)
+        if getattr(m, "blocks", None):
+            from impactsim.solver.blocks import block_internal_energy
+
+            ie += block_internal_energy(m)
         t = m.energy_terms
         out = {"kinetic_energy": ke, "internal_energy": ie, "viscous_energy": t["viscous"],
                "contact_dissipated": t["contact_dissipated"], "external_work": t["external_work"],
                "eroded_energy": t["eroded"]}
         for key, val in t.items():
-            if key not in ("viscous", "contact_dissipated", "external_work", "eroded"):
+            if key not in ("viscous", "contact_dissipated", "external_work", "eroded",
+                           "hourglass"):
                 out[key] = val
         out["total_energy"] = (ke + ie + t["contact_dissipated"] + t["eroded"]
                                + t.get("particles", 0.0) - t["external_work"])
+        if "hourglass" in t:  # the hourglass forces' work (hex8 blocks)
+            out["hourglass_energy"] = t["hourglass"]
+            out["total_energy"] += t["hourglass"]
         return out
 
     def momentum(self) -> np.ndarray:

@@ -36,20 +36,37 @@ def frame_times(case: Case) -> np.ndarray:
 
 def frame_fields(model: Model) -> tuple[dict, dict]:
     """Point and cell data of a frame (DESIGN.md Output)."""
-    from impactsim.output.series import voigt_to_tensor
-
-    s = model.sdev
-    sigma = s.copy()
-    sigma[:, :3] -= model.pressure[:, None]
-    vm = np.sqrt(1.5 * (np.sum(s[:, :3] ** 2, axis=1) + 2.0 * np.sum(s[:, 3:] ** 2, axis=1)))
     # the keys are impactsim.output.fields.FRAME_FIELDS
     point = {"velocity": model.v, "displacement": model.x - model.x0}
-    cell = {"stress": voigt_to_tensor(sigma), "pressure": model.pressure, "von_mises": vm,
-            "plastic_strain": model.eps_p, "temperature": model.temperature,
-            "status": model.status.astype(np.int32), "body": model.elem_body,
-            "density": model.elem_mass / np.where(model.vol > 0, model.vol, np.inf),
-            "internal_energy": model.energy}
+    cell = cell_fields(model)
+    if model.blocks:  # the further blocks' cells follow the tets' (frame_cells)
+        blocks = [cell_fields(b) for b in model.blocks]
+        cell = {k: np.concatenate([v] + [b[k] for b in blocks]) for k, v in cell.items()}
     return point, cell
+
+
+def cell_fields(src) -> dict:
+    """The cell data of the elements of `src` (the Model's tets or an ElementBlock)."""
+    from impactsim.output.series import voigt_to_tensor
+
+    s = src.sdev
+    sigma = s.copy()
+    sigma[:, :3] -= src.pressure[:, None]
+    vm = np.sqrt(1.5 * (np.sum(s[:, :3] ** 2, axis=1) + 2.0 * np.sum(s[:, 3:] ** 2, axis=1)))
+    return {"stress": voigt_to_tensor(sigma), "pressure": src.pressure, "von_mises": vm,
+            "plastic_strain": src.eps_p, "temperature": src.temperature,
+            "status": src.status.astype(np.int32), "body": src.elem_body,
+            "density": src.elem_mass / np.where(src.vol > 0, src.vol, np.inf),
+            "internal_energy": src.energy}
+
+
+def frame_cells(model: Model) -> tuple:
+    """(cells, keep) of a frame: the tets, or the list of blocks (tets, hexes) with the mask of
+    the live cells over their concatenation."""
+    if not model.blocks:
+        return model.conn, model.status != ERODED
+    return ([model.conn] + [b.conn for b in model.blocks],
+            np.concatenate([model.status] + [b.status for b in model.blocks]) != ERODED)
 
 
 def body_summary(model: Model) -> dict:
@@ -61,7 +78,8 @@ def body_summary(model: Model) -> dict:
         out[name] = {"mass": m, "momentum": p.tolist(),
                      "mean_velocity": (p / m).tolist() if m > 0 else [0.0, 0.0, 0.0],
                      "nodes": int(sl.stop - sl.start),
-                     "elements": int(model.elem_start[b + 1] - model.elem_start[b])}
+                     "elements": int(model.elem_start[b + 1] - model.elem_start[b])
+                     + sum(int(k.body_start[b + 1] - k.body_start[b]) for k in model.blocks)}
     return out
 
 
@@ -110,9 +128,16 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
         model = build_model(case, meshes)
     except ValueError as err:
         raise SimulationError(f"{case.run.name}: {err}") from err
-    numba.set_num_threads(thread_count(case.run.threads, model.n_elem))
+    n_elem = model.n_elem + sum(b.n_elem for b in model.blocks)
+    numba.set_num_threads(thread_count(case.run.threads, n_elem))
+    if model.blocks:
+        from impactsim.solver.blocks import unsupported
+
+        why = unsupported(case)
+        if why:
+            raise SimulationError(f"{case.run.name}: {why}")
     passes = build_passes(case, model)
-    bar.log(f"{case.run.name}: {model.n_node} nodes, {model.n_elem} elements, "
+    bar.log(f"{case.run.name}: {model.n_node} nodes, {n_elem} elements, "
             f"{model.n_body} bodies; passes: " + (", ".join(p.name for p in passes) or "none"))
     for w in mach_warnings(case):
         bar.log("warning: " + w)
@@ -125,7 +150,8 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
     series = SeriesWriter(out, compression=case.output.compression, background=True)
     pass_series: dict[str, SeriesWriter] = {}  # the passes' own series (particles)
     fields = case.output.fields
-    columns = CORE_COLUMNS + [k for p in passes for k in p.history(model)]
+    columns = CORE_COLUMNS + (["hourglass_energy"] if model.blocks else []) + [
+        k for p in passes for k in p.history(model)]
     history = HistoryWriter(out / "history.csv", list(dict.fromkeys(columns)))
     times = frame_times(case)
     next_frame = 0
@@ -143,7 +169,8 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
         if fields is not None:
             point = {k: v for k, v in point.items() if k in fields}
             cell = {k: v for k, v in cell.items() if k in fields}
-        series.write(model.time, model.x, model.conn, point, cell, keep=model.status != ERODED)
+        cells, keep = frame_cells(model)
+        series.write(model.time, model.x, cells, point, cell, keep=keep)
         for pa in passes:  # passes with series of their own (particles) write with every frame
             for key, (points, data) in (pa.frame(model) if hasattr(pa, "frame") else {}).items():
                 if key not in pass_series:
@@ -214,12 +241,12 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
     summary = {
         "case": case.run.name,
         "source": str(case.source) if case.source else None,
-        "nodes": model.n_node, "elements": model.n_elem, "bodies": body_summary(model),
+        "nodes": model.n_node, "elements": n_elem, "bodies": body_summary(model),
         "steps": model.step, "time": model.time, "end_time": end,
         "wall_seconds": wall, "seconds_to_first_step": first_step_seconds,
         "seconds_per_pass": timings,
-        "ns_per_element_step": (1e9 * sim.timings["element"] / (model.n_elem * model.step)
-                                if model.step else None),
+        "ns_per_element_step": (1e9 * sim.timings["element"] / (n_elem * model.step)
+                                if model.step and n_elem else None),
         "passes": [p.name for p in passes],
         "energy": energies,
         "energy_balance_error": ((energies["total_energy"] - e0) / max(abs(e0), 1e-300)

@@ -33,7 +33,7 @@ import numpy as np
 class ForceRows:
     """Where each element corner adds its force (see the module docstring).
 
-    rows: (n_elem, 4) int32 row of `fext` for corner k of element e;
+    rows: (n_elem, k) int32 row of `fext` for corner k of element e (k = 4 tets, 8 hexes);
     extra_ptr: (n_node + 1,) int64, extra_rows: (n_extra,) int64: the further rows of node i
     are extra_rows[extra_ptr[i]:extra_ptr[i + 1]], in part order;
     n_rows: n_node + n_extra, the length of `fext`;
@@ -48,9 +48,9 @@ class ForceRows:
 
 def force_rows(conn: np.ndarray, n_node: int, part_size: int) -> ForceRows:
     """The rows of every element corner for parts of `part_size` consecutive elements."""
-    n_elem = conn.shape[0]
+    n_elem, corners = conn.shape[0], conn.shape[1]  # 4 for tets, 8 for hexes
     n_parts = max(1, (n_elem + part_size - 1) // part_size)
-    part = np.repeat(np.arange(n_elem, dtype=np.int64) // part_size, 4)
+    part = np.repeat(np.arange(n_elem, dtype=np.int64) // part_size, corners)
     key = conn.reshape(-1).astype(np.int64) * n_parts + part
     pairs, corner_pair = np.unique(key, return_inverse=True)  # sorted node-major, part-minor
     node = pairs // n_parts
@@ -64,7 +64,7 @@ def force_rows(conn: np.ndarray, n_node: int, part_size: int) -> ForceRows:
     row[extra] = extra_row
     extra_ptr = np.zeros(n_node + 1, np.int64)
     np.cumsum(np.bincount(node[extra], minlength=n_node), out=extra_ptr[1:])
-    return ForceRows(rows=row[corner_pair].reshape(n_elem, 4).astype(np.int32),
+    return ForceRows(rows=row[corner_pair].reshape(n_elem, corners).astype(np.int32),
                      extra_ptr=extra_ptr, extra_rows=row[extra].astype(np.int64),
                      n_rows=n_node + int(np.count_nonzero(extra)), part_size=part_size)
 

@@ -1,0 +1,83 @@
+"""The kernels of the element blocks beyond the tets (Model.blocks), for the time loop.
+
+The tet kernel (element.py) writes Model.force from the tets' rows; then every further block
+runs its own kernel, which adds its elements' forces through force rows of its own
+(scatter.force_rows with the block's corner count) in part order. The sum at a node is thus
+(tets in part order) + (block 1 in part order) + ...: the same on any number of threads.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from impactsim.model import ElementBlock, Model
+from impactsim.solver import element as E
+from impactsim.solver import hex8 as H
+from impactsim.solver.scatter import force_rows
+
+
+class BlockRunner:
+    """Buffers and caches of one further element block and the call of its kernel."""
+
+    def __init__(self, model: Model, block: ElementBlock, part_size: int = H.PART):
+        if block.kind != "hex8":
+            raise ValueError(f"unknown element block kind {block.kind!r}")
+        self.block = block
+        self.rows = force_rows(block.conn, model.n_node, part_size)
+        self.fext = np.zeros((self.rows.n_rows, 3))
+        self.chunk_out = np.zeros((H.n_chunks(block.n_elem), H.N_OUT))
+        self.hard, self.thermal = np.zeros(block.n_elem), np.zeros(block.n_elem)
+        E.yield_cache(block.elem_mat, model.mat_params, block.eps_p, block.temperature,
+                      self.hard, self.thermal)
+
+    def update(self, model: Model, dt: float, cq: float, cl: float) -> np.ndarray:
+        """Run the block's kernel (adds to model.force); returns its per-chunk results."""
+        b, fr = self.block, self.rows
+        H.hex_update(model.x, model.v, b.conn, b.elem_mat, b.status, b.sdev, b.pressure, b.q,
+                     b.eps_p, b.eps_rate, b.temperature, self.hard, self.thermal, b.energy,
+                     b.vol, b.elem_mass, b.hg, b.hg_visc, b.hg_stiff, model.mat_params, dt, cq,
+                     cl, model.force, fr.rows, self.fext, fr.extra_ptr, fr.extra_rows,
+                     fr.part_size // H.CHUNK, self.chunk_out, numba.get_num_threads())
+        return self.chunk_out
+
+
+def update_blocks(runners: list[BlockRunner], model: Model, dt: float, cq: float, cl: float
+                  ) -> tuple[float, int, float, float, int]:
+    """All further blocks after the tets: (min stable dt, its block element as
+    -(1 + index in the block), viscous work, hourglass work, inverted count)."""
+    dt_min, worst, qwork, hgwork, inverted = np.inf, -1, 0.0, 0.0, 0
+    for r in runners:
+        out = r.update(model, dt, cq, cl)
+        k = int(np.argmin(out[:, H.OUT_DT]))
+        if out[k, H.OUT_DT] < dt_min:
+            dt_min = float(out[k, H.OUT_DT])
+            worst = -(1 + int(out[k, H.OUT_WORST]))
+        qwork += float(out[:, H.OUT_QWORK].sum())
+        hgwork += float(out[:, H.OUT_HGWORK].sum())
+        inverted += int(out[:, H.OUT_INVERTED].sum())
+    return dt_min, worst, qwork, hgwork, inverted
+
+
+def block_internal_energy(model: Model) -> float:
+    """Sum of m_e e_e over the live elements of the further blocks [J]."""
+    from impactsim.solver.nodal import internal_energy
+
+    return sum(internal_energy(b.energy, b.elem_mass, b.status) for b in model.blocks)
+
+
+def unsupported(case) -> str:
+    """Why the case cannot run with its hex bodies ('' when it can): the fracture passes and
+    self-contact see the tets only so far, and a hex body would never fracture."""
+    hexes = [b for b in case.bodies if b.element == "hex8"]
+    if not hexes:
+        return ""
+    names = ", ".join(repr(b.name) for b in hexes)
+    if case.contact.self_contact:
+        return (f"body {names}: self-contact is not available for element = \"hex8\" bodies "
+                "yet (contact between bodies is)")
+    for b in hexes:
+        if case.materials[b.material].failure.active:
+            return (f"body {b.name!r}: fracture is not available for element = \"hex8\" bodies "
+                    f"yet; material {b.material!r} has failure criteria")
+    return ""
