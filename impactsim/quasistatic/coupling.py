@@ -1,0 +1,146 @@
+"""The operators of one contact interface between a kinematic body A and a force body B.
+
+Following [G15] each interface has a kinematic side A (its contact nodes get a prescribed
+normal displacement) and a force side B (it gets the contact pressure of A as a traction):
+
+- ``C_a`` (n x 3 N_A): rows n_m . u_A(m) of A's contact nodes m (vertices, and edge midpoints on
+  tet10), n_m the area-averaged outward normal of A there;
+- ``I_b`` (n x 3 N_B): n_m . u_B(s_m), B's displacement at the closest point s_m of m on B;
+- ``gap`` (n): the initial normal gap delta_m = (x_s - x_m) . n_m;
+- ``M_a`` (n x n): A's surface mass matrix on those nodes; the nodal pressures are
+  p = M_a^-1 lambda (lambda the reactions): a uniform pressure gives uniform p exactly, on tet4
+  and tet10 alike (the consistent nodal forces of a uniform pressure are M_a 1 p);
+- ``G_b`` (3 N_B x n): B's nodal forces of the traction -p n_B, p interpolated from A's nodal
+  pressures at the closest points of B's facet quadrature points (a mortar-like transfer: a
+  uniform pressure is passed exactly across non-matching meshes).
+- heat: per side, ``H`` (h times its surface mass), ``L`` (its loads from the other body's
+  temperature at its facet quadrature points: integral h v T_other) and the other body's ``P``
+  (interpolation of its temperature at those points), so only those values travel.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from impactsim.quasistatic.heat import _mass
+from impactsim.quasistatic.matching import locate
+from impactsim.quasistatic.space import Space, shape_values
+
+
+@dataclass
+class Interface:
+    a: int  # kinematic body index
+    b: int  # force body index
+    friction: float
+    conductance: float
+    nodes: np.ndarray  # A's contact scalar dofs
+    normals: np.ndarray  # (n, 3)
+    gap: np.ndarray  # (n,)
+    matched: np.ndarray  # (n,) bool: the node faces B's patch
+    C_a: sp.csr_matrix
+    I_b: sp.csr_matrix
+    M_a: sp.csr_matrix
+    G_b: sp.csr_matrix
+    heat_a: tuple | None = None  # (H_a, L_a, P_b): A's exchange matrix, load from values at
+    heat_b: tuple | None = None  # A's quadrature points, B's interpolation there (and conversely)
+    facets_a: np.ndarray | None = None
+    facets_b: np.ndarray | None = None
+
+
+def surface_interpolation(space: Space, facets: np.ndarray, points: np.ndarray):
+    """(sparse (n_points x N) interpolation of the scalar field at the closest points of
+    `points` (n, 3) on the facets, closest points (n, 3), facet normals there (n, 3))."""
+    x, normals = space.facet_geometry(facets)
+    f, bary, _ = locate(points, x)
+    fd = space.facet_dofs(facets)[:, f]  # (k, n)
+    vals = shape_values(space.order, bary)  # (n, k)
+    n = len(points)
+    rows = np.repeat(np.arange(n), fd.shape[0])
+    P = sp.csr_matrix((vals.ravel(), (rows, fd.T.ravel())), shape=(n, space.n))
+    closest = np.einsum("nk,nkc->nc", bary, x[f])
+    return P, closest, normals[f]
+
+
+def _vectorise(P: sp.csr_matrix, normals: np.ndarray) -> sp.csr_matrix:
+    """Rows n . u (3 N columns) from scalar interpolation rows."""
+    P = P.tocoo()
+    rows = np.repeat(P.row, 3)
+    cols = (3 * P.col[:, None] + np.arange(3)).ravel()
+    vals = (P.data[:, None] * normals[P.row]).ravel()
+    return sp.csr_matrix((vals, (rows, cols)), shape=(P.shape[0], 3 * P.shape[1]))
+
+
+def _quadrature(space: Space, facets: np.ndarray, vector: bool):
+    fb = space.facet_basis(facets, vector=vector)
+    xq = fb.global_coordinates().value  # (3, nf, nq)
+    return fb, xq.reshape(3, -1).T, fb.dx.ravel()
+
+
+def _facet_to_qp(fb, weights_per_dof) -> sp.csr_matrix:
+    """(N x nqp) sparse: rows the basis' dofs, columns the quadrature points."""
+    nf, nq = fb.dx.shape
+    rows, cols, vals = [], [], []
+    qp = np.arange(nf * nq).reshape(nf, nq)
+    for i in range(len(fb.basis)):
+        v = weights_per_dof(fb.basis[i][0].value)  # (nf, nq)
+        rows.append(np.repeat(fb.element_dofs[i], nq))
+        cols.append(qp.ravel())
+        vals.append(v.ravel())
+    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(fb.N, nf * nq))
+
+
+def build(a: int, b: int, sa: Space, sb: Space, facets_a: np.ndarray, facets_b: np.ndarray,
+          friction: float = 0.0, conductance: float = 0.0) -> Interface:
+    # A's contact nodes and their normals
+    fd = sa.facet_dofs(facets_a)  # (k, nf)
+    nodes, inverse = np.unique(fd, return_inverse=True)
+    inverse = inverse.reshape(fd.shape)
+    xa, na = sa.facet_geometry(facets_a)
+    area = 0.5 * np.linalg.norm(np.cross(xa[:, 1] - xa[:, 0], xa[:, 2] - xa[:, 0]), axis=1)
+    nsum = np.zeros((len(nodes), 3))
+    for r in range(fd.shape[0]):
+        np.add.at(nsum, inverse[r], na * area[:, None])
+    normals = nsum / np.linalg.norm(nsum, axis=1)[:, None]
+    xm = sa.doflocs[:, nodes].T
+    # B at the closest points
+    Pb, xs, nb = surface_interpolation(sb, facets_b, xm)
+    d = xs - xm
+    gap = np.einsum("ij,ij->i", d, normals)
+    lateral = np.linalg.norm(d - gap[:, None] * normals, axis=1)
+    h = np.sqrt(area.mean())
+    matched = lateral <= 1e-3 * h + 1e-2 * np.abs(gap)
+    n = len(nodes)
+    # kinematic rows of A
+    Sa = sp.csr_matrix((np.ones(n), (np.arange(n), nodes)), shape=(n, sa.n))
+    C_a = _vectorise(Sa, normals)
+    I_b = _vectorise(Pb, normals)
+    # surface mass of A on its contact nodes
+    fba = sa.facet_basis(facets_a)
+    M_a = _mass.assemble(fba, c=1.0).tocsr()[nodes][:, nodes]
+    # force transfer to B
+    fbb, xq, wq = _quadrature(sb, facets_b, vector=True)
+    Pa, _, _ = surface_interpolation(sa, facets_a, xq)
+    Pa = Pa[:, nodes]  # columns: A's contact nodes
+    nB = fbb.normals  # (3, nf, nq) outward of B
+    Bq = _facet_to_qp(fbb, lambda v: -np.einsum("cfq,cfq->fq", v, nB))
+    G_b = (Bq @ sp.diags(wq) @ Pa).tocsr()
+    itf = Interface(a, b, friction, conductance, nodes, normals, gap, matched, C_a, I_b,
+                    M_a, G_b, facets_a=np.asarray(facets_a), facets_b=np.asarray(facets_b))
+    if conductance > 0:
+        itf.heat_a = _exchange(sa, facets_a, sb, facets_b, conductance)
+        itf.heat_b = _exchange(sb, facets_b, sa, facets_a, conductance)
+    return itf
+
+
+def _exchange(s1: Space, f1, s2: Space, f2, h: float):
+    """(h M on s1's facets, L (N1 x nq), P2 (nq x N2)): s1's load is L @ (P2 @ T_2), the
+    integral h v T_2(s(x)) dS over s1's facets."""
+    fb, xq, wq = _quadrature(s1, f1, vector=False)
+    P2, _, _ = surface_interpolation(s2, f2, xq)
+    L = (_facet_to_qp(fb, lambda v: v) @ sp.diags(h * wq)).tocsr()
+    H = _mass.assemble(fb, c=h).tocsr()
+    return H, L, P2
