@@ -27,7 +27,7 @@ class Outcome:
 
 def solve(problem: Problem, workers: int = 0, address: str | None = None, on_step=None,
           setup=None) -> Outcome:
-    """Solve all load steps; `on_step(step, time, fields, state, interfaces)` after each.
+    """Solve all load steps; `on_step(record, fields, state, interfaces)` after each.
     A step that does not converge stops the run: Outcome.stopped says why, the finished steps
     and the unconverged state of the last one are kept (and passed to on_step)."""
     out = Outcome()
@@ -63,7 +63,7 @@ def solve(problem: Problem, workers: int = 0, address: str | None = None, on_ste
             fields = pool.call("fields")
             out.fields = fields
             if on_step is not None:
-                on_step(k + 1, t, fields, state, itfs)
+                on_step(rec, fields, state, itfs)
             if out.stopped:
                 break
             t_prev = t
