@@ -94,7 +94,7 @@ def is_quasistatic(path: Path | str, overrides: Sequence[str] = ()) -> bool:
     the dynamic loader then reports the problem)."""
     try:
         raw = tomllib.loads(Path(path).read_text(encoding="utf-8"))
-        apply_overrides(raw, overrides)
+        apply_overrides(raw, [o for o in overrides if o.startswith("run.analysis")])
     except Exception:  # any unreadable file: left to the dynamic loader's messages
         return False
     run = raw.get("run")
@@ -116,7 +116,7 @@ def quasistatic_from_dict(raw: dict, source: Path | None = None,
                           overrides: Sequence[str] = ()) -> QSCase:
     label = str(source) if source is not None else "<string>"
     try:
-        apply_overrides(raw, overrides)
+        apply_overrides(raw, overrides, QS_ROOT)
         return _build(raw, source)
     except CaseError as err:
         raise CaseError(f"{label}: {err}") from None

@@ -124,8 +124,10 @@ class ElasticBody:
                 Ca = C[idx]
                 Cf = Ca[:, self.F].toarray()
                 self._CD = Ca[:, self.D]
-                W = self.lu.solve(np.ascontiguousarray(Cf.T))
-                W = W.reshape(len(self.F), -1)
+                # one column at a time: SuperLU's many-right-hand-side solve is slower
+                W = np.empty((len(self.F), len(idx)))
+                for j in range(len(idx)):
+                    W[:, j] = self.lu.solve(np.ascontiguousarray(Cf[j]))
                 S = Cf @ W
                 self._W, self._Cf = W, Cf
                 self._S = np.linalg.cholesky(0.5 * (S + S.T)) if len(idx) else None

@@ -4,10 +4,12 @@ Contact pairs are detected (bodies whose boxes come within the gap tolerance, th
 opposed normals closer than it) or taken from the listed pairs; each gets the properties of the
 first ``ContactRule`` its two names match.
 
-Roles: on each interface the body farther (in contact hops) from a body held by prescribed
-displacements is the kinematic side A, the other the force side B; ties go to the higher index.
-So each body not held by its own conditions is kinematic on at least one interface towards its
-support, and no body is left with only forces on it along the path the load takes.
+Roles (kinematic side A, force side B). Dirichlet-Neumann iterations converge when the
+Dirichlet (kinematic) side is the more compliant one, and a body that is not held by its own
+conditions must be kinematic somewhere, or forces alone act on it and it drifts. So:
+1. each body not held gets an anchor: the initially closed interface towards a neighbour nearer
+   (in closed-contact hops) to a held body, the stiffest such neighbour; it is kinematic there;
+2. on every other interface the more compliant body (smaller E times its size) is kinematic.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ import numpy as np
 
 from impactsim.quasistatic import coupling
 from impactsim.quasistatic.body import BodySpec
-from impactsim.quasistatic.matching import boxes_overlap, detect
+from impactsim.quasistatic.matching import boxes_overlap, detect, locate
 from impactsim.quasistatic.model import ContactRule, Problem
 from impactsim.quasistatic.space import Space
 
@@ -72,7 +74,11 @@ def find_pairs(problem: Problem, spaces: list[Space]) -> list[tuple[int, int, np
         bj, xj, nj = surface(j)
         fi, fj = detect(xi, ni, xj, nj, t)
         if len(fi) and len(fj):
-            out.append((i, j, bi[fi], bj[fj], rule))
+            verts = np.unique(spaces[i].mesh.facets[:, bi[fi]])
+            _, _, d = locate(spaces[i].mesh.p[:, verts].T, xj[fj])
+            size = np.ptp(xi.reshape(-1, 3), axis=0).max()
+            closed = bool(d.min() <= 1e-9 * size)
+            out.append((i, j, bi[fi], bj[fj], rule, closed))
         elif problem.pairs is not None and not problem.settings.detect:
             raise SetupError(f"listed contact pair '{names[i]}' / '{names[j]}': the surfaces "
                              f"are nowhere closer than the gap tolerance {t:g} m")
@@ -81,9 +87,10 @@ def find_pairs(problem: Problem, spaces: list[Space]) -> list[tuple[int, int, np
 
 def _support_distance(n: int, fixed: list[bool], pairs) -> list[int]:
     adj = [[] for _ in range(n)]
-    for i, j, *_ in pairs:
-        adj[i].append(j)
-        adj[j].append(i)
+    for i, j, *_, closed in pairs:
+        if closed:
+            adj[i].append(j)
+            adj[j].append(i)
     dist = [-1] * n
     q = deque(i for i in range(n) if fixed[i])
     for i in q:
@@ -104,9 +111,25 @@ def setup(problem: Problem):
     spaces = [Space(b.mesh(), b.order) for b in bodies]
     pairs = find_pairs(problem, spaces)
     dist = _support_distance(len(bodies), [b.fixed for b in bodies], pairs)
+    stiffness = [b.material.youngs_modulus * np.cbrt(np.prod(np.ptp(b.points, axis=1)))
+                 for b in bodies]
+    anchor = {}
+    for k, (i, j, *_, closed) in enumerate(pairs):
+        if not closed:
+            continue
+        for x, y in ((i, j), (j, i)):
+            if not bodies[x].fixed and dist[y] < dist[x]:
+                best = anchor.get(x)
+                if best is None or stiffness[y] > stiffness[best[1]]:
+                    anchor[x] = (k, y)
+    anchored = {k: x for x, (k, _) in anchor.items()}
     interfaces = []
-    for i, j, fi, fj, rule in pairs:
-        if (dist[i], i) > (dist[j], j):
+    for k, (i, j, fi, fj, rule, closed) in enumerate(pairs):
+        if k in anchored:
+            kin = anchored[k]
+        else:
+            kin = i if (stiffness[i], -i) < (stiffness[j], -j) else j
+        if kin == i:
             a, b, fa, fb = i, j, fi, fj
         else:
             a, b, fa, fb = j, i, fj, fi
