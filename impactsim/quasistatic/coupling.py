@@ -73,8 +73,66 @@ def _vectorise(P: sp.csr_matrix, normals: np.ndarray) -> sp.csr_matrix:
     return sp.csr_matrix((vals, (rows, cols)), shape=(P.shape[0], 3 * P.shape[1]))
 
 
-def _quadrature(space: Space, facets: np.ndarray, vector: bool):
-    fb = space.facet_basis(facets, vector=vector)
+SUBDIVISION = 3  # B's facets are cut 4^SUBDIVISION times for the pressure transfer
+
+
+def _sub_rule(level: int) -> tuple[np.ndarray, np.ndarray]:
+    """Barycentric points (n, 3) and weights (sum 1) of the 3-point (degree 2) rule on each of
+    the 4^level sub-triangles of a triangle."""
+    tris = [np.eye(3)]
+    for _ in range(level):
+        new = []
+        for t in tris:
+            m01, m12, m02 = (t[0] + t[1]) / 2, (t[1] + t[2]) / 2, (t[0] + t[2]) / 2
+            new += [np.array([t[0], m01, m02]), np.array([m01, t[1], m12]),
+                    np.array([m02, m12, t[2]]), np.array([m01, m12, m02])]
+        tris = new
+    ref = np.array([[2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]])
+    pts = np.concatenate([ref @ t for t in tris])
+    return pts, np.full(len(pts), 1.0 / len(pts))
+
+
+def transfer_matrix(sa: Space, facets_a, nodes, sb: Space, facets_b, h: float) -> sp.csr_matrix:
+    """G_b (3 N_B x n): B's nodal forces of the traction -p n_B, p interpolated from A's nodal
+    pressures. Each of B's facets is integrated on 4^SUBDIVISION sub-triangles, points off A's
+    patch getting no pressure: a facet A covers only in part carries the force of the covered
+    part to within the sub-triangle size; a uniform pressure is passed exactly where A covers
+    B's facets whole (degree-2 rule; the P2 shape functions times a constant)."""
+    bary, w = _sub_rule(SUBDIVISION)
+    xb, nb = sb.facet_geometry(facets_b)  # (nf, 3, 3), (nf, 3)
+    area = 0.5 * np.linalg.norm(np.cross(xb[:, 1] - xb[:, 0], xb[:, 2] - xb[:, 0]), axis=1)
+    xq = np.einsum("qv,fvc->fqc", bary, xb).reshape(-1, 3)
+    Pa, xc, _ = surface_interpolation(sa, facets_a, xq)
+    col = np.full(sa.n, -1)
+    col[nodes] = np.arange(len(nodes))
+    Pa = Pa.tocoo()
+    keep = col[Pa.col] >= 0
+    nf, nq = len(facets_b), len(w)
+    dq = xc - xq
+    nrep = np.repeat(nb, nq, axis=0)
+    off = np.linalg.norm(dq - np.einsum("ij,ij->i", dq, nrep)[:, None] * nrep, axis=1)
+    inside = off <= 1e-6 * h
+    wq = (area[:, None] * w[None, :]).ravel() * inside  # (nf nq)
+    vals = shape_values(sb.order, np.tile(bary, (nf, 1)))  # (nf nq, k)
+    fd = sb.facet_dofs(facets_b)  # (k, nf)
+    # rows: (B dof j of the facet of q, component c); columns: A node of Pa's entries at q
+    qa = Pa.row[keep]
+    ca = col[Pa.col[keep]]
+    va = Pa.data[keep]
+    k = fd.shape[0]
+    rows, cols, data = [], [], []
+    fq = qa // nq
+    for j in range(k):
+        for c in range(3):
+            rows.append(3 * fd[j, fq] + c)
+            cols.append(ca)
+            data.append(-nb[fq, c] * vals[qa, j] * wq[qa] * va)
+    return sp.csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(3 * sb.n, len(nodes)))
+
+
+def _quadrature(space: Space, facets: np.ndarray, vector: bool, intorder: int | None = None):
+    fb = space.facet_basis(facets, vector=vector, intorder=intorder)
     xq = fb.global_coordinates().value  # (3, nf, nq)
     return fb, xq.reshape(3, -1).T, fb.dx.ravel()
 
@@ -121,13 +179,8 @@ def build(a: int, b: int, sa: Space, sb: Space, facets_a: np.ndarray, facets_b: 
     # surface mass of A on its contact nodes
     fba = sa.facet_basis(facets_a)
     M_a = _mass.assemble(fba, c=1.0).tocsr()[nodes][:, nodes]
-    # force transfer to B
-    fbb, xq, wq = _quadrature(sb, facets_b, vector=True)
-    Pa, _, _ = surface_interpolation(sa, facets_a, xq)
-    Pa = Pa[:, nodes]  # columns: A's contact nodes
-    nB = fbb.normals  # (3, nf, nq) outward of B
-    Bq = _facet_to_qp(fbb, lambda v: -np.einsum("cfq,cfq->fq", v, nB))
-    G_b = (Bq @ sp.diags(wq) @ Pa).tocsr()
+    # force transfer to B (see transfer_matrix)
+    G_b = transfer_matrix(sa, facets_a, nodes, sb, facets_b, h)
     itf = Interface(a, b, friction, conductance, nodes, normals, gap, matched, C_a, I_b,
                     M_a, G_b, facets_a=np.asarray(facets_a), facets_b=np.asarray(facets_b))
     if conductance > 0:

@@ -70,6 +70,34 @@ def detect(xa: np.ndarray, na: np.ndarray, xb: np.ndarray, nb: np.ndarray, toler
 
 
 def _near(x, n, xo, no, tolerance):
+    """Facets of x near the other surface xo: their centroid is within tolerance of it, or
+    a vertex or centroid of a facet of xo that is near x lands on them (a large facet under a
+    small face)."""
+    own = _centroid_near(x, n, xo, no, tolerance)
+    other = _centroid_near(xo, no, x, n, tolerance)
+    if not len(other):
+        return own
+    pts = np.concatenate([xo[other].reshape(-1, 3), xo[other].mean(axis=1)])
+    f, bary, d = locate(pts, x)
+    proj_inside = bary.min(axis=1) >= -1e-9
+    normals = np.concatenate([np.repeat(no[other], 3, axis=0), no[other]])
+    opposed = np.einsum("ij,ij->i", n[f], normals) < -0.5
+    hit = f[(d <= tolerance) & opposed & proj_inside]
+    # and facets of x with a vertex, an edge midpoint or the centroid over xo's near facets
+    lo, hi = xo[other].min(axis=(0, 1)) - tolerance, xo[other].max(axis=(0, 1)) + tolerance
+    cand = np.nonzero(np.all((x.min(axis=1) <= hi) & (x.max(axis=1) >= lo), axis=1))[0]
+    if len(cand):
+        xc = x[cand]
+        probe = np.concatenate([xc, (xc + np.roll(xc, 1, axis=1)) / 2,
+                                xc.mean(axis=1, keepdims=True)], axis=1)  # (m, 7, 3)
+        g, bary2, d2 = locate(probe.reshape(-1, 3), xo[other])
+        ok = (d2 <= tolerance) & (bary2.min(axis=1) >= -1e-9) & \
+            (np.einsum("ij,ij->i", np.repeat(n[cand], 7, axis=0), no[other][g]) < -0.5)
+        hit = np.union1d(hit, cand[ok.reshape(-1, 7).any(axis=1)])
+    return np.union1d(own, hit)
+
+
+def _centroid_near(x, n, xo, no, tolerance):
     lo, hi = xo.min(axis=(0, 1)) - tolerance, xo.max(axis=(0, 1)) + tolerance
     cen = x.mean(axis=1)
     box = np.all((cen >= lo) & (cen <= hi), axis=1)

@@ -20,6 +20,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from impactsim.quasistatic.body import BodyState
+from impactsim.quasistatic.schwarz import update_active
 
 
 def solve_monolithic(states: dict[int, BodyState], interfaces, scale: float = 1.0,
@@ -53,10 +54,8 @@ def solve_monolithic(states: dict[int, BodyState], interfaces, scale: float = 1.
             ub = itf.I_b @ u[itf.b]
             p = lam[c]
             pen = ua - ub - itf.gap
-            pscale = max(np.max(np.abs(p), initial=0), 1e-30)
-            na = (active[c] & ~(p < -1e-3 * pscale)) | \
-                 (~active[c] & itf.matched & (pen > 1e-4 * size))
-            new.append(na)
+            pscale = max(max(np.max(np.abs(q), initial=0) for q in lam), 1e-30)
+            new.append(update_active(itf, active[c], p, pen, 1e-4 * size, pscale))
         if all((a == b).all() for a, b in zip(new, active)):
             return u, active
         active = new

@@ -28,6 +28,9 @@ from impactsim.quasistatic.coupling import Interface
 from impactsim.quasistatic.model import Settings
 
 
+RELEASE = 1e-3  # a node is released when its (smoothed) pressure is below -RELEASE p_max
+
+
 class NotConverged(Exception):
     pass
 
@@ -39,6 +42,17 @@ class ContactState:
     p: list[np.ndarray]
     ua: list[np.ndarray] = field(default_factory=list)
     ub: list[np.ndarray] = field(default_factory=list)
+
+
+def update_active(itf: Interface, act: np.ndarray, p: np.ndarray, penetration: np.ndarray,
+                  pen_tol: float, p_scale: float) -> np.ndarray:
+    """Compressive-only contact: release active nodes in tension, activate penetrating ones.
+    The nodal pressures M^-1 lambda oscillate in sign where the pressure varies fast, so the
+    release looks at them smoothed over each node's neighbours (weights |M|)."""
+    Mabs = abs(itf.M_a)
+    smooth = (Mabs @ np.where(act, p, 0.0)) / np.maximum(Mabs @ act.astype(float), 1e-300)
+    release = act & (smooth < -RELEASE * p_scale)
+    return (act & ~release) | ((~act) & itf.matched & (penetration > pen_tol))
 
 
 def initial_state(interfaces: list[Interface]) -> ContactState:
@@ -114,9 +128,8 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
             residuals.append(r)
             gap_res = max(gap_res, np.max(np.abs(r), initial=0) / u_scale)
             p_change = max(p_change, np.max(np.abs(pa - state.p[c]), initial=0) / p_scale)
-            penetration = (~act) & itf.matched & (ua - target > settings.gap_tolerance * u_scale)
-            release = act & (pa < -settings.pressure_tolerance * p_scale)
-            na = (act & ~release) | penetration
+            na = update_active(itf, act, pa, ua - target, settings.gap_tolerance * u_scale,
+                               p_scale)
             changed |= bool((na != act).any())
             new_active.append(na)
         r = np.concatenate(residuals) if residuals else np.zeros(0)

@@ -24,9 +24,10 @@ class Space:
         self.n = self.scalar.N  # scalar dofs
         self.doflocs = self.scalar.doflocs  # (3, n)
 
-    def facet_basis(self, facets: np.ndarray, vector: bool = False):
+    def facet_basis(self, facets: np.ndarray, vector: bool = False, intorder: int | None = None):
         e = fem.ElementVector(self.elem) if vector else self.elem
-        return fem.FacetBasis(self.mesh, e, facets=np.asarray(facets), intorder=2 * self.order)
+        return fem.FacetBasis(self.mesh, e, facets=np.asarray(facets),
+                              intorder=intorder or 2 * self.order)
 
     def facet_dofs(self, facets: np.ndarray) -> np.ndarray:
         """Scalar dofs of each facet (k, nf): 3 corners then (tet10) 3 edge midpoints, in the
