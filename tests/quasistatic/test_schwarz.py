@@ -95,13 +95,14 @@ def test_a_run_that_does_not_converge_stops_with_a_clear_message_and_keeps_its_s
     assert set(out.fields) == {0, 1, 2}  # the last iterate is there to be written
 
 
-def test_aitken_needs_fewer_iterations_than_fixed_relaxation():
-    fixed = solve(problem(case(THREE, "quasistatic.aitken=false")))
-    aitken = solve(problem(case(THREE)))
+def test_aitken_converges_where_the_fixed_relaxation_diverges():
+    # measured: fixed omega = 0.3 converges (73 iterations), 0.5 and above diverge; Aitken
+    # converges from any starting omega (115-129 iterations, docs/quasistatic.md)
+    fixed = solve(problem(case(THREE, "quasistatic.aitken=false", "quasistatic.relaxation=0.8",
+                               "quasistatic.max_iterations=150")))
+    aitken = solve(problem(case(THREE, "quasistatic.relaxation=0.8")))
+    assert fixed.stopped is not None
     assert aitken.stopped is None
-    assert fixed.stopped is None or fixed.steps[-1]["iterations"] > aitken.steps[-1]["iterations"]
-    if fixed.stopped is None:
-        assert aitken.steps[-1]["iterations"] < fixed.steps[-1]["iterations"]
 
 
 def test_two_workers_give_the_same_answer_as_in_process():
