@@ -94,11 +94,35 @@ def _sub_rule(level: int) -> tuple[np.ndarray, np.ndarray]:
 
 def transfer_matrix(sa: Space, facets_a, nodes, sb: Space, facets_b, h: float) -> sp.csr_matrix:
     """G_b (3 N_B x n): B's nodal forces of the traction -p n_B, p interpolated from A's nodal
-    pressures. Each of B's facets is integrated on 4^SUBDIVISION sub-triangles, points off A's
-    patch getting no pressure: a facet A covers only in part carries the force of the covered
-    part to within the sub-triangle size; a uniform pressure is passed exactly where A covers
-    B's facets whole (degree-2 rule; the P2 shape functions times a constant)."""
-    bary, w = _sub_rule(SUBDIVISION)
+    pressures, points off A's patch getting no pressure. B's facets whose corners, edge
+    midpoints and centroid all lie on A's patch are integrated on 4 sub-triangles, those A
+    covers in part on 4^SUBDIVISION (the force of the covered part to within the sub-triangle
+    size), those with none of those points on it are skipped. The rule is of degree 2 on each
+    sub-triangle: a uniform pressure is passed exactly where A covers B's facets whole."""
+    facets_b = np.asarray(facets_b)
+    xb, nb = sb.facet_geometry(facets_b)
+    probe = np.concatenate([xb, (xb + np.roll(xb, 1, axis=1)) / 2,
+                            xb.mean(axis=1, keepdims=True)], axis=1).reshape(-1, 3)
+    inside = _on_patch(sa, facets_a, probe, np.repeat(nb, 7, axis=0), h).reshape(-1, 7)
+    full = inside.all(axis=1)
+    part = inside.any(axis=1) & ~full
+    G = sp.csr_matrix((3 * sb.n, len(nodes)))
+    for mask, level in ((full, 1), (part, SUBDIVISION)):
+        if mask.any():
+            G = G + _transfer(sa, facets_a, nodes, sb, facets_b[mask], h, level)
+    return G.tocsr()
+
+
+def _on_patch(sa: Space, facets_a, points: np.ndarray, normals: np.ndarray, h: float):
+    """Whether each point lies over A's patch (its closest point there is along the normal)."""
+    _, xc, _ = surface_interpolation(sa, facets_a, points)
+    dq = xc - points
+    off = np.linalg.norm(dq - np.einsum("ij,ij->i", dq, normals)[:, None] * normals, axis=1)
+    return off <= 1e-6 * h
+
+
+def _transfer(sa: Space, facets_a, nodes, sb: Space, facets_b, h: float, level: int):
+    bary, w = _sub_rule(level)
     xb, nb = sb.facet_geometry(facets_b)  # (nf, 3, 3), (nf, 3)
     area = 0.5 * np.linalg.norm(np.cross(xb[:, 1] - xb[:, 0], xb[:, 2] - xb[:, 0]), axis=1)
     xq = np.einsum("qv,fvc->fqc", bary, xb).reshape(-1, 3)
@@ -115,40 +139,18 @@ def transfer_matrix(sa: Space, facets_a, nodes, sb: Space, facets_b, h: float) -
     wq = (area[:, None] * w[None, :]).ravel() * inside  # (nf nq)
     vals = shape_values(sb.order, np.tile(bary, (nf, 1)))  # (nf nq, k)
     fd = sb.facet_dofs(facets_b)  # (k, nf)
-    # rows: (B dof j of the facet of q, component c); columns: A node of Pa's entries at q
     qa = Pa.row[keep]
     ca = col[Pa.col[keep]]
     va = Pa.data[keep]
-    k = fd.shape[0]
     rows, cols, data = [], [], []
     fq = qa // nq
-    for j in range(k):
+    for j in range(fd.shape[0]):
         for c in range(3):
             rows.append(3 * fd[j, fq] + c)
             cols.append(ca)
             data.append(-nb[fq, c] * vals[qa, j] * wq[qa] * va)
     return sp.csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))),
                          shape=(3 * sb.n, len(nodes)))
-
-
-def _quadrature(space: Space, facets: np.ndarray, vector: bool, intorder: int | None = None):
-    fb = space.facet_basis(facets, vector=vector, intorder=intorder)
-    xq = fb.global_coordinates().value  # (3, nf, nq)
-    return fb, xq.reshape(3, -1).T, fb.dx.ravel()
-
-
-def _facet_to_qp(fb, weights_per_dof) -> sp.csr_matrix:
-    """(N x nqp) sparse: rows the basis' dofs, columns the quadrature points."""
-    nf, nq = fb.dx.shape
-    rows, cols, vals = [], [], []
-    qp = np.arange(nf * nq).reshape(nf, nq)
-    for i in range(len(fb.basis)):
-        v = weights_per_dof(fb.basis[i][0].value)  # (nf, nq)
-        rows.append(np.repeat(fb.element_dofs[i], nq))
-        cols.append(qp.ravel())
-        vals.append(v.ravel())
-    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                         shape=(fb.N, nf * nq))
 
 
 def build(a: int, b: int, sa: Space, sb: Space, facets_a: np.ndarray, facets_b: np.ndarray,
@@ -187,6 +189,26 @@ def build(a: int, b: int, sa: Space, sb: Space, facets_a: np.ndarray, facets_b: 
         itf.heat_a = _exchange(sa, facets_a, sb, facets_b, conductance)
         itf.heat_b = _exchange(sb, facets_b, sa, facets_a, conductance)
     return itf
+
+
+def _quadrature(space: Space, facets: np.ndarray, vector: bool, intorder: int | None = None):
+    fb = space.facet_basis(facets, vector=vector, intorder=intorder)
+    xq = fb.global_coordinates().value  # (3, nf, nq)
+    return fb, xq.reshape(3, -1).T, fb.dx.ravel()
+
+
+def _facet_to_qp(fb, weights_per_dof) -> sp.csr_matrix:
+    """(N x nqp) sparse: rows the basis' dofs, columns the quadrature points."""
+    nf, nq = fb.dx.shape
+    rows, cols, vals = [], [], []
+    qp = np.arange(nf * nq).reshape(nf, nq)
+    for i in range(len(fb.basis)):
+        v = weights_per_dof(fb.basis[i][0].value)  # (nf, nq)
+        rows.append(np.repeat(fb.element_dofs[i], nq))
+        cols.append(qp.ravel())
+        vals.append(v.ravel())
+    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(fb.N, nf * nq))
 
 
 def _exchange(s1: Space, f1, s2: Space, f2, h: float):
