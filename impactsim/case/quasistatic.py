@@ -63,6 +63,7 @@ class QSBody:
     refine: dict | None
     clip: tuple | None
     boundaries: list[QSBoundary] = field(default_factory=list)
+    centering_axis: tuple | None = None
 
 
 @dataclass
@@ -71,6 +72,7 @@ class QSPair:
     friction: float
     conductance: float
     gap_tolerance: float | None
+    tied: bool = False
 
 
 @dataclass
@@ -193,7 +195,7 @@ def _build(raw: dict, source: Path | None) -> QSCase:
         gt = r.get("gap_tolerance")
         pairs.append(QSPair(tuple(bs), fr, non_negative(r.get("conductance"),
                                                         r.at("conductance")),
-                            None if gt is COMPUTED_SENTINEL else gt))
+                            None if gt is COMPUTED_SENTINEL else gt, r.get("tied")))
     detect = c.get("detect")
     if not detect and not pairs:
         raise c.error("detect", "detect = false needs [[contact.pair]] entries")
@@ -311,6 +313,10 @@ def _body(raw: dict, path: KeyPath, index: int, base: Path, materials: dict) -> 
     body = QSBody(name, str(path), material, shape, dims, r.get("position"), r.get("rotation"),
                   mesh_size, r.get("mesher"), None if t0 is COMPUTED_SENTINEL else t0,
                   non_negative(r.get("heat_source"), r.at("heat_source")), copies, refine, clip)
+    axis = r.get("centering_axis")
+    if axis is not None and not any(axis):
+        raise r.error("centering_axis", "must be a nonzero vector")
+    body.centering_axis = axis
     for j, (rb, wb) in enumerate(r.items("boundary")):
         body.boundaries.append(_boundary(rb, wb, j, body))
     _unique([b.name for b in body.boundaries], f"body[{index}].boundary")
@@ -322,9 +328,9 @@ def _boundary(raw: dict, path: KeyPath, index: int, body: QSBody) -> QSBoundary:
 
     r = Reader(raw, BOUNDARY, path.labelled(f'body "{body.name}"'))
     name = r.get("name") if r.has("name") else f"boundary{index}"
-    regions = r.given(("plane", "box", "group"))
+    regions = r.given(("plane", "box", "cylinder", "group"))
     if len(regions) != 1:
-        raise r.error("plane", "give exactly one of plane, box, group"
+        raise r.error("plane", "give exactly one of plane, box, cylinder, group"
                       + (f" (got {', '.join(regions)})" if regions else ""))
     region = regions[0]
     params: dict = {}
@@ -336,6 +342,12 @@ def _boundary(raw: dict, path: KeyPath, index: int, body: QSBody) -> QSBoundary:
     elif region == "box":
         b = r.sub("box")
         params = {"lo": b.get("lo"), "hi": b.get("hi")}
+    elif region == "cylinder":
+        c = r.sub("cylinder")
+        params = {"point": c.get("point"), "axis": c.get("axis"),
+                  "radius": positive(c.get("radius"), c.at("radius"))}
+        if not any(params["axis"]):
+            raise c.error("axis", "must be a nonzero vector")
     else:
         if body.shape != "file":
             raise r.error("group", "physical groups exist only on mesh files (shape = \"file\")")

@@ -57,6 +57,8 @@ PAIR = Table("pair", "Properties of the contacts between bodies matching two nam
         "crosses).", 0.0, dim="heat_transfer"),
     Key("gap_tolerance", "quantity", "Surfaces closer than this are in contact.", COMPUTED,
         dim="length", default_doc="[contact].gap_tolerance"),
+    Key("tied", "bool", "Bonded contact: the surfaces stay together (tension allowed, no "
+        "active set).", False),
 ), array=True)
 
 QS_CONTACT = Table("contact", "Contact between bodies (quasistatic).", (
@@ -78,8 +80,15 @@ REGION_BOX = Table("box", "Boundary facets with all vertices in the box.", (
     Key("hi", "vector", "Upper corner.", dim="length"),
 ), default="none (off)")
 
+REGION_CYLINDER = Table("cylinder", "Boundary facets within `tolerance` of a cylindrical "
+                        "surface (the outside of a tube).", (
+    Key("point", "vector", "A point of the axis.", dim="length"),
+    Key("axis", "vector", "Axis direction.", dim="dimensionless"),
+    Key("radius", "quantity", "Radius of the surface.", dim="length"),
+), default="none (off)")
+
 BOUNDARY = Table("boundary", "A boundary condition on a named surface part, selected by "
-                 "exactly one of `plane`, `box` (world coordinates; copies shift them with "
+                 "exactly one of `plane`, `box`, `cylinder` (world coordinates; copies shift them with "
                  "themselves) or `group` (a gmsh physical group of a mesh file). Conditions: "
                  "temperature, flux, exchange (+ ambient), displacement, traction, pressure "
                  "(one or more; heat and mechanical ones may be combined).", (
@@ -87,8 +96,9 @@ BOUNDARY = Table("boundary", "A boundary condition on a named surface part, sele
         default_doc="`boundary<index>`"),
     REGION_PLANE,
     REGION_BOX,
+    REGION_CYLINDER,
     Key("group", "string", "gmsh physical group (shape = \"file\").", None),
-    Key("tolerance", "quantity", "Distance tolerance of plane and box.", COMPUTED,
+    Key("tolerance", "quantity", "Distance tolerance of plane, box and cylinder.", COMPUTED,
         dim="length", default_doc="1 % of the mesh size"),
     Key("temperature", "quantity", "Prescribed temperature.", None, dim="temperature"),
     Key("flux", "quantity", "Heat flux into the body.", None, dim="heat_flux"),
@@ -148,6 +158,10 @@ QS_BODY = Table("body", "A body of a quasistatic case: a primitive or a mesh fil
         "temperature.", COMPUTED, dim="temperature",
         default_doc="the material's initial_temperature"),
     Key("heat_source", "quantity", "Volumetric heat source Phi.", 0.0, dim="power_density"),
+    Key("centering_axis", "vector", "Tie the body to its reference position across this axis "
+        "by the weak springs (quasistatic.regularization) instead of to its last iterate: for "
+        "bodies whose sideways position nothing fixes (pellets in a column).", None,
+        dim="dimensionless"),
     COPIES,
     REFINE,
     CLIP,

@@ -41,6 +41,9 @@ def _conditions(bd, mesh, groups: dict, shift: np.ndarray, mesh_size: float) -> 
     elif bd.region == "box":
         facets = geo.select_box(mesh, np.asarray(bd.params["lo"]) + shift,
                                 np.asarray(bd.params["hi"]) + shift, bd.tolerance)
+    elif bd.region == "cylinder":
+        facets = geo.select_cylinder(mesh, np.asarray(bd.params["point"]) + shift,
+                                     bd.params["axis"], bd.params["radius"], bd.tolerance)
     else:
         if bd.params["group"] not in groups:
             raise SetupError(f"{bd.where}.group: no physical group '{bd.params['group']}' of "
@@ -78,7 +81,8 @@ def problem(case) -> Problem:
             shift = k * np.asarray(offset, float)
             name = f"{b.name}{k + 1}" if b.copies else b.name
             model = BodyModel(name, (p0 + shift).T.copy(), t0.T.copy(), order,
-                              mats[b.material], initial_temperature=b.initial_temperature)
+                              mats[b.material], initial_temperature=b.initial_temperature,
+                              centering_axis=b.centering_axis)
             mesh = model.mesh()
             for bd in b.boundaries:
                 model.conditions += _conditions(bd, mesh, groups, shift, b.mesh_size)
@@ -94,8 +98,8 @@ def problem(case) -> Problem:
                         max_heat_iterations=s["max_heat_iterations"],
                         regularization=s["regularization"], detect_tolerance=case.gap_tolerance,
                         detect=case.detect)
-    rules = [ContactRule(p.bodies[0], p.bodies[1], p.friction, p.conductance, p.gap_tolerance)
-             for p in case.pairs]
+    rules = [ContactRule(p.bodies[0], p.bodies[1], p.friction, p.conductance, p.gap_tolerance,
+                         p.tied) for p in case.pairs]
     pairs = None
     if not case.detect:
         import fnmatch

@@ -34,6 +34,7 @@ from impactsim.quasistatic.space import Space, shape_values
 class Interface:
     a: int  # kinematic body index
     b: int  # force body index
+    order: int
     friction: float
     conductance: float
     nodes: np.ndarray  # A's contact scalar dofs
@@ -44,6 +45,7 @@ class Interface:
     I_b: sp.csr_matrix
     M_a: sp.csr_matrix
     G_b: sp.csr_matrix
+    tied: bool = False
     heat_a: tuple | None = None  # (H_a, L_a, P_b): A's exchange matrix, load from values at
     heat_b: tuple | None = None  # A's quadrature points, B's interpolation there (and conversely)
     facets_a: np.ndarray | None = None
@@ -154,7 +156,7 @@ def _transfer(sa: Space, facets_a, nodes, sb: Space, facets_b, h: float, level: 
 
 
 def build(a: int, b: int, sa: Space, sb: Space, facets_a: np.ndarray, facets_b: np.ndarray,
-          friction: float = 0.0, conductance: float = 0.0) -> Interface:
+          friction: float = 0.0, conductance: float = 0.0, tied: bool = False) -> Interface:
     # A's contact nodes and their normals
     fd = sa.facet_dofs(facets_a)  # (k, nf)
     nodes, inverse = np.unique(fd, return_inverse=True)
@@ -172,7 +174,10 @@ def build(a: int, b: int, sa: Space, sb: Space, facets_a: np.ndarray, facets_b: 
     gap = np.einsum("ij,ij->i", d, normals)
     lateral = np.linalg.norm(d - gap[:, None] * normals, axis=1)
     h = np.sqrt(area.mean())
-    matched = lateral <= 1e-3 * h + 1e-2 * np.abs(gap)
+    # a node faces B when its closest point there lies along its normal (to within the angle
+    # between facets of curved, faceted surfaces) on a facet turned towards it
+    matched = (lateral <= 1e-3 * h + 0.5 * np.abs(gap)) & \
+        (np.einsum("ij,ij->i", nb, normals) < -0.5) & (gap > -0.5 * h)
     n = len(nodes)
     # kinematic rows of A
     Sa = sp.csr_matrix((np.ones(n), (np.arange(n), nodes)), shape=(n, sa.n))
@@ -183,8 +188,9 @@ def build(a: int, b: int, sa: Space, sb: Space, facets_a: np.ndarray, facets_b: 
     M_a = _mass.assemble(fba, c=1.0).tocsr()[nodes][:, nodes]
     # force transfer to B (see transfer_matrix)
     G_b = transfer_matrix(sa, facets_a, nodes, sb, facets_b, h)
-    itf = Interface(a, b, friction, conductance, nodes, normals, gap, matched, C_a, I_b,
-                    M_a, G_b, facets_a=np.asarray(facets_a), facets_b=np.asarray(facets_b))
+    itf = Interface(a, b, sa.order, friction, conductance, nodes, normals, gap, matched, C_a, I_b,
+                    M_a, G_b, facets_a=np.asarray(facets_a), facets_b=np.asarray(facets_b),
+                    tied=tied)
     if conductance > 0:
         itf.heat_a = _exchange(sa, facets_a, sb, facets_b, conductance)
         itf.heat_b = _exchange(sb, facets_b, sa, facets_a, conductance)

@@ -9,7 +9,11 @@ same factorisation (recomputed only when the set of active rows changes), and as
 Floating bodies: every solve adds weak springs ``eps diag(K)`` tying the body to its own
 displacement of the previous iteration (a proximal step). At a converged iterate the springs
 carry no force, so the answer does not depend on eps; between iterations they remove the
-rigid-body modes a body held only by its contacts would otherwise have.
+rigid-body modes a body held only by its contacts would otherwise have. Where the contacts leave
+a mode undetermined for good (the lateral position of a pellet in a column with convex, heated
+ends: the column is indifferent to sideways motion), the body's `centering_axis` ties it to its
+reference position across that axis instead: a weak elastic foundation whose force is eps times
+the lateral displacement (thermal radial growth: a self-balanced 1e-6 relative perturbation).
 """
 
 from __future__ import annotations
@@ -113,7 +117,7 @@ class ElasticBody:
         compressive) of K u = f - C_a^T lam, C_a u = g_a on the active rows."""
         rhs = f[self.F] - self.KfD @ uD
         if proximal:
-            rhs = rhs + self.spring * self.u_prev[self.F]
+            rhs = rhs + self.spring * self._anchor()[self.F]
         u0 = self.lu.solve(rhs)
         lam = np.zeros(0 if C is None else C.shape[0])
         uf = u0
@@ -130,7 +134,11 @@ class ElasticBody:
                     W[:, j] = self.lu.solve(np.ascontiguousarray(Cf[j]))
                 S = Cf @ W
                 self._W, self._Cf = W, Cf
-                self._S = np.linalg.cholesky(0.5 * (S + S.T)) if len(idx) else None
+                # a tiny shift keeps S definite when two rows constrain the same node alike
+                # (a node on the edge between two patches): they then share the force
+                S = 0.5 * (S + S.T)
+                S[np.diag_indices_from(S)] += 1e-10 * np.abs(np.diag(S)).mean()
+                self._S = np.linalg.cholesky(S)
                 self._schur_key = key
             r = self._Cf @ u0 + self._CD @ uD - g[idx]
             la = np.linalg.solve(self._S.T, np.linalg.solve(self._S, r))
@@ -141,6 +149,16 @@ class ElasticBody:
         u[self.D] = uD
         self.u_prev = u
         return u, lam
+
+    def _anchor(self) -> np.ndarray:
+        """Where the weak springs pull: the previous iterate, or (with a centering axis) its
+        component along the axis only: across it, the reference position."""
+        a = self.model.centering_axis
+        if a is None:
+            return self.u_prev
+        a = np.asarray(a, float) / np.linalg.norm(a)
+        u = self.u_prev.reshape(-1, 3)
+        return ((u @ a)[:, None] * a[None, :]).ravel()
 
     # --- post-processing ---
     def stress_at_vertices(self, u: np.ndarray, temperature: np.ndarray | None) -> np.ndarray:

@@ -158,6 +158,17 @@ def select_box(mesh, lo, hi, tolerance: float = 0.0) -> np.ndarray:
     return bf[np.all((x >= lo) & (x <= hi), axis=(0, 1))]
 
 
+def select_cylinder(mesh, point, axis, radius: float, tolerance: float) -> np.ndarray:
+    """Boundary facets whose vertices lie within `tolerance` of the cylinder surface."""
+    a = np.asarray(axis, float)
+    a = a / np.linalg.norm(a)
+    bf = mesh.boundary_facets()
+    x = mesh.p[:, mesh.facets[:, bf]] - np.asarray(point, float)[:, None, None]
+    along = np.einsum("i,ijk->jk", a, x)
+    r = np.linalg.norm(x - a[:, None, None] * along[None], axis=0)
+    return bf[np.all(np.abs(r - radius) <= tolerance, axis=0)]
+
+
 def select_triangles(mesh, triangles: np.ndarray) -> np.ndarray:
     """Boundary facets equal to the given triangles (a physical group of an imported mesh)."""
     bf = mesh.boundary_facets()

@@ -134,7 +134,7 @@ def setup(problem: Problem):
         else:
             a, b, fa, fb = j, i, fj, fi
         interfaces.append(coupling.build(a, b, spaces[a], spaces[b], fa, fb, rule.friction,
-                                         rule.conductance))
+                                         rule.conductance, rule.tied))
     thermal_bodies = any(c.kind in ("temperature", "flux", "exchange", "source")
                          for b in bodies for c in b.conditions)
     thermal = thermal_bodies or any(itf.conductance > 0 for itf in interfaces)

@@ -64,6 +64,9 @@ class BodyModel:
     material: ThermoMaterial
     conditions: list[Condition] = field(default_factory=list)
     initial_temperature: float = 293.15
+    # weak springs tie the body to its reference position across this axis (to its previous
+    # iterate along it): a body whose lateral position nothing else fixes (a pellet in a column)
+    centering_axis: tuple[float, float, float] | None = None
 
     def mesh(self):
         import skfem as fem
@@ -86,6 +89,7 @@ class ContactRule:
     friction: float = 0.0
     conductance: float = 0.0  # gap heat-transfer coefficient [W/(m^2 K)]; 0: no heat exchange
     gap_tolerance: float | None = None
+    tied: bool = False  # bonded: every matched node stays in contact, tension allowed
 
 
 @dataclass

@@ -35,7 +35,7 @@ def solve_monolithic(states: dict[int, BodyState], interfaces, scale: float = 1.
         st.mech_begin(scale)
         off[i] = n
         n += len(st.elastic.F)
-    active = [itf.matched & (itf.gap <= 1e-6 * np.sqrt(itf.M_a.diagonal().mean()))
+    active = [itf.matched & ((itf.gap <= 1e-6 * np.sqrt(itf.M_a.diagonal().mean())) | itf.tied)
               for itf in interfaces]
     u_prev = {i: np.zeros(states[i].elastic.ndof) for i in order}
     u = u_prev

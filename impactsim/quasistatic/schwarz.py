@@ -28,6 +28,9 @@ from impactsim.quasistatic.coupling import Interface
 from impactsim.quasistatic.model import Settings
 
 
+SETTLE = 10.0  # the active set is updated when the mismatches are below SETTLE x tolerance
+MAX_INNER = 100  # ... or after this many iterations with the same active set
+ACTIVATE = 10.0  # a node is activated when it penetrates by ACTIVATE x gap tolerance x u_max
 RELEASE = 1e-3  # a node is released when its (smoothed) pressure is below -RELEASE p_max
 
 
@@ -49,9 +52,19 @@ def update_active(itf: Interface, act: np.ndarray, p: np.ndarray, penetration: n
     """Compressive-only contact: release active nodes in tension, activate penetrating ones.
     The nodal pressures M^-1 lambda oscillate in sign where the pressure varies fast, so the
     release looks at them smoothed over each node's neighbours (weights |M|)."""
-    Mabs = abs(itf.M_a)
-    smooth = (Mabs @ np.where(act, p, 0.0)) / np.maximum(Mabs @ act.astype(float), 1e-300)
-    release = act & (smooth < -RELEASE * p_scale)
+    if itf.tied:
+        return act
+    if itf.order == 1:
+        # tet4: the nodal reactions themselves (M_aa p) say which nodes pull
+        idx = np.nonzero(act)[0]
+        lam = np.zeros(len(p))
+        lam[idx] = itf.M_a[idx][:, idx] @ p[idx]
+        scale = max(np.max(np.abs(lam), initial=0), 1e-300)
+        release = act & (lam < -RELEASE * scale)
+    else:
+        Mabs = abs(itf.M_a)
+        smooth = (Mabs @ np.where(act, p, 0.0)) / np.maximum(Mabs @ act.astype(float), 1e-300)
+        release = act & (smooth < -RELEASE * p_scale)
     return (act & ~release) | ((~act) & itf.matched & (penetration > pen_tol))
 
 
@@ -59,7 +72,7 @@ def initial_state(interfaces: list[Interface]) -> ContactState:
     act = []
     for itf in interfaces:
         scale = np.sqrt(itf.M_a.diagonal().mean()) if itf.M_a.shape[0] else 1.0
-        act.append(itf.matched & (itf.gap <= 1e-6 * scale))
+        act.append(itf.matched & ((itf.gap <= 1e-6 * scale) | itf.tied))
     return ContactState([itf.gap.copy() for itf in interfaces], act,
                         [np.zeros(len(itf.gap)) for itf in interfaces])
 
@@ -94,6 +107,7 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
     n_b = len(interfaces)
     omega = settings.relaxation
     r_old = None
+    last_change = 0
     result = {"iterations": 0, "gap_residual": np.inf, "pressure_residual": np.inf}
     for it in range(1, settings.max_iterations + 1):
         inputs: dict = {}
@@ -112,6 +126,8 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
         residuals = []
         new_active = []
         ua_all, ub_all, pa_all = [], [], []
+        # the active set changes only once the iteration has settled for the current one (an
+        # outer loop): changing it at every iteration makes the contact chatter
         for c, itf in enumerate(interfaces):
             ua, pa = out[itf.a][("a", c)]
             ub = out[itf.b][("b", c)]
@@ -120,6 +136,14 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
             pa_all.append(pa)
             u_scale = max(u_scale, np.max(np.abs(ua), initial=0), np.max(np.abs(ub), initial=0))
             p_scale = max(p_scale, np.max(np.abs(pa), initial=0))
+        pre_gap = max((np.max(np.abs(np.where(state.active[c], ub_all[c] + itf.gap - state.g[c],
+                                                   0.0)), initial=0) / u_scale
+                       for c, itf in enumerate(interfaces)), default=0.0)
+        pre_p = max((np.max(np.abs(pa_all[c] - state.p[c]), initial=0) / p_scale
+                     for c in range(n_b)), default=0.0)
+        settle = it == 1 or (pre_gap <= SETTLE * max(settings.gap_tolerance, 1e-3) and
+                             pre_p <= SETTLE * max(settings.pressure_tolerance, 1e-3)) or \
+            it - last_change >= MAX_INNER
         for c, itf in enumerate(interfaces):
             ua, ub, pa = ua_all[c], ub_all[c], pa_all[c]
             act = state.active[c]
@@ -128,8 +152,8 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
             residuals.append(r)
             gap_res = max(gap_res, np.max(np.abs(r), initial=0) / u_scale)
             p_change = max(p_change, np.max(np.abs(pa - state.p[c]), initial=0) / p_scale)
-            na = update_active(itf, act, pa, ua - target, settings.gap_tolerance * u_scale,
-                               p_scale)
+            na = update_active(itf, act, pa, ua - target, ACTIVATE * settings.gap_tolerance * u_scale,
+                               p_scale) if settle else act
             changed |= bool((na != act).any())
             new_active.append(na)
         r = np.concatenate(residuals) if residuals else np.zeros(0)
@@ -149,6 +173,8 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
             state.g[c] = np.where(new_active[c], state.g[c] + omega * residuals[c],
                                   ub_all[c] + interfaces[c].gap)
             state.p[c] = np.where(new_active[c], pa_all[c], 0.0)
+        if changed:
+            last_change = it
         state.active = new_active
         state.ua, state.ub = ua_all, ub_all
         r_old = None if changed else r
