@@ -14,7 +14,10 @@ SET_HELP = "Override a case key, TOML value syntax: --set run.cfl=0.5 --set 'con
 
 def _load(case_file: str, overrides: tuple[str, ...]):
     from impactsim.case import load_case
+    from impactsim.case.quasistatic import is_quasistatic, load_quasistatic
 
+    if is_quasistatic(case_file, overrides):
+        return load_quasistatic(Path(case_file), overrides)
     return load_case(Path(case_file), overrides)
 
 
@@ -35,10 +38,11 @@ def main() -> None:
 def check(case_file: str, overrides: tuple[str, ...]) -> None:
     """Validate CASE_FILE and print the resolved case and what would run."""
     from impactsim.case.describe import describe_case
+    from impactsim.case.quasistatic import QSCase, describe_quasistatic
 
     try:
         case = _load(case_file, overrides)
-        click.echo(describe_case(case))
+        click.echo((describe_quasistatic if isinstance(case, QSCase) else describe_case)(case))
     except CaseError as err:
         _fail(err)
 
@@ -65,13 +69,20 @@ def mesh(case_file: str, out_dir: str | None, overrides: tuple[str, ...]) -> Non
               help="Output folder (default: out/<case name>/).")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
 @click.option("-q", "--quiet", is_flag=True, help="No progress output.")
-def run(case_file: str, out_dir: str | None, overrides: tuple[str, ...], quiet: bool) -> None:
+@click.option("--workers", type=int, default=None, help="quasistatic: worker processes (0: none).")
+@click.option("--scheduler", default=None, metavar="ADDRESS", help="quasistatic: Dask scheduler.")
+def run(case_file: str, out_dir: str | None, overrides: tuple[str, ...], quiet: bool,
+        workers: int | None, scheduler: str | None) -> None:
     """Run CASE_FILE and write a VTU time series, history.csv and summary.json."""
+    from impactsim.case.quasistatic import QSCase
+    from impactsim.quasistatic.run import run_quasistatic
     from impactsim.solver.run import SimulationError, run_case
 
     try:
         case = _load(case_file, overrides)
-        result = run_case(case, Path(out_dir) if out_dir else None, progress=not quiet)
+        out = Path(out_dir) if out_dir else None
+        result = run_quasistatic(case, out, workers, scheduler, not quiet) \
+            if isinstance(case, QSCase) else run_case(case, out, progress=not quiet)
     except (CaseError, SimulationError) as err:
         _fail(err)
     if result.get("stopped"):

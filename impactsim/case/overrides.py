@@ -51,21 +51,22 @@ def split_key(key: str) -> list[str | int]:
     return parts
 
 
-def apply_overrides(raw: dict, overrides: Sequence[str]) -> None:
-    """Set each 'key.path=value' in the raw case tables (in place)."""
+def apply_overrides(raw: dict, overrides: Sequence[str], root: Table = ROOT) -> None:
+    """Set each 'key.path=value' in the raw case tables (in place); `root` is the key table
+    the paths are checked against (the quasistatic cases have their own)."""
     for item in overrides:
         if "=" not in item:
             raise CaseError(f"--set {item}: expected KEY=VALUE, e.g. --set run.cfl=0.5")
         key, text = item.split("=", 1)
         try:
-            _set(raw, split_key(key), parse_value(text))
+            _set(raw, split_key(key), parse_value(text), root)
         except CaseError as err:
             raise CaseError(f"{err} (from --set {item})") from None
 
 
-def _set(raw: dict, parts: list[str | int], value: object) -> None:
+def _set(raw: dict, parts: list[str | int], value: object, root: Table = ROOT) -> None:
     node: dict | list = raw
-    spec: Table = ROOT
+    spec: Table = root
     path = KeyPath()
     for i, part in enumerate(parts):
         last = i == len(parts) - 1

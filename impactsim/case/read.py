@@ -131,6 +131,10 @@ def convert(value: object, spec: Key, path: KeyPath, kind: str):
                 return None
             return parse_quantity(v, "velocity", p)
         return tuple(_list(value, path, 3, "velocity", one))
+    if kind == "length-or-free":
+        def one_length(v, p):
+            return None if v == "free" else parse_quantity(v, "length", p)
+        return tuple(_list(value, path, 3, "length", one_length))
     if kind == "int":
         if isinstance(value, float) and value.is_integer():
             return int(value)

@@ -92,6 +92,8 @@ def _type(key: Key) -> str:
         return f"{key.length} numbers"
     if key.kind == "velocity-or-free":
         return 'velocity [m/s] × 3, each may be `"free"`'
+    if key.kind == "length-or-free":
+        return 'length [m] × 3, each may be `"free"`'
     if key.kind == "length-or-vector":
         return "length [m], or 3 × length"
     if key.kind in ("choice", "choice-list"):

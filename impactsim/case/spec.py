@@ -34,9 +34,11 @@ COMPUTED = _Marker("COMPUTED")  # the default depends on other keys (see default
 #   int, bool, string, path
 #   choice (choices), choice-list (choices), string-list
 #   velocity-or-free      3 velocities, each may be "free"
+#   length-or-free        3 lengths, each may be "free" (prescribed displacements)
 #   length-or-vector      a length (cube12) or 3 lengths (box, plate)
 KINDS = {"quantity", "vector", "quantity-list", "number", "number-list", "int", "bool", "string",
-         "path", "choice", "choice-list", "string-list", "velocity-or-free", "length-or-vector"}
+         "path", "choice", "choice-list", "string-list", "velocity-or-free", "length-or-vector",
+         "length-or-free"}
 
 
 @dataclass(frozen=True)
@@ -122,6 +124,9 @@ EOS_KEYS: dict[str, tuple[str, ...]] = {
 }
 
 RUN = Table("run", "Time integration and run control.", (
+    Key("analysis", "choice", "Analysis type: explicit dynamics, or quasi-static thermoelastic "
+        "contact of many bodies (its own keys: docs/quasistatic.md).", "dynamic",
+        choices=("dynamic", "quasistatic")),
     Key("name", "string", "Name of the run; names the default output folder `out/<name>`.",
         COMPUTED, default_doc="the case file's stem"),
     Key("end_time", "quantity", "Simulated time at which the run ends (> 0).", dim="time"),
@@ -213,6 +218,13 @@ MATERIAL = Table("material", "A material. Start from a library entry with `libra
         _d(schema.Material, "initial_temperature"), dim="temperature"),
     Key("source", "string", "Where the numbers come from.", "",
         default_doc="the library entry's source"),
+    Key("conductivity", "quantity", "Thermal conductivity k (> 0); quasistatic analysis.",
+        None, dim="conductivity"),
+    Key("conductivity_table", "string-list", "k(T) as a table: [\"T1 k1\", ...] with T in K "
+        "and k in W/(m K), e.g. [\"300 7.6\", \"1000 3.3\"] (linear in between, constant "
+        "outside); quasistatic analysis.", None),
+    Key("expansion", "quantity", "Linear thermal expansion coefficient alpha; quasistatic "
+        "analysis.", None, dim="expansion"),
     STRENGTH,
     EOS,
     FAILURE,

@@ -27,6 +27,11 @@ DIMENSIONS: dict[str, tuple[str, str]] = {
     "angle": ("rad", "angle"),
     "rate": ("1/s", "rate"),
     "angular_velocity": ("rad/s", "angular velocity"),
+    "conductivity": ("W/(m K)", "thermal conductivity"),
+    "heat_transfer": ("W/(m^2 K)", "heat-transfer coefficient"),
+    "heat_flux": ("W/m^2", "heat flux"),
+    "power_density": ("W/m^3", "volumetric heat source"),
+    "expansion": ("1/K", "thermal expansion coefficient"),
 }
 
 # Factors are exact fractions, so "80 us" is exactly the float nearest 8e-5 (one rounding).
@@ -67,6 +72,11 @@ def _build() -> tuple[dict[str, tuple[str, Fraction, Fraction]], dict[str, list[
     add("rate", {"1/s": 1, "/s": 1, "s^-1": 1, "1/ms": 1000, "/ms": 1000, "1/us": 10**6,
                  "/us": 10**6})
     add("angular_velocity", {"rad/s": 1, "deg/s": _DEG, "rpm": _F(math.pi / 30.0)})
+    add("conductivity", {"W/(m K)": 1, "W/m/K": 1, "W/(cm K)": 100})
+    add("heat_transfer", {"W/(m^2 K)": 1, "W/m^2/K": 1, "kW/(m^2 K)": 1000})
+    add("heat_flux", {"W/m^2": 1, "kW/m^2": 1000, "MW/m^2": 10**6, "W/cm^2": 10**4})
+    add("power_density", {"W/m^3": 1, "kW/m^3": 1000, "MW/m^3": 10**6, "W/cm^3": 10**6})
+    add("expansion", {"1/K": 1, "/K": 1, "K^-1": 1, "1/degC": 1})
     return units, shown
 
 

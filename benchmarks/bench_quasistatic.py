@@ -1,0 +1,100 @@
+"""`make bench-quasistatic`: the pellet stack (cases/pellet-stack.toml) with 10, 50 and 350
+bodies (pellets + the tube), with 1 and 2 Dask workers, and the monolithic solve of the same
+bodies where it fits: Schwarz iterations, heat iterations and wall times.
+
+    QS_SIZES=10,50,350 QS_WORKERS=1,2 python benchmarks/bench_quasistatic.py
+
+(`make bench` runs it with 10 and 50 bodies only.) The wall time of a run is measured without
+the cluster start and the meshing: set-up (contact detection and interface operators),
+factorisations and iterations, as `seconds` in summary.json.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from pathlib import Path
+
+HERE = Path(__file__).parent
+CASE = HERE.parent / "cases" / "pellet-stack.toml"
+PELLET = 9.83  # mm
+
+
+def stack_overrides(bodies: int) -> list[str]:
+    """--set overrides turning the 350-body case into `bodies` bodies (bodies - 1 pellets)."""
+    n = bodies - 1
+    tube = n * PELLET + 10.0
+    return [f"body.pellet.copies.count={n - 2}",
+            f'body.top-pellet.position=[0, 0, "{(n - 1) * PELLET + 4.915:.3f} mm"]',
+            f'body.top-pellet.boundary.0.plane.point=[0, 0, "{n * PELLET:.3f} mm"]',
+            f'body.tube.height="{tube:.3f} mm"',
+            f'body.tube.position=[0, 0, "{tube / 2 - 5.0:.3f} mm"]']
+
+
+def run(bodies: int, workers: int, monolithic: bool = False) -> dict:
+    from impactsim.case.quasistatic import load_quasistatic
+    from impactsim.quasistatic import interfaces as setup_mod
+    from impactsim.quasistatic.build import problem
+    from impactsim.quasistatic.solver import solve
+
+    case = load_quasistatic(CASE, stack_overrides(bodies))
+    t0 = time.perf_counter()
+    prob = problem(case)
+    t_mesh = time.perf_counter() - t0
+    setup = setup_mod.setup(prob)
+    out = solve(prob, workers, setup=setup)
+    row = {"bodies": len(prob.bodies), "workers": out.workers, "mesh_s": t_mesh,
+           "setup_s": setup[4], "iterations": out.steps[-1].get("iterations"),
+           "heat_iterations": out.steps[-1].get("heat_iterations"),
+           "wall_s": out.seconds["total_wall"] - out.seconds["start"],
+           "heat_s": out.seconds["heat_phase_wall"],
+           "mechanics_s": out.seconds["mechanics_phase_wall"],
+           "converged": out.stopped is None,
+           "max_T": max(float(f["T"].max()) for f in out.fields.values())}
+    if monolithic:
+        import numpy as np
+        from impactsim.quasistatic.body import BodyState
+        from impactsim.quasistatic.monolithic import solve_monolithic
+
+        _, itfs, specs, route, _ = setup
+        states = {s.index: BodyState(s) for s in specs}
+        # the temperatures of the Schwarz run, then one monolithic mechanical solve
+        for i, st in states.items():
+            st.heat.T = out.fields[i]["T"]
+        t1 = time.perf_counter()
+        u, _ = solve_monolithic(states, itfs)
+        row["monolithic_s"] = time.perf_counter() - t1
+        size = max(np.abs(u[i]).max() for i in u)
+        row["schwarz_vs_monolithic"] = max(np.abs(out.fields[i]["u"] - u[i]).max()
+                                           for i in u) / size
+    return row
+
+
+def main() -> None:
+    sys.path.insert(0, str(HERE.parent))
+    sizes = [int(s) for s in os.environ.get("QS_SIZES", "10,50").split(",")]
+    workers = [int(s) for s in os.environ.get("QS_WORKERS", "1,2").split(",")]
+    mono_limit = int(os.environ.get("QS_MONOLITHIC_MAX", "50"))
+    cols = ("bodies", "workers", "iterations", "heat_iterations", "setup_s", "wall_s", "heat_s",
+            "mechanics_s", "monolithic_s", "schwarz_vs_monolithic", "converged", "max_T")
+    print(" ".join(f"{c:>12}" for c in cols), flush=True)
+    for n in sizes:
+        walls = {}
+        for w in workers:
+            row = run(n, w, monolithic=(w == workers[0] and n <= mono_limit))
+            walls[w] = row["wall_s"]
+            print(" ".join(f"{_fmt(row.get(c, '')):>12}" for c in cols), flush=True)
+        if 1 in walls and 2 in walls:
+            print(f"  {n} bodies: 1 worker / 2 workers wall time = {walls[1] / walls[2]:.2f}",
+                  flush=True)
+
+
+def _fmt(v) -> str:
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    return str(v)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,140 @@
+"""One body as a worker holds it between Schwarz iterations: its spaces, its heat and elastic
+solvers (factorised once) and its sides of the contact interfaces.
+
+``BodyGroup`` holds several bodies and answers one call per iteration for all of them (a Dask
+actor wraps one group per worker, see ``pool``). Inputs and outputs are small: per interface,
+values at contact nodes or quadrature points, never whole fields.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as sla
+
+from impactsim.quasistatic.elastic import ElasticBody
+from impactsim.quasistatic.heat import HeatBody
+from impactsim.quasistatic.model import BodyModel
+from impactsim.quasistatic.space import Space
+
+
+@dataclass
+class BodySpec:
+    """What a worker needs to build a body: its model and its sides of the interfaces."""
+
+    index: int
+    model: BodyModel
+    regularization: float
+    kin: list = field(default_factory=list)  # (interface id, C_a, M_a)
+    force: list = field(default_factory=list)  # (interface id, I_b, G_b)
+    heat: list = field(default_factory=list)  # (link id, H, L, P_other_for_neighbour)
+    heat_send: list = field(default_factory=list)  # (link id, P): values the neighbour needs
+    thermal: bool = False  # solve heat (else the temperature stays the initial one)
+
+
+class BodyState:
+    def __init__(self, spec: BodySpec):
+        t0 = time.perf_counter()
+        self.spec = spec
+        self.space = Space(spec.model.mesh(), spec.model.order)
+        robin = None
+        for _, H, _ in spec.heat:
+            robin = H if robin is None else robin + H
+        self.heat = HeatBody(spec.model, self.space, robin)
+        self.elastic = ElasticBody(spec.model, self.space, spec.regularization)
+        self.C = sp.vstack([c for _, c, _ in spec.kin]).tocsr() if spec.kin else None
+        self.rows = np.cumsum([0] + [c.shape[0] for _, c, _ in spec.kin])
+        self.f = np.zeros(self.elastic.ndof)
+        self.uD = self.elastic.prescribed(1.0)
+        self.u = np.zeros(self.elastic.ndof)
+        self.seconds = {"factorization": time.perf_counter() - t0, "heat": 0.0, "solves": 0.0}
+
+    # --- heat ---
+    def heat_begin(self, dt: float | None) -> dict:
+        self.heat.begin_step(dt)
+        return self.heat_send()
+
+    def heat_send(self) -> dict:
+        return {k: P @ self.heat.T for k, P in self.spec.heat_send}
+
+    def heat_solve(self, received: dict, tolerance: float, max_picard: int) -> dict:
+        t0 = time.perf_counter()
+        f = np.zeros(self.space.n)
+        for k, _, L in self.spec.heat:
+            if k in received:
+                f += L @ received[k]
+        if self.spec.thermal:
+            self.heat.solve(f, tolerance, max_picard)
+        self.seconds["heat"] += time.perf_counter() - t0
+        return self.heat_send()
+
+    # --- mechanics ---
+    def mech_begin(self, scale: float) -> None:
+        self.f = self.elastic.load(self.heat.T, scale)
+        self.uD = self.elastic.prescribed(scale)
+
+    def mech_solve(self, g: dict, active: dict, pressure: dict) -> dict:
+        t0 = time.perf_counter()
+        f = self.f.copy()
+        for k, _, G in self.spec.force:
+            if k in pressure:
+                f += G @ pressure[k]
+        if self.C is not None:
+            gg = np.concatenate([g[k] for k, _, _ in self.spec.kin])
+            aa = np.concatenate([active[k] for k, _, _ in self.spec.kin])
+        else:
+            gg = aa = None
+        u, lam = self.elastic.solve(f, self.uD, self.C, gg, aa)
+        self.u = u
+        out = {}
+        for i, (k, C, _) in enumerate(self.spec.kin):
+            r = lam[self.rows[i]:self.rows[i + 1]]
+            out[("a", k)] = (C @ u, _pressures(self.spec.kin[i][2], r, active[k]))
+        for k, I, _ in self.spec.force:
+            out[("b", k)] = I @ u
+        self.seconds["solves"] += time.perf_counter() - t0
+        return out
+
+    def fields(self) -> dict:
+        T = self.heat.T
+        return {"u": self.u, "T": T, "stress": self.elastic.stress_at_vertices(self.u, T),
+                "seconds": dict(self.seconds)}
+
+
+def _pressures(M: sp.csr_matrix, reactions: np.ndarray, active: np.ndarray) -> np.ndarray:
+    """Nodal pressures p of the active nodes from their reactions: M_aa p_a = lambda_a (the
+    surface mass restricted to the active nodes; zero elsewhere)."""
+    p = np.zeros(len(reactions))
+    idx = np.nonzero(active)[0]
+    if len(idx):
+        Maa = M[idx][:, idx].tocsc()
+        p[idx] = sla.spsolve(Maa, reactions[idx]) if len(idx) > 1 else reactions[idx] / Maa[0, 0]
+    return p
+
+
+class BodyGroup:
+    """Several bodies; every method takes and returns dicts keyed by body index."""
+
+    def __init__(self, specs: list[BodySpec]):
+        self.bodies = {s.index: BodyState(s) for s in specs}
+
+    def heat_begin(self, dt):
+        return {i: b.heat_begin(dt) for i, b in self.bodies.items()}
+
+    def heat_solve(self, received: dict, tolerance: float, max_picard: int):
+        return {i: b.heat_solve(received.get(i, {}), tolerance, max_picard)
+                for i, b in self.bodies.items()}
+
+    def mech_begin(self, scale: float):
+        for b in self.bodies.values():
+            b.mech_begin(scale)
+        return {}
+
+    def mech_solve(self, inputs: dict):
+        return {i: b.mech_solve(*inputs.get(i, ({}, {}, {}))) for i, b in self.bodies.items()}
+
+    def fields(self):
+        return {i: b.fields() for i, b in self.bodies.items()}

@@ -1,0 +1,227 @@
+"""The operators of one contact interface between a kinematic body A and a force body B.
+
+Following [G15] each interface has a kinematic side A (its contact nodes get a prescribed
+normal displacement) and a force side B (it gets the contact pressure of A as a traction):
+
+- ``C_a`` (n x 3 N_A): rows n_m . u_A(m) of A's contact nodes m (vertices, and edge midpoints on
+  tet10), n_m the area-averaged outward normal of A there;
+- ``I_b`` (n x 3 N_B): n_m . u_B(s_m), B's displacement at the closest point s_m of m on B;
+- ``gap`` (n): the initial normal gap delta_m = (x_s - x_m) . n_m;
+- ``M_a`` (n x n): A's surface mass matrix on those nodes; the nodal pressures are
+  p = M_a^-1 lambda (lambda the reactions): a uniform pressure gives uniform p exactly, on tet4
+  and tet10 alike (the consistent nodal forces of a uniform pressure are M_a 1 p);
+- ``G_b`` (3 N_B x n): B's nodal forces of the traction -p n_B, p interpolated from A's nodal
+  pressures at the closest points of B's facet quadrature points (a mortar-like transfer: a
+  uniform pressure is passed exactly across non-matching meshes).
+- heat: per side, ``H`` (h times its surface mass), ``L`` (its loads from the other body's
+  temperature at its facet quadrature points: integral h v T_other) and the other body's ``P``
+  (interpolation of its temperature at those points), so only those values travel.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from impactsim.quasistatic.heat import _mass
+from impactsim.quasistatic.matching import locate
+from impactsim.quasistatic.space import Space, shape_values
+
+
+@dataclass
+class Interface:
+    a: int  # kinematic body index
+    b: int  # force body index
+    order: int
+    friction: float
+    conductance: float
+    nodes: np.ndarray  # A's contact scalar dofs
+    normals: np.ndarray  # (n, 3)
+    gap: np.ndarray  # (n,)
+    matched: np.ndarray  # (n,) bool: the node faces B's patch
+    C_a: sp.csr_matrix
+    I_b: sp.csr_matrix
+    M_a: sp.csr_matrix
+    G_b: sp.csr_matrix
+    tied: bool = False
+    heat_a: tuple | None = None  # (H_a, L_a, P_b): A's exchange matrix, load from values at
+    heat_b: tuple | None = None  # A's quadrature points, B's interpolation there (and conversely)
+    facets_a: np.ndarray | None = None
+    facets_b: np.ndarray | None = None
+
+
+def surface_interpolation(space: Space, facets: np.ndarray, points: np.ndarray):
+    """(sparse (n_points x N) interpolation of the scalar field at the closest points of
+    `points` (n, 3) on the facets, closest points (n, 3), facet normals there (n, 3))."""
+    x, normals = space.facet_geometry(facets)
+    f, bary, _ = locate(points, x)
+    fd = space.facet_dofs(facets)[:, f]  # (k, n)
+    vals = shape_values(space.order, bary)  # (n, k)
+    n = len(points)
+    rows = np.repeat(np.arange(n), fd.shape[0])
+    P = sp.csr_matrix((vals.ravel(), (rows, fd.T.ravel())), shape=(n, space.n))
+    closest = np.einsum("nk,nkc->nc", bary, x[f])
+    return P, closest, normals[f]
+
+
+def _vectorise(P: sp.csr_matrix, normals: np.ndarray) -> sp.csr_matrix:
+    """Rows n . u (3 N columns) from scalar interpolation rows."""
+    P = P.tocoo()
+    rows = np.repeat(P.row, 3)
+    cols = (3 * P.col[:, None] + np.arange(3)).ravel()
+    vals = (P.data[:, None] * normals[P.row]).ravel()
+    return sp.csr_matrix((vals, (rows, cols)), shape=(P.shape[0], 3 * P.shape[1]))
+
+
+SUBDIVISION = 3  # B's facets are cut 4^SUBDIVISION times for the pressure transfer
+
+
+def _sub_rule(level: int) -> tuple[np.ndarray, np.ndarray]:
+    """Barycentric points (n, 3) and weights (sum 1) of the 3-point (degree 2) rule on each of
+    the 4^level sub-triangles of a triangle."""
+    tris = [np.eye(3)]
+    for _ in range(level):
+        new = []
+        for t in tris:
+            m01, m12, m02 = (t[0] + t[1]) / 2, (t[1] + t[2]) / 2, (t[0] + t[2]) / 2
+            new += [np.array([t[0], m01, m02]), np.array([m01, t[1], m12]),
+                    np.array([m02, m12, t[2]]), np.array([m01, m12, m02])]
+        tris = new
+    ref = np.array([[2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]])
+    pts = np.concatenate([ref @ t for t in tris])
+    return pts, np.full(len(pts), 1.0 / len(pts))
+
+
+def transfer_matrix(sa: Space, facets_a, nodes, sb: Space, facets_b, h: float) -> sp.csr_matrix:
+    """G_b (3 N_B x n): B's nodal forces of the traction -p n_B, p interpolated from A's nodal
+    pressures, points off A's patch getting no pressure. B's facets whose corners, edge
+    midpoints and centroid all lie on A's patch are integrated on 4 sub-triangles, those A
+    covers in part on 4^SUBDIVISION (the force of the covered part to within the sub-triangle
+    size), those with none of those points on it are skipped. The rule is of degree 2 on each
+    sub-triangle: a uniform pressure is passed exactly where A covers B's facets whole."""
+    facets_b = np.asarray(facets_b)
+    xb, nb = sb.facet_geometry(facets_b)
+    probe = np.concatenate([xb, (xb + np.roll(xb, 1, axis=1)) / 2,
+                            xb.mean(axis=1, keepdims=True)], axis=1).reshape(-1, 3)
+    inside = _on_patch(sa, facets_a, probe, np.repeat(nb, 7, axis=0), h).reshape(-1, 7)
+    full = inside.all(axis=1)
+    part = inside.any(axis=1) & ~full
+    G = sp.csr_matrix((3 * sb.n, len(nodes)))
+    for mask, level in ((full, 1), (part, SUBDIVISION)):
+        if mask.any():
+            G = G + _transfer(sa, facets_a, nodes, sb, facets_b[mask], h, level)
+    return G.tocsr()
+
+
+def _on_patch(sa: Space, facets_a, points: np.ndarray, normals: np.ndarray, h: float):
+    """Whether each point lies over A's patch (its closest point there is along the normal)."""
+    _, xc, _ = surface_interpolation(sa, facets_a, points)
+    dq = xc - points
+    off = np.linalg.norm(dq - np.einsum("ij,ij->i", dq, normals)[:, None] * normals, axis=1)
+    return off <= 1e-6 * h
+
+
+def _transfer(sa: Space, facets_a, nodes, sb: Space, facets_b, h: float, level: int):
+    bary, w = _sub_rule(level)
+    xb, nb = sb.facet_geometry(facets_b)  # (nf, 3, 3), (nf, 3)
+    area = 0.5 * np.linalg.norm(np.cross(xb[:, 1] - xb[:, 0], xb[:, 2] - xb[:, 0]), axis=1)
+    xq = np.einsum("qv,fvc->fqc", bary, xb).reshape(-1, 3)
+    Pa, xc, _ = surface_interpolation(sa, facets_a, xq)
+    col = np.full(sa.n, -1)
+    col[nodes] = np.arange(len(nodes))
+    Pa = Pa.tocoo()
+    keep = col[Pa.col] >= 0
+    nf, nq = len(facets_b), len(w)
+    dq = xc - xq
+    nrep = np.repeat(nb, nq, axis=0)
+    off = np.linalg.norm(dq - np.einsum("ij,ij->i", dq, nrep)[:, None] * nrep, axis=1)
+    inside = off <= 1e-6 * h
+    wq = (area[:, None] * w[None, :]).ravel() * inside  # (nf nq)
+    vals = shape_values(sb.order, np.tile(bary, (nf, 1)))  # (nf nq, k)
+    fd = sb.facet_dofs(facets_b)  # (k, nf)
+    qa = Pa.row[keep]
+    ca = col[Pa.col[keep]]
+    va = Pa.data[keep]
+    rows, cols, data = [], [], []
+    fq = qa // nq
+    for j in range(fd.shape[0]):
+        for c in range(3):
+            rows.append(3 * fd[j, fq] + c)
+            cols.append(ca)
+            data.append(-nb[fq, c] * vals[qa, j] * wq[qa] * va)
+    return sp.csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(3 * sb.n, len(nodes)))
+
+
+def build(a: int, b: int, sa: Space, sb: Space, facets_a: np.ndarray, facets_b: np.ndarray,
+          friction: float = 0.0, conductance: float = 0.0, tied: bool = False) -> Interface:
+    # A's contact nodes and their normals
+    fd = sa.facet_dofs(facets_a)  # (k, nf)
+    nodes, inverse = np.unique(fd, return_inverse=True)
+    inverse = inverse.reshape(fd.shape)
+    xa, na = sa.facet_geometry(facets_a)
+    area = 0.5 * np.linalg.norm(np.cross(xa[:, 1] - xa[:, 0], xa[:, 2] - xa[:, 0]), axis=1)
+    nsum = np.zeros((len(nodes), 3))
+    for r in range(fd.shape[0]):
+        np.add.at(nsum, inverse[r], na * area[:, None])
+    normals = nsum / np.linalg.norm(nsum, axis=1)[:, None]
+    xm = sa.doflocs[:, nodes].T
+    # B at the closest points
+    Pb, xs, nb = surface_interpolation(sb, facets_b, xm)
+    d = xs - xm
+    gap = np.einsum("ij,ij->i", d, normals)
+    lateral = np.linalg.norm(d - gap[:, None] * normals, axis=1)
+    h = np.sqrt(area.mean())
+    # a node faces B when its closest point there lies along its normal (to within the angle
+    # between facets of curved, faceted surfaces) on a facet turned towards it
+    matched = (lateral <= 1e-3 * h + 0.5 * np.abs(gap)) & \
+        (np.einsum("ij,ij->i", nb, normals) < -0.5) & (gap > -0.5 * h)
+    n = len(nodes)
+    # kinematic rows of A
+    Sa = sp.csr_matrix((np.ones(n), (np.arange(n), nodes)), shape=(n, sa.n))
+    C_a = _vectorise(Sa, normals)
+    I_b = _vectorise(Pb, normals)
+    # surface mass of A on its contact nodes
+    fba = sa.facet_basis(facets_a)
+    M_a = _mass.assemble(fba, c=1.0).tocsr()[nodes][:, nodes]
+    # force transfer to B (see transfer_matrix)
+    G_b = transfer_matrix(sa, facets_a, nodes, sb, facets_b, h)
+    itf = Interface(a, b, sa.order, friction, conductance, nodes, normals, gap, matched, C_a, I_b,
+                    M_a, G_b, facets_a=np.asarray(facets_a), facets_b=np.asarray(facets_b),
+                    tied=tied)
+    if conductance > 0:
+        itf.heat_a = _exchange(sa, facets_a, sb, facets_b, conductance)
+        itf.heat_b = _exchange(sb, facets_b, sa, facets_a, conductance)
+    return itf
+
+
+def _quadrature(space: Space, facets: np.ndarray, vector: bool, intorder: int | None = None):
+    fb = space.facet_basis(facets, vector=vector, intorder=intorder)
+    xq = fb.global_coordinates().value  # (3, nf, nq)
+    return fb, xq.reshape(3, -1).T, fb.dx.ravel()
+
+
+def _facet_to_qp(fb, weights_per_dof) -> sp.csr_matrix:
+    """(N x nqp) sparse: rows the basis' dofs, columns the quadrature points."""
+    nf, nq = fb.dx.shape
+    rows, cols, vals = [], [], []
+    qp = np.arange(nf * nq).reshape(nf, nq)
+    for i in range(len(fb.basis)):
+        v = weights_per_dof(fb.basis[i][0].value)  # (nf, nq)
+        rows.append(np.repeat(fb.element_dofs[i], nq))
+        cols.append(qp.ravel())
+        vals.append(v.ravel())
+    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(fb.N, nf * nq))
+
+
+def _exchange(s1: Space, f1, s2: Space, f2, h: float):
+    """(h M on s1's facets, L (N1 x nq), P2 (nq x N2)): s1's load is L @ (P2 @ T_2), the
+    integral h v T_2(s(x)) dS over s1's facets."""
+    fb, xq, wq = _quadrature(s1, f1, vector=False)
+    P2, _, _ = surface_interpolation(s2, f2, xq)
+    L = (_facet_to_qp(fb, lambda v: v) @ sp.diags(h * wq)).tocsr()
+    H = _mass.assemble(fb, c=h).tocsr()
+    return H, L, P2

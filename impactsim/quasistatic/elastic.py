@@ -1,0 +1,188 @@
+"""Thermoelastic equilibrium of one body: sigma = C : (eps - alpha (T - T_ref) I).
+
+``ElasticBody`` assembles the stiffness once (scikit-fem), eliminates the prescribed
+displacement components of its boundary conditions and factorises the free block once (scipy
+SuperLU). Contact enters as kinematic rows ``C u = g`` (the normal displacement of contact
+nodes), solved with Lagrange multipliers through the Schur complement ``S = C K^-1 C^T`` on the
+same factorisation (recomputed only when the set of active rows changes), and as nodal forces.
+
+Floating bodies: every solve adds weak springs ``eps diag(K)`` tying the body to its own
+displacement of the previous iteration (a proximal step). At a converged iterate the springs
+carry no force, so the answer does not depend on eps; between iterations they remove the
+rigid-body modes a body held only by its contacts would otherwise have. Where the contacts leave
+a mode undetermined for good (the lateral position of a pellet in a column with convex, heated
+ends: the column is indifferent to sideways motion), the body's `centering_axis` ties it to its
+reference position across that axis instead: a weak elastic foundation whose force is eps times
+the lateral displacement (thermal radial growth: a self-balanced 1e-6 relative perturbation).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as sla
+import skfem as fem
+from skfem.helpers import ddot, sym_grad, trace, eye, dot
+
+from impactsim.quasistatic.model import BodyModel
+from impactsim.quasistatic.space import Space
+
+
+def _stiffness(lam: float, mu: float):
+    @fem.BilinearForm
+    def form(u, v, w):
+        e = sym_grad(u)
+        return ddot(2.0 * mu * e + eye(lam * trace(e), 3), sym_grad(v))
+    return form
+
+
+@fem.LinearForm
+def _thermal(v, w):
+    # sigma_T : eps(v) with sigma_T = (3 lam + 2 mu) alpha dT I
+    return w.beta * w.dT * trace(sym_grad(v))
+
+
+@fem.LinearForm
+def _traction(v, w):
+    return dot(w.t, v)
+
+
+@fem.LinearForm
+def _pressure(v, w):
+    return -w.p * dot(w.n, v)
+
+
+class ElasticBody:
+    def __init__(self, model: BodyModel, space: Space, regularization: float = 1e-6):
+        self.model = model
+        self.space = space
+        mat = model.material
+        self.lam, self.mu = mat.lame
+        vb = space.vector
+        self.K = _stiffness(self.lam, self.mu).assemble(vb).tocsr()
+        self.ndof = vb.N
+        # prescribed components
+        fixed: dict[int, float] = {}
+        self._displacement_conditions = []
+        for c in model.conditions:
+            if c.kind != "displacement":
+                continue
+            dofs = space.scalar.get_dofs(c.facets).all() if len(c.facets) else np.array([], int)
+            for k, val in enumerate(c.vector):
+                if val is not None:
+                    self._displacement_conditions.append((3 * dofs + k, val, c.ramp))
+        for dofs, val, _ in self._displacement_conditions:
+            for d in dofs:
+                fixed[int(d)] = val
+        self.D = np.array(sorted(fixed), dtype=np.int64)
+        mask = np.ones(self.ndof, bool)
+        mask[self.D] = False
+        self.F = np.nonzero(mask)[0]
+        Kff = self.K[self.F][:, self.F].tocsc()
+        self.spring = regularization * Kff.diagonal()
+        self.lu = sla.splu((Kff + sp.diags(self.spring)).tocsc())
+        self.KfD = self.K[self.F][:, self.D]
+        self._schur_key = None
+        self.u_prev = np.zeros(self.ndof)
+
+    def prescribed(self, scale: float) -> np.ndarray:
+        uD = np.zeros(self.ndof)
+        for dofs, val, ramp in self._displacement_conditions:
+            uD[dofs] = val * (scale if ramp else 1.0)
+        return uD[self.D]
+
+    def load(self, temperature: np.ndarray | None, scale: float) -> np.ndarray:
+        """External load vector: tractions, pressures and the thermal strain."""
+        vb = self.space.vector
+        f = np.zeros(self.ndof)
+        mat = self.model.material
+        if temperature is not None and mat.expansion:
+            dT = self.space.scalar.interpolate(temperature - mat.reference_temperature)
+            f += _thermal.assemble(vb, dT=dT, beta=(3 * self.lam + 2 * self.mu) * mat.expansion)
+        for c in self.model.conditions:
+            s = scale if c.ramp else 1.0
+            if c.kind == "traction" and len(c.facets):
+                fb = self.space.facet_basis(c.facets, vector=True)
+                t = np.array([0.0 if v is None else v for v in c.vector])[:, None, None]
+                f += _traction.assemble(fb, t=s * t * np.ones((3,) + fb.dx.shape))
+            elif c.kind == "pressure" and len(c.facets):
+                fb = self.space.facet_basis(c.facets, vector=True)
+                f += _pressure.assemble(fb, p=s * c.value)
+        return f
+
+    def solve(self, f: np.ndarray, uD: np.ndarray, C: sp.csr_matrix | None = None,
+              g: np.ndarray | None = None, active: np.ndarray | None = None,
+              proximal: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """Displacement u and the multipliers (contact reactions along the rows of C, > 0
+        compressive) of K u = f - C_a^T lam, C_a u = g_a on the active rows."""
+        rhs = f[self.F] - self.KfD @ uD
+        if proximal:
+            rhs = rhs + self.spring * self._anchor()[self.F]
+        u0 = self.lu.solve(rhs)
+        lam = np.zeros(0 if C is None else C.shape[0])
+        uf = u0
+        if C is not None and active is not None and active.any():
+            idx = np.nonzero(active)[0]
+            key = idx.tobytes()
+            if key != self._schur_key:
+                Ca = C[idx]
+                Cf = Ca[:, self.F].toarray()
+                self._CD = Ca[:, self.D]
+                # one column at a time: SuperLU's many-right-hand-side solve is slower
+                W = np.empty((len(self.F), len(idx)))
+                for j in range(len(idx)):
+                    W[:, j] = self.lu.solve(np.ascontiguousarray(Cf[j]))
+                S = Cf @ W
+                self._W, self._Cf = W, Cf
+                # a tiny shift keeps S definite when two rows constrain the same node alike
+                # (a node on the edge between two patches): they then share the force
+                S = 0.5 * (S + S.T)
+                S[np.diag_indices_from(S)] += 1e-10 * np.abs(np.diag(S)).mean()
+                self._S = np.linalg.cholesky(S)
+                self._schur_key = key
+            r = self._Cf @ u0 + self._CD @ uD - g[idx]
+            la = np.linalg.solve(self._S.T, np.linalg.solve(self._S, r))
+            uf = u0 - self._W @ la
+            lam[idx] = la
+        u = np.zeros(self.ndof)
+        u[self.F] = uf
+        u[self.D] = uD
+        self.u_prev = u
+        return u, lam
+
+    def _anchor(self) -> np.ndarray:
+        """Where the weak springs pull: the previous iterate, or (with a centering axis) its
+        component along the axis only: across it, the reference position."""
+        a = self.model.centering_axis
+        if a is None:
+            return self.u_prev
+        a = np.asarray(a, float) / np.linalg.norm(a)
+        u = self.u_prev.reshape(-1, 3)
+        return ((u @ a)[:, None] * a[None, :]).ravel()
+
+    # --- post-processing ---
+    def stress_at_vertices(self, u: np.ndarray, temperature: np.ndarray | None) -> np.ndarray:
+        """Cauchy stress (6 components xx yy zz yz xz xy) averaged at the mesh vertices."""
+        vb = self.space.vector
+        mesh = self.space.mesh
+        # stress per element at its centroid-like quadrature average
+        uh = vb.interpolate(u)
+        e = sym_grad(uh)
+        tr = trace(e)
+        iso = self.lam * tr
+        if temperature is not None and self.model.material.expansion:
+            mat = self.model.material
+            dT = self.space.scalar.interpolate(temperature - mat.reference_temperature)
+            iso = iso - (3 * self.lam + 2 * self.mu) * mat.expansion * np.asarray(dT)
+        s = 2 * self.mu * e + eye(iso, 3)
+        s = np.asarray(s)  # (3, 3, ne, nq)
+        w = vb.dx
+        se = (s * w).sum(axis=-1) / w.sum(axis=-1)  # (3, 3, ne)
+        comps = np.stack([se[0, 0], se[1, 1], se[2, 2], se[1, 2], se[0, 2], se[0, 1]])
+        vol = w.sum(axis=-1)
+        acc = np.zeros((6, mesh.p.shape[1]))
+        wsum = np.zeros(mesh.p.shape[1])
+        for i in range(4):
+            np.add.at(acc.T, mesh.t[i], (comps * vol).T)
+            np.add.at(wsum, mesh.t[i], vol)
+        return acc / wsum

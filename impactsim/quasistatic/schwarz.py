@@ -1,0 +1,190 @@
+"""The alternating Schwarz iteration of [G15] over all bodies of a problem, one load step.
+
+Heat first (one-way coupling): every body is solved with the exchange h (T - T_other) on its
+contact facets, T_other the neighbour's temperature of the previous iteration at the matching
+points (a Robin-Robin Jacobi iteration), until the interface temperatures stop changing.
+
+Mechanics, per iteration k (all bodies at once, in parallel):
+1. kinematic side A of each interface: the normal displacement of its active contact nodes is
+   prescribed, u_m . n = g_m; its reactions give the nodal pressures p (force half-step input);
+2. force side B: loaded by the pressures A gave at iteration k - 1 (traction -p n_B);
+3. eq. 7 of [G15]: g_m <- g_m + omega (u_s . n + delta_m - g_m), u_s the displacement of the
+   matching point of B; omega fixed, or Aitken's (Irons-Tuck) update of it from the last two
+   residuals, restarted when the active set changes;
+4. active set: an active node whose pressure turns tensile is released; an inactive node that
+   penetrates B is activated (compressive-only contact).
+It stops when the gap mismatch max |u_s . n + delta - g| (relative to the largest displacement)
+and the pressure mismatch max |p_k - p_{k-1}| (relative to the largest pressure) are both
+below their tolerances with an unchanged active set.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from impactsim.quasistatic.coupling import Interface
+from impactsim.quasistatic.model import Settings
+
+
+SETTLE = 10.0  # the active set is updated when the mismatches are below SETTLE x tolerance
+MAX_INNER = 100  # ... or after this many iterations with the same active set
+ACTIVATE = 10.0  # a node is activated when it penetrates by ACTIVATE x gap tolerance x u_max
+RELEASE = 1e-3  # a node is released when its (smoothed) pressure is below -RELEASE p_max
+
+
+class NotConverged(Exception):
+    pass
+
+
+@dataclass
+class ContactState:
+    g: list[np.ndarray]
+    active: list[np.ndarray]
+    p: list[np.ndarray]
+    ua: list[np.ndarray] = field(default_factory=list)
+    ub: list[np.ndarray] = field(default_factory=list)
+
+
+def update_active(itf: Interface, act: np.ndarray, p: np.ndarray, penetration: np.ndarray,
+                  pen_tol: float, p_scale: float) -> np.ndarray:
+    """Compressive-only contact: release active nodes in tension, activate penetrating ones.
+    The nodal pressures M^-1 lambda oscillate in sign where the pressure varies fast, so the
+    release looks at them smoothed over each node's neighbours (weights |M|)."""
+    if itf.tied:
+        return act
+    if itf.order == 1:
+        # tet4: the nodal reactions themselves (M_aa p) say which nodes pull
+        idx = np.nonzero(act)[0]
+        lam = np.zeros(len(p))
+        lam[idx] = itf.M_a[idx][:, idx] @ p[idx]
+        scale = max(np.max(np.abs(lam), initial=0), 1e-300)
+        release = act & (lam < -RELEASE * scale)
+    else:
+        Mabs = abs(itf.M_a)
+        smooth = (Mabs @ np.where(act, p, 0.0)) / np.maximum(Mabs @ act.astype(float), 1e-300)
+        release = act & (smooth < -RELEASE * p_scale)
+    return (act & ~release) | ((~act) & itf.matched & (penetration > pen_tol))
+
+
+def initial_state(interfaces: list[Interface]) -> ContactState:
+    act = []
+    for itf in interfaces:
+        scale = np.sqrt(itf.M_a.diagonal().mean()) if itf.M_a.shape[0] else 1.0
+        act.append(itf.matched & ((itf.gap <= 1e-6 * scale) | itf.tied))
+    return ContactState([itf.gap.copy() for itf in interfaces], act,
+                        [np.zeros(len(itf.gap)) for itf in interfaces])
+
+
+def heat_phase(pool, route: dict, settings: Settings, dt: float | None, log: list) -> int:
+    sends = pool.call("heat_begin", dt)
+    if not route:
+        pool.call("heat_solve", settings.picard_tolerance, settings.max_picard, per_body={})
+        return 1
+    old = None
+    for it in range(1, settings.max_heat_iterations + 1):
+        received: dict = {}
+        for body, values in sends.items():
+            for key, v in values.items():
+                received.setdefault(route[key], {})[key] = v
+        sends = pool.call("heat_solve", settings.picard_tolerance, settings.max_picard,
+                          per_body=received)
+        flat = np.concatenate([v for b in sorted(sends) for _, v in sorted(sends[b].items())])
+        if old is not None:
+            change = np.max(np.abs(flat - old)) / max(np.max(np.abs(flat)), 1e-30)
+            log.append({"phase": "heat", "iteration": it, "change": change})
+            if change < settings.heat_tolerance:
+                return it
+        old = flat
+    raise NotConverged(f"heat: the interface temperatures did not settle in "
+                       f"{settings.max_heat_iterations} iterations")
+
+
+def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state: ContactState,
+                    scale: float, log: list, step: int) -> dict:
+    pool.call("mech_begin", scale)
+    n_b = len(interfaces)
+    omega = settings.relaxation
+    r_old = None
+    last_change = 0
+    result = {"iterations": 0, "gap_residual": np.inf, "pressure_residual": np.inf}
+    for it in range(1, settings.max_iterations + 1):
+        inputs: dict = {}
+        for c, itf in enumerate(interfaces):
+            inputs.setdefault(itf.a, ({}, {}, {}))
+            inputs.setdefault(itf.b, ({}, {}, {}))
+            inputs[itf.a][0][c] = state.g[c]
+            inputs[itf.a][1][c] = state.active[c]
+            inputs[itf.b][2][c] = state.p[c]
+        out = pool.call("mech_solve", per_body=inputs)
+        u_scale = 1e-30
+        p_scale = 1e-30
+        gap_res = 0.0
+        p_change = 0.0
+        changed = False
+        residuals = []
+        new_active = []
+        ua_all, ub_all, pa_all = [], [], []
+        # the active set changes only once the iteration has settled for the current one (an
+        # outer loop): changing it at every iteration makes the contact chatter
+        for c, itf in enumerate(interfaces):
+            ua, pa = out[itf.a][("a", c)]
+            ub = out[itf.b][("b", c)]
+            ua_all.append(ua)
+            ub_all.append(ub)
+            pa_all.append(pa)
+            u_scale = max(u_scale, np.max(np.abs(ua), initial=0), np.max(np.abs(ub), initial=0))
+            p_scale = max(p_scale, np.max(np.abs(pa), initial=0))
+        pre_gap = max((np.max(np.abs(np.where(state.active[c], ub_all[c] + itf.gap - state.g[c],
+                                                   0.0)), initial=0) / u_scale
+                       for c, itf in enumerate(interfaces)), default=0.0)
+        pre_p = max((np.max(np.abs(pa_all[c] - state.p[c]), initial=0) / p_scale
+                     for c in range(n_b)), default=0.0)
+        settle = it == 1 or (pre_gap <= SETTLE * max(settings.gap_tolerance, 1e-3) and
+                             pre_p <= SETTLE * max(settings.pressure_tolerance, 1e-3)) or \
+            it - last_change >= MAX_INNER
+        for c, itf in enumerate(interfaces):
+            ua, ub, pa = ua_all[c], ub_all[c], pa_all[c]
+            act = state.active[c]
+            target = ub + itf.gap
+            r = np.where(act, target - state.g[c], 0.0)
+            residuals.append(r)
+            gap_res = max(gap_res, np.max(np.abs(r), initial=0) / u_scale)
+            p_change = max(p_change, np.max(np.abs(pa - state.p[c]), initial=0) / p_scale)
+            na = update_active(itf, act, pa, ua - target, ACTIVATE * settings.gap_tolerance * u_scale,
+                               p_scale) if settle else act
+            changed |= bool((na != act).any())
+            new_active.append(na)
+        r = np.concatenate(residuals) if residuals else np.zeros(0)
+        if settings.aitken and r_old is not None and not changed and len(r) == len(r_old) \
+                and np.any(r_old):
+            dr = r - r_old
+            den = float(dr @ dr)
+            if den > 0:
+                omega = float(np.clip(-omega * float(r_old @ dr) / den, 0.05, 1.5))
+        elif changed:
+            omega = settings.relaxation
+        log.append({"phase": "mechanics", "step": step, "iteration": it,
+                    "gap_residual": gap_res, "pressure_residual": p_change,
+                    "relaxation": omega, "active": int(sum(a.sum() for a in new_active)),
+                    "active_changed": changed})
+        for c in range(n_b):
+            state.g[c] = np.where(new_active[c], state.g[c] + omega * residuals[c],
+                                  ub_all[c] + interfaces[c].gap)
+            state.p[c] = np.where(new_active[c], pa_all[c], 0.0)
+        if changed:
+            last_change = it
+        state.active = new_active
+        state.ua, state.ub = ua_all, ub_all
+        r_old = None if changed else r
+        result = {"iterations": it, "gap_residual": gap_res, "pressure_residual": p_change}
+        if it >= 2 and not changed and gap_res <= settings.gap_tolerance \
+                and p_change <= settings.pressure_tolerance:
+            return result
+        if not n_b:
+            return result
+    raise NotConverged(f"Schwarz iteration: no convergence in {settings.max_iterations} "
+                       f"iterations (gap mismatch {gap_res:.3g}, pressure mismatch "
+                       f"{p_change:.3g}; tolerances {settings.gap_tolerance:g}, "
+                       f"{settings.pressure_tolerance:g})")
