@@ -87,7 +87,26 @@ failure = { erosion = "jc-damage", erosion_value = 1.0, jc_damage = [0.0, 0.01, 
             + "[fracture]\nerosion_region = 'anywhere'\nparticles_per_element = 1\n"
             + "particle_collisions = true\n")
     out.append(("fracture", frac, 60))
+    # the same with the parallel versions of the kernels that run on one thread for small
+    # meshes (PARALLEL_SCENES)
+    out.append(("fracture-threads", frac, 20))
     return out
+
+
+# scenes run with the size thresholds of the one-thread kernels at 0 (nodal.PARALLEL_NODES,
+# element.PARALLEL_FORCE_NODES), so that their parallel versions are compiled too
+PARALLEL_SCENES = {"fracture-threads"}
+
+
+def _thresholds(values=None):
+    """The size thresholds above which kernels run on all threads; with ``values``, set them
+    (returns the previous ones)."""
+    from impactsim.solver import element, nodal
+
+    old = (nodal.PARALLEL_NODES, element.PARALLEL_FORCE_NODES)
+    if values is not None:
+        nodal.PARALLEL_NODES, element.PARALLEL_FORCE_NODES = values
+    return old
 
 
 class CompileCounter:
@@ -131,10 +150,14 @@ def warm_up(verbose: bool = True) -> dict[str, dict]:
     for name, text, steps in scenes():
         t0 = time.perf_counter()
         case = load_case_text(text, overrides=[f"run.max_steps={steps}", "output.frames=1"])
-        with (CompileCounter() as compiled,
-              tempfile.TemporaryDirectory(prefix="impactsim-warmup-") as out,
-              contextlib.redirect_stderr(io.StringIO())):  # "stopped: max_steps reached"
-            summary = run_case(case, Path(out), progress=False)
+        old = _thresholds((0, 0) if name in PARALLEL_SCENES else None)
+        try:
+            with (CompileCounter() as compiled,
+                  tempfile.TemporaryDirectory(prefix="impactsim-warmup-") as out,
+                  contextlib.redirect_stderr(io.StringIO())):  # "stopped: max_steps reached"
+                summary = run_case(case, Path(out), progress=False)
+        finally:
+            _thresholds(old)
         counts[name] = {"compiled": compiled.kernels, "summary": summary}
         if verbose:
             extra = ""
