@@ -13,8 +13,11 @@ $(PY):
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --upgrade pip >/dev/null
 
+# the install, then every numba kernel compiled once into the cache next to the sources
+# (impactsim/warmup.py), so that no run waits for compilation
 setup: $(PY)
 	$(BIN)/pip install -e '.[test]'
+	$(BIN)/python -m impactsim.warmup
 
 # the whole fast suite: unit, verification, CLI and the fast share of the stability suite
 test: setup

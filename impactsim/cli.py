@@ -105,5 +105,13 @@ def render(run_dir: str, field: str, every: int) -> None:
         _fail(err)
 
 
+@main.command()
+def warmup() -> None:
+    """Compile every numba kernel into the on-disk cache (make setup runs this once)."""
+    from impactsim.warmup import main as warm
+
+    warm()
+
+
 if __name__ == "__main__":  # pragma: no cover
     main()

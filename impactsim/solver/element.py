@@ -898,48 +898,73 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
         gather_node(i, fext, extra_ptr, extra_rows, force)
 
 
-@numba.njit(cache=True, parallel=True, error_model="numpy", fastmath=FAST)
+# node_forces runs on one thread below this many nodes: it is called every step that erosion or
+# particle conversion removes elements, for their few hundred nodes, where a parallel launch
+# costs more than it saves (and much more when other processes hold the cores). The warm-up
+# sets it to 0 for one scene so that both versions are compiled.
+PARALLEL_FORCE_NODES = 20_000
+
+
 def node_forces(nodes, x, conn, status, sdev, pressure, q, n2e_ptr, n2e, force):
     """Recompute the force on each of `nodes` from the current stress of its live elements
     (-V sigma grad N per element, summed in the node-to-element order n2e): after a pass
     removed elements, the forces the kernel added for them leave their nodes. An eroded or
-    inverted element adds nothing, as in `element_update`."""
+    inverted element adds nothing, as in `element_update`. Every node's sum is
+    `_node_force`'s, on one thread or on all (PARALLEL_FORCE_NODES)."""
+    kernel = (_node_forces_parallel if nodes.shape[0] >= PARALLEL_FORCE_NODES
+              else _node_forces_serial)
+    kernel(nodes, x, conn, status, sdev, pressure, q, n2e_ptr, n2e, force)
+
+
+@numba.njit(cache=True, parallel=True, error_model="numpy", fastmath=FAST)
+def _node_forces_parallel(nodes, x, conn, status, sdev, pressure, q, n2e_ptr, n2e, force):
     for j in numba.prange(nodes.shape[0]):
-        i = nodes[j]
-        fx = 0.0
-        fy = 0.0
-        fz = 0.0
-        for k in range(n2e_ptr[i], n2e_ptr[i + 1]):
-            e = n2e[k] // 4
-            a = n2e[k] - 4 * e
-            if status[e] == ERODED:
-                continue
-            i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
-            det, b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z = _tet_gradients(
-                x[i0, 0], x[i0, 1], x[i0, 2], x[i1, 0], x[i1, 1], x[i1, 2],
-                x[i2, 0], x[i2, 1], x[i2, 2], x[i3, 0], x[i3, 1], x[i3, 2])
-            if not det > 0.0:
-                continue
-            ptot = pressure[e] + q[e]
-            f1x, f1y, f1z, f2x, f2y, f2z, f3x, f3y, f3z = _corner_forces(
-                sdev[e, 0] - ptot, sdev[e, 1] - ptot, sdev[e, 2] - ptot, sdev[e, 3], sdev[e, 4],
-                sdev[e, 5], b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z)
-            if a == 0:
-                fx -= f1x + f2x + f3x
-                fy -= f1y + f2y + f3y
-                fz -= f1z + f2z + f3z
-            elif a == 1:
-                fx += f1x
-                fy += f1y
-                fz += f1z
-            elif a == 2:
-                fx += f2x
-                fy += f2y
-                fz += f2z
-            else:
-                fx += f3x
-                fy += f3y
-                fz += f3z
-        force[i, 0] = fx
-        force[i, 1] = fy
-        force[i, 2] = fz
+        _node_force(nodes[j], x, conn, status, sdev, pressure, q, n2e_ptr, n2e, force)
+
+
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def _node_forces_serial(nodes, x, conn, status, sdev, pressure, q, n2e_ptr, n2e, force):
+    for j in range(nodes.shape[0]):
+        _node_force(nodes[j], x, conn, status, sdev, pressure, q, n2e_ptr, n2e, force)
+
+
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def _node_force(i, x, conn, status, sdev, pressure, q, n2e_ptr, n2e, force):
+    """force[i] from node i's live elements (node_forces)."""
+    fx = 0.0
+    fy = 0.0
+    fz = 0.0
+    for k in range(n2e_ptr[i], n2e_ptr[i + 1]):
+        e = n2e[k] // 4
+        a = n2e[k] - 4 * e
+        if status[e] == ERODED:
+            continue
+        i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
+        det, b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z = _tet_gradients(
+            x[i0, 0], x[i0, 1], x[i0, 2], x[i1, 0], x[i1, 1], x[i1, 2],
+            x[i2, 0], x[i2, 1], x[i2, 2], x[i3, 0], x[i3, 1], x[i3, 2])
+        if not det > 0.0:
+            continue
+        ptot = pressure[e] + q[e]
+        f1x, f1y, f1z, f2x, f2y, f2z, f3x, f3y, f3z = _corner_forces(
+            sdev[e, 0] - ptot, sdev[e, 1] - ptot, sdev[e, 2] - ptot, sdev[e, 3], sdev[e, 4],
+            sdev[e, 5], b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z)
+        if a == 0:
+            fx -= f1x + f2x + f3x
+            fy -= f1y + f2y + f3y
+            fz -= f1z + f2z + f3z
+        elif a == 1:
+            fx += f1x
+            fy += f1y
+            fz += f1z
+        elif a == 2:
+            fx += f2x
+            fy += f2y
+            fz += f2z
+        else:
+            fx += f3x
+            fy += f3y
+            fz += f3z
+    force[i, 0] = fx
+    force[i, 1] = fy
+    force[i, 2] = fz

@@ -124,6 +124,12 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
 
         meshes = [mesh_body(b) for b in case.bodies]
     timings["meshing"] = wallclock.perf_counter() - t
+    from impactsim.solver.footprint import case_memory_warning
+
+    memory = case_memory_warning(case, sum(len(m[1]) for m in meshes),
+                                 sum(len(m[0]) for m in meshes))
+    if memory:
+        bar.log("warning: " + memory)
     try:
         model = build_model(case, meshes)
     except ValueError as err:

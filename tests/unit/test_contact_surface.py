@@ -82,3 +82,39 @@ def test_everything_eroded_leaves_an_empty_surface():
     s.remove_elements(np.arange(len(conn)))
     assert s.n_faces == 0 and s.n_edges == 0 and s.n_nodes == 0
     assert s.mean_edge_length(x) == 0.0
+
+
+def _compact_by_numpy(s):
+    """The compact arrays by numpy's flatnonzero and gathers (what Surface._compact computed
+    before its kernel), to check the kernel against, dtypes included."""
+    from impactsim.mesh.topology import FACE_EDGES, LOCAL_FACES
+
+    ids = np.flatnonzero(s.face_flag)
+    face_elem = (ids // 4).astype(np.int64)
+    face_local = (ids % 4).astype(np.int8)
+    loc = face_local.astype(np.int64)
+    faces = np.ascontiguousarray(s.conn[face_elem[:, None], LOCAL_FACES[loc]], dtype=np.int32)
+    edge_mesh = np.flatnonzero(s.edge_count > 0).astype(np.int64)
+    edges = np.ascontiguousarray(s.mesh_edges[edge_mesh], dtype=np.int32)
+    edge_index = np.full(s.mesh_edges.shape[0], -1, dtype=np.int64)
+    edge_index[edge_mesh] = np.arange(edge_mesh.shape[0])
+    face_edges = np.ascontiguousarray(
+        edge_index[s.elem_edges[face_elem[:, None], FACE_EDGES[loc]]], dtype=np.int64)
+    nodes = np.flatnonzero(s.node_count > 0).astype(np.int32)
+    edge_body = s.node_body_all[edges[:, 0]] if edges.shape[0] else np.zeros(0, np.int32)
+    return {"faces": faces, "face_elem": face_elem, "face_local": face_local,
+            "face_body": s.elem_body[face_elem], "face_edges": face_edges, "edges": edges,
+            "edge_mesh": edge_mesh, "edge_body": edge_body, "nodes": nodes,
+            "node_body": s.node_body_all[nodes]}
+
+
+def test_compact_kernel_gives_the_arrays_of_the_numpy_formulas():
+    x, conn, eb, nb = two_bodies()
+    rng = np.random.default_rng(3)
+    s = Surface(conn, eb, node_body=nb)
+    for _ in range(12):
+        for name, want in _compact_by_numpy(s).items():
+            got = getattr(s, name)
+            assert got.dtype == want.dtype, name
+            np.testing.assert_array_equal(got, want, err_msg=name)
+        s.remove_elements(rng.choice(len(conn), size=9, replace=False))

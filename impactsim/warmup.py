@@ -1,0 +1,182 @@
+"""Compile every numba kernel a run can use, once, into numba's on-disk cache.
+
+The kernels are `numba.njit(cache=True)`: the first process that calls one compiles it (the
+element kernel alone takes 15-20 s) and writes the machine code next to the sources
+(`__pycache__/*.nbi, *.nbc`); every later process loads it in milliseconds. `make setup` runs
+this module after the install, so that the first `impactsim run` of a user starts at once
+instead of compiling for half a minute.
+
+It runs a few tiny scenes (a few hundred tets each, a handful of steps) that between them take
+every path of the pipeline: elastic and Johnson-Cook + Mie-Grueneisen elements, the tet4 and
+ANP formulations, rigid walls, prescribed velocities, node-face and edge-edge contact with the
+penetration measure, spall, loosening, erosion, particles with face, wall and particle-particle
+impacts, and the history and frame outputs. A kernel reached with the types of a real run is
+compiled with exactly those types, so the cache serves the real runs
+(tests/unit/test_warmup.py checks that a second process compiles nothing).
+
+    python -m impactsim.warmup      (or: impactsim warmup)
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+# Tiny scenes: case text; each runs for at most `steps` steps.
+_BLOCK = """
+[[body]]
+name = "{name}"
+material = "{material}"
+shape = "box"
+size = [{sx}, {sy}, {sz}]
+position = [{px}, {py}, {pz}]
+mesh_size = {h}
+mesher = "structured"
+velocity = [{vx}, 0, {vz}]
+"""
+
+_WALL = """
+[[wall]]
+point = [0, 0, 0]
+normal = [0, 0, 1]
+"""
+
+
+def _block(name, material, size, position, h, velocity=(0.0, 0.0)):
+    sx, sy, sz = size
+    px, py, pz = position
+    return _BLOCK.format(name=name, material=material, sx=sx, sy=sy, sz=sz, px=px, py=py, pz=pz,
+                         h=h, vx=velocity[0], vz=velocity[1])
+
+
+def scenes() -> list[tuple[str, str, int]]:
+    """(name, case text, steps) of the warm-up scenes."""
+    h = 1e-3
+    bar = _block("bar", "steel-elastic", (2e-3, 2e-3, 6e-3), (0, 0, 3.0001e-3), h, (0, -100.0))
+    copper = _block("rod", "ofhc-copper", (2e-3, 2e-3, 6e-3), (0, 0, 3.0001e-3), h, (0, -190.0))
+    out = [
+        ("elastic-wall", "[run]\nname = 'w'\nend_time = 1e-6\n" + bar + _WALL, 4),
+        ("jc-wall", "[run]\nname = 'w'\nend_time = 1e-6\n" + copper + _WALL, 4),
+        ("jc-wall-anp", "[run]\nname = 'w'\nend_time = 1e-6\nelement = 'anp'\n" + copper + _WALL,
+         4),
+    ]
+    # two blocks pressed together, the upper one turned so that edges cross edges
+    lower = _block("lower", "al-ideal-plastic", (4e-3, 4e-3, 2e-3), (0, 0, -1e-3), h)
+    upper = _block("upper", "al-ideal-plastic", (2e-3, 2e-3, 2e-3), (0, 0, 1.0001e-3), h,
+                   (0, -300.0)).replace('mesher = "structured"',
+                                        'mesher = "structured"\nrotation = [0, 0, "30 deg"]')
+    contact = ("[run]\nname = 'c'\nend_time = 1e-6\n" + lower + upper
+               + "[contact]\npasses = ['node-face', 'edge-edge']\nfriction = 0.1\n")
+    out.append(("contact", contact, 12))
+    # fracture: a fast block through a thin plate that spalls at once, erodes, and sheds
+    # particles that hit faces, the wall and each other; flat enough to be measured as a plate
+    # (its hole: fracture.measures)
+    plate_mat = """
+[[material]]
+name = "brittle"
+library = "d16t"
+failure = { erosion = "jc-damage", erosion_value = 1.0, jc_damage = [0.0, 0.01, -1.5, 0.0, 0.0], spall_strength = "1 MPa", loosening = 0.001 }
+"""
+    plate = _block("plate", "brittle", (5e-3, 5e-3, 1e-3), (0, 0, 2e-3), 0.5e-3)
+    proj = _block("proj", "steel-4340", (2e-3, 2e-3, 2e-3), (0, 0, 3.5001e-3), 1e-3,
+                  (0, -3000.0))
+    frac = ("[run]\nname = 'f'\nend_time = 2e-6\n" + plate_mat + plate + proj + _WALL
+            + "[contact]\npasses = ['node-face', 'edge-edge']\n"
+            + "[fracture]\nerosion_region = 'anywhere'\nparticles_per_element = 1\n"
+            + "particle_collisions = true\n")
+    out.append(("fracture", frac, 60))
+    # the same with the parallel versions of the kernels that run on one thread for small
+    # meshes (PARALLEL_SCENES)
+    out.append(("fracture-threads", frac, 20))
+    return out
+
+
+# scenes run with the size thresholds of the one-thread kernels at 0 (nodal.PARALLEL_NODES,
+# element.PARALLEL_FORCE_NODES), so that their parallel versions are compiled too
+PARALLEL_SCENES = {"fracture-threads"}
+
+
+def _thresholds(values=None):
+    """The size thresholds above which kernels run on all threads; with ``values``, set them
+    (returns the previous ones)."""
+    from impactsim.solver import element, nodal
+
+    old = (nodal.PARALLEL_NODES, element.PARALLEL_FORCE_NODES)
+    if values is not None:
+        nodal.PARALLEL_NODES, element.PARALLEL_FORCE_NODES = values
+    return old
+
+
+class CompileCounter:
+    """Context manager recording the numba kernels compiled inside it (`.kernels`, qualified
+    names): loading a kernel from the cache is not a compilation."""
+
+    def __enter__(self):
+        from numba.core import event
+
+        kernels = self.kernels = []
+
+        class _Listener(event.Listener):
+            def on_start(self, ev):
+                pass
+
+            def on_end(self, ev):
+                f = ev.data["dispatcher"].py_func
+                kernels.append(f"{f.__module__}.{f.__qualname__}")
+
+        self._listener = _Listener()
+        event.register("numba:compile", self._listener)
+        return self
+
+    def __exit__(self, *exc):
+        from numba.core import event
+
+        event.unregister("numba:compile", self._listener)
+        return False
+
+
+def warm_up(verbose: bool = True) -> dict[str, dict]:
+    """Run the warm-up scenes; returns per scene the kernels it compiled ("compiled", none
+    when the cache was already warm) and the run's summary ("summary")."""
+    import contextlib
+    import io
+
+    from impactsim.case import load_case_text
+    from impactsim.solver.run import run_case
+
+    counts = {}
+    for name, text, steps in scenes():
+        t0 = time.perf_counter()
+        case = load_case_text(text, overrides=[f"run.max_steps={steps}", "output.frames=1"])
+        old = _thresholds((0, 0) if name in PARALLEL_SCENES else None)
+        try:
+            with (CompileCounter() as compiled,
+                  tempfile.TemporaryDirectory(prefix="impactsim-warmup-") as out,
+                  contextlib.redirect_stderr(io.StringIO())):  # "stopped: max_steps reached"
+                summary = run_case(case, Path(out), progress=False)
+        finally:
+            _thresholds(old)
+        counts[name] = {"compiled": compiled.kernels, "summary": summary}
+        if verbose:
+            extra = ""
+            if "particles" in summary:
+                extra = (f", {summary['particles']} particles, "
+                         f"{summary['fracture']['eroded']} eroded")
+            print(f"warm-up {name:<14} {len(compiled.kernels):3d} kernels compiled "
+                  f"({time.perf_counter() - t0:5.1f} s{extra})", flush=True)
+    return counts
+
+
+def main() -> int:
+    t0 = time.perf_counter()
+    counts = warm_up()
+    n = sum(len(c["compiled"]) for c in counts.values())
+    print(f"numba cache warm: {n} kernels compiled in "
+          f"{time.perf_counter() - t0:.1f} s", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

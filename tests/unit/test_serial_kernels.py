@@ -1,0 +1,48 @@
+"""Kernels that run on one thread below a size and on all threads above it (nodal.predict and
+move, element.node_forces): both versions give the same bits, whatever the number of threads,
+so the size threshold never changes a result."""
+
+import numba
+import numpy as np
+
+from impactsim.solver import element as E
+from impactsim.solver import nodal
+from tests.unit.test_node_forces import _loaded_model
+
+
+def test_node_forces_one_thread_and_all_threads_equal():
+    model, _ = _loaded_model()
+    nodes = np.arange(model.n_node)
+    args = (model.x, model.conn, model.status, model.sdev, model.pressure, model.q,
+            model.n2e_ptr, model.n2e)
+    serial = np.zeros_like(model.force)
+    E._node_forces_serial(nodes, *args, serial)
+    assert np.abs(serial).max() > 0.0
+    for threads in (1, numba.config.NUMBA_NUM_THREADS):
+        numba.set_num_threads(threads)
+        par = np.zeros_like(model.force)
+        E._node_forces_parallel(nodes, *args, par)
+        np.testing.assert_array_equal(par, serial)
+    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    # the dispatching function gives the same on a few nodes (one thread) and on all
+    few = np.zeros_like(model.force)
+    E.node_forces(nodes[:50], *args, few)
+    np.testing.assert_array_equal(few[:50], serial[:50])
+
+
+def test_predict_and_move_one_thread_and_all_threads_equal():
+    rng = np.random.default_rng(5)
+    n = 5000
+    force, v, x = rng.normal(size=(n, 3)), rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
+    mass = rng.random(n) + 0.1
+    mass[::7] = 0.0  # massless nodes are left alone
+    out = {}
+    for name, pred, mov in (("serial", nodal._predict_serial, nodal._move_serial),
+                            ("parallel", nodal._predict_parallel, nodal._move_parallel)):
+        vv, xx = v.copy(), x.copy()
+        pred(force, mass, vv, 1.3e-7)
+        mov(xx, vv, 1.1e-7)
+        out[name] = (vv, xx)
+    np.testing.assert_array_equal(out["serial"][0], out["parallel"][0])
+    np.testing.assert_array_equal(out["serial"][1], out["parallel"][1])
+    np.testing.assert_array_equal(out["serial"][0][::7], v[::7])

@@ -1,0 +1,38 @@
+"""The warm-up step (impactsim/warmup.py, run by `make setup`): its scenes take the paths they
+are there for, and the cache they leave serves a later process, which compiles nothing."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from impactsim.warmup import warm_up
+
+ROOT = Path(__file__).resolve().parents[2]
+
+_SECOND = """
+import json
+from impactsim.warmup import warm_up
+print(json.dumps({k: v["compiled"] for k, v in warm_up(verbose=False).items()}))
+"""
+
+
+def test_warmup_scenes_cover_the_pipeline_and_leave_a_cache_a_later_process_uses():
+    scenes = warm_up(verbose=False)  # compiles what the cache lacks, writes it
+    s = {k: v["summary"] for k, v in scenes.items()}
+    assert s["elastic-wall"]["passes"] == ["walls"]
+    contact = s["contact"]
+    assert contact["contact.node-face"]["corrected_pairs"] > 0
+    assert contact["contact.edge-edge"]["candidate_pairs"] > 0
+    frac = s["fracture"]
+    assert frac["particles"] > 0 and frac["fracture"]["eroded"] > 0
+    assert frac["fracture.particles"]["particle_face_impacts"] > 0
+    assert frac["fracture.particles"]["particle_collisions"] > 0
+    assert "hole" in frac["bodies"]["plate"]  # the plate's hole measure ran
+    # a fresh interpreter (same cache folder) loads every kernel and compiles none
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    p = subprocess.run([sys.executable, "-c", _SECOND], cwd=ROOT, env=env, check=True,
+                       capture_output=True, text=True)
+    compiled = json.loads(p.stdout.strip().splitlines()[-1])
+    assert compiled == {name: [] for name in scenes}
