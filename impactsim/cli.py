@@ -19,7 +19,7 @@ def _load(case_file: str, overrides: tuple[str, ...]):
 
 
 def _fail(err: Exception) -> None:
-    click.echo(f"error: {err}", err=True)
+    click.echo("error: " + " ".join(str(err).split("\n")), err=True)  # one line, always
     sys.exit(2)
 
 

@@ -50,6 +50,11 @@ def load_case_text(text: str, source: Path | None = None, overrides: Sequence[st
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         raise CaseError(f"{label}: {_syntax_message(err)}") from None
+    except RecursionError:
+        raise CaseError(f"{label}: invalid case: arrays or tables nested too deeply "
+                        f"(more than a few hundred levels)") from None
+    except ValueError as err:  # an integer of more than 4300 digits
+        raise CaseError(f"{label}: invalid TOML: {err}") from None
     return case_from_dict(raw, source, overrides)
 
 
@@ -61,6 +66,8 @@ def case_from_dict(raw: dict, source: Path | None = None, overrides: Sequence[st
         return _build(raw, source)
     except CaseError as err:
         raise CaseError(f"{label}: {err}") from None
+    except RecursionError:
+        raise CaseError(f"{label}: invalid case: values nested too deeply") from None
 
 
 def _syntax_message(err: tomllib.TOMLDecodeError) -> str:
@@ -139,6 +146,7 @@ def _run(r: Reader, source: Path | None) -> Run:
     name = r.get("name") if r.has("name") else (source.stem if source is not None else "case")
     if not name:
         raise r.error("name", "must not be empty")
+    _check_run_name(name, r)
     if not r.has("end_time"):
         raise r.error("end_time", "missing required key 'end_time' (e.g. end_time = \"80 us\")")
     return Run(
@@ -152,6 +160,15 @@ def _run(r: Reader, source: Path | None) -> Run:
         dt_collapse=in_range(r.get("dt_collapse"), r.at("dt_collapse"), 0.0, 1.0),
         threads=int(non_negative(r.get("threads"), r.at("threads"))),
     )
+
+
+def _check_run_name(name: str, r: Reader) -> None:
+    """The run name is a folder under out/: one plain path component, nothing that escapes."""
+    bad = [c for c in name if c in '/\\\0:' or not c.isprintable()]
+    if bad or name in (".", "..") or name.strip() != name or len(name) > 200:
+        raise r.error("name", f"{name[:40]!r} cannot name a folder under out/: use letters, "
+                              "digits, '-', '_' or '.' (no '/', '\\', ':', control characters, "
+                              "'..' or surrounding spaces; at most 200 characters)")
 
 
 def _output(r: Reader, run: Run) -> Output:
