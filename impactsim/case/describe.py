@@ -39,9 +39,33 @@ def describe_case(case: Case, mesh: bool = True) -> str:
     if mesh and sum(estimate_elements(b) or 0 for b in case.bodies) <= CHECK_MESH_LIMIT:
         which = set(range(len(case.bodies)))
     meshes = mesh_bodies(case, which) if which else None
+    notes = initial_state_lines(case, meshes) if meshes is not None and \
+        all(m is not None for m in meshes) else ["# initial overlap: not checked (the bodies "
+                                                   "are not meshed by check: too large)"]
     resolved = tomli_w.dumps(case_to_dict(case))
     return "# resolved case (defaults filled in, SI units)\n" + resolved + "\n" + \
-        "\n".join(what_would_run(case, meshes)) + "\n"
+        "\n".join(what_would_run(case, meshes) + notes) + "\n"
+
+
+def initial_state_lines(case: Case, meshes: list) -> list[str]:
+    """checks.initial_penetration on the meshed bodies: a CaseError when its action is error,
+    a warning line when warn."""
+    from impactsim.case.errors import CaseError
+    from impactsim.checks.overlap import initial_overlaps
+
+    action = case.checks.initial_penetration
+    if action == "ignore":
+        return ["# initial overlap: not checked (checks.initial_penetration = \"ignore\")"]
+    found = initial_overlaps(case, meshes)
+    if not found:
+        return ["# initial overlap: none (no body inside another or behind a wall)"]
+    text = "; ".join(f"{o.what} overlap by {format_quantity(o.depth, 'length')} "
+                     f"({o.nodes} node(s) inside)" for o in found)
+    if action == "error":
+        label = f"{case.source}: " if case.source is not None else ""
+        raise CaseError(f"{label}checks.initial_penetration: at t = 0 {text}: move the bodies "
+                        "apart (or set checks.initial_penetration = \"warn\")")
+    return [f"# warning: initial overlap: {text}"]
 
 
 _NO_SPEED = {"ns_per_element_step": 0.0, "seconds_per_step": 0.0, "source": "none"}

@@ -148,7 +148,7 @@ def sensible(case) -> None:
     """What an accepted case must satisfy (a nonsensical case is never accepted silently)."""
     run = case.run
     assert math.isfinite(run.end_time) and run.end_time > 0
-    assert 0 < run.cfl <= 1 and run.max_steps >= 1
+    assert 0 < run.cfl <= 0.9 and run.max_steps >= 1
     assert case.bodies
     name = run.name
     assert name and "/" not in name and "\\" not in name and name not in (".", "..")
