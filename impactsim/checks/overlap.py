@@ -78,8 +78,8 @@ def _nodes_inside(points: np.ndarray, mesh, tol: float) -> tuple[float, int]:
         near = np.asarray(near)
         lam = np.einsum("eij,ej->ei", inv[near], points[cand[k]] - corners[near, 0])
         bary = np.column_stack([1.0 - lam.sum(axis=1), lam])
-        # inside by more than the tolerance in length: scale by the tet's size
-        if (bary.min(axis=1) > 1e-9).any():
+        # inside or on a face; nodes on B's surface are dropped below by their depth
+        if (bary.min(axis=1) >= -1e-12).any():
             inside[k] = True
     hits = cand[inside]
     if not len(hits):

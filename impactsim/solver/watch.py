@@ -57,7 +57,7 @@ def locate(model) -> str:
     """Where the first non-finite value of the state is: 'node 12 (body "bar"): velocity'."""
     m = model
     live = m.status != ERODED
-    for name, arr in (("position", m.x), ("velocity", m.v), ("force", m.force)):
+    for name, arr in (("velocity", m.v), ("position", m.x), ("force", m.force)):
         bad = np.flatnonzero(~np.isfinite(arr).all(axis=1))
         if len(bad):
             i = int(bad[0])
