@@ -7,9 +7,13 @@ from pathlib import Path
 
 import click
 
-from impactsim.case import CaseError
-
 SET_HELP = "Override a case key, TOML value syntax: --set run.cfl=0.5 --set 'contact.passes=[\"node-face\"]'"
+
+
+def _case_error():
+    from impactsim.case import CaseError
+
+    return CaseError
 
 
 def _load(case_file: str, overrides: tuple[str, ...]):
@@ -22,7 +26,7 @@ def _load(case_file: str, overrides: tuple[str, ...]):
 
 
 def _fail(err: Exception) -> None:
-    click.echo(f"error: {err}", err=True)
+    click.echo("error: " + " ".join(str(err).split("\n")), err=True)  # one line, always
     sys.exit(2)
 
 
@@ -43,7 +47,7 @@ def check(case_file: str, overrides: tuple[str, ...]) -> None:
     try:
         case = _load(case_file, overrides)
         click.echo((describe_quasistatic if isinstance(case, QSCase) else describe_case)(case))
-    except CaseError as err:
+    except _case_error() as err:
         _fail(err)
 
 
@@ -59,7 +63,7 @@ def mesh(case_file: str, out_dir: str | None, overrides: tuple[str, ...]) -> Non
     try:
         case = _load(case_file, overrides)
         click.echo(mesh_case(case, Path(out_dir) if out_dir else None))
-    except CaseError as err:
+    except _case_error() as err:
         _fail(err)
 
 
@@ -73,21 +77,43 @@ def mesh(case_file: str, out_dir: str | None, overrides: tuple[str, ...]) -> Non
 @click.option("--scheduler", default=None, metavar="ADDRESS", help="quasistatic: Dask scheduler.")
 def run(case_file: str, out_dir: str | None, overrides: tuple[str, ...], quiet: bool,
         workers: int | None, scheduler: str | None) -> None:
-    """Run CASE_FILE and write a VTU time series, history.csv and summary.json."""
-    from impactsim.case.quasistatic import QSCase
-    from impactsim.quasistatic.run import run_quasistatic
-    from impactsim.solver.run import SimulationError, run_case
+    """Run CASE_FILE and write a VTU time series, history.csv and summary.json.
 
+    Exit codes: 0 finished, 2 bad input (case, mesh, output folder), 3 stopped before the end
+    time (SIGTERM, Ctrl-C, a failed check, a non-finite state; summary.json says why)."""
+    from impactsim.solver.stop import EXIT_STOPPED, RunStopped, StopSignals, stopped_early
+
+    stops = StopSignals.install()  # SIGTERM / Ctrl-C from here on stop the run cleanly
+    stops.urgent = False  # while the case is read, a signal waits (then the folder is known)
+    case = None
     try:
-        case = _load(case_file, overrides)
-        out = Path(out_dir) if out_dir else None
-        result = run_quasistatic(case, out, workers, scheduler, not quiet) \
-            if isinstance(case, QSCase) else run_case(case, out, progress=not quiet)
-    except (CaseError, SimulationError) as err:
-        _fail(err)
+        try:
+            case = _load(case_file, overrides)
+            stops.raise_if_requested()
+            from impactsim.case.quasistatic import QSCase
+            from impactsim.solver.run import run_case
+
+            out = Path(out_dir) if out_dir else None
+            if isinstance(case, QSCase):
+                from impactsim.quasistatic.run import run_quasistatic
+
+                result = run_quasistatic(case, out, workers, scheduler, not quiet)
+            else:
+                result = run_case(case, out, progress=not quiet)
+        except Exception as err:
+            from impactsim.solver.run import SimulationError
+
+            if isinstance(err, (_case_error(), SimulationError)):
+                _fail(err)
+            raise
+    except RunStopped as err:  # while starting up: a summary with the reason, if it can
+        click.echo(f"stopped: {stopped_early(case, out_dir, err, stops)}", err=True)
+        sys.exit(EXIT_STOPPED)
+    finally:
+        stops.uninstall()
     if result.get("stopped"):
         click.echo(f"stopped: {result['stopped']}", err=True)
-        sys.exit(3)
+        sys.exit(EXIT_STOPPED)
 
 
 @main.command()

@@ -29,7 +29,7 @@ def read_body(raw: dict, path: KeyPath, index: int, base_dir: Path) -> Body:
                                f"(its keys: {', '.join(SHAPE_KEYS[shape])})")
     mesh_size = 0.0
     if shape not in UNMESHED_SHAPES or r.has("mesh_size"):
-        mesh_size = positive(r.get("mesh_size"), r.at("mesh_size"))
+        mesh_size = _length(r.get("mesh_size"), r.at("mesh_size"))
     mesher = r.get("mesher")
     if mesher == "structured" and shape not in STRUCTURED_SHAPES:
         raise r.error("mesher", f"mesher 'structured' meshes {', '.join(STRUCTURED_SHAPES)} "
@@ -65,24 +65,36 @@ def read_body(raw: dict, path: KeyPath, index: int, base_dir: Path) -> Body:
     return body
 
 
+MIN_LENGTH = 1e-9  # [m] sizes and mesh sizes below a nanometre are no continuum body
+
+
+def _length(value: float, path: KeyPath) -> float:
+    """A positive size of at least MIN_LENGTH."""
+    positive(value, path)
+    if value < MIN_LENGTH:
+        raise path.error(f"{value:g} m is below {MIN_LENGTH:g} m: no continuum body is that small "
+                         "(a wrong unit?)")
+    return value
+
+
 def _either(r: Reader, a: str, b: str, why: str) -> float:
     given = r.given((a, b))
     if len(given) == 2:
         raise r.error(b, f"give {a} or {b}, not both")
     if not given:
         raise r.error(a, f"missing required key '{a}' (or '{b}') for shape '{why}'")
-    return positive(r.get(given[0]), r.at(given[0]))
+    return _length(r.get(given[0]), r.at(given[0]))
 
 
 def _dimensions(r: Reader, shape: str, base_dir: Path) -> dict:
     if shape in ("box", "plate"):
         size = r.require("size", f" for shape '{shape}'", kind="vector")
         for i, s in enumerate(size):
-            positive(s, r.at(f"size[{i}]"))
+            _length(s, r.at(f"size[{i}]"))
         return {"size": size}
     if shape == "cube12":
-        return {"size": positive(r.require("size", " for shape 'cube12' (edge length)",
-                                           kind="quantity"), r.at("size"))}
+        return {"size": _length(r.require("size", " for shape 'cube12' (edge length)",
+                                          kind="quantity"), r.at("size"))}
     if shape == "sphere":
         d = _either(r, "radius", "diameter", shape)
         return {"radius": d / 2 if r.has("diameter") else d}

@@ -19,11 +19,56 @@ from impactsim.case.units import format_quantity
 
 
 
-def describe_case(case: Case) -> str:
-    """The resolved case as TOML, then the summary of what would run."""
+CHECK_MESH_LIMIT = 300_000  # `check` meshes the primitives of cases up to this many elements
+
+
+def describe_case(case: Case, mesh: bool = True) -> str:
+    """The resolved case as TOML, then the summary of what would run.
+
+    Raises CaseError for a case that would not fit in memory and for a mesh file that cannot be
+    read or makes no valid mesh. Mesh files are always read; with `mesh`, the primitives of a
+    case of at most CHECK_MESH_LIMIT estimated elements are meshed too (through the mesh cache,
+    so the run reuses them), for exact counts and the initial-overlap check.
+    """
+    from impactsim.case.estimate import check_fits, estimate_cost
+    from impactsim.mesh import mesh_bodies
+
+    check_fits(case, estimate_cost(case, speed=_NO_SPEED))
+    files = [i for i, b in enumerate(case.bodies) if b.shape == "file"]
+    which = set(files)
+    if mesh and sum(estimate_elements(b) or 0 for b in case.bodies) <= CHECK_MESH_LIMIT:
+        which = set(range(len(case.bodies)))
+    meshes = mesh_bodies(case, which) if which else None
+    notes = initial_state_lines(case, meshes) if meshes is not None and \
+        all(m is not None for m in meshes) else ["# initial overlap: not checked (the bodies "
+                                                   "are not meshed by check: too large)"]
     resolved = tomli_w.dumps(case_to_dict(case))
     return "# resolved case (defaults filled in, SI units)\n" + resolved + "\n" + \
-        "\n".join(what_would_run(case)) + "\n"
+        "\n".join(what_would_run(case, meshes) + notes) + "\n"
+
+
+def initial_state_lines(case: Case, meshes: list) -> list[str]:
+    """checks.initial_penetration on the meshed bodies: a CaseError when its action is error,
+    a warning line when warn."""
+    from impactsim.case.errors import CaseError
+    from impactsim.checks.overlap import initial_overlaps
+
+    action = case.checks.initial_penetration
+    if action == "ignore":
+        return ["# initial overlap: not checked (checks.initial_penetration = \"ignore\")"]
+    found = initial_overlaps(case, meshes)
+    if not found:
+        return ["# initial overlap: none (no body inside another or behind a wall)"]
+    text = "; ".join(f"{o.what} overlap by {format_quantity(o.depth, 'length')} "
+                     f"({o.nodes} node(s) inside)" for o in found)
+    if action == "error":
+        label = f"{case.source}: " if case.source is not None else ""
+        raise CaseError(f"{label}checks.initial_penetration: at t = 0 {text}: move the bodies "
+                        "apart (or set checks.initial_penetration = \"warn\")")
+    return [f"# warning: initial overlap: {text}"]
+
+
+_NO_SPEED = {"ns_per_element_step": 0.0, "seconds_per_step": 0.0, "source": "none"}
 
 
 def body_volume(body: Body) -> float | None:
@@ -78,15 +123,18 @@ def active_passes(case: Case) -> list[tuple[str, str]]:
     return passes
 
 
-def what_would_run(case: Case) -> list[str]:
-    """The summary, one line per item (a cost estimate can append its own lines)."""
+def what_would_run(case: Case, meshes: list | None = None) -> list[str]:
+    """The summary, one line per item (a cost estimate can append its own lines). `meshes`:
+    the bodies already meshed ((points, tets) or None each), for exact counts and the checks
+    of the initial state."""
     run = case.run
     lines = ["# ---- what would run " + "-" * 58,
              f"# run '{run.name}'" + (f" from {case.source}" if case.source else ""),
              "#", "# bodies:"]
     total, unknown = 0, False
-    for body in case.bodies:
-        n = estimate_elements(body)
+    for i, body in enumerate(case.bodies):
+        mesh = meshes[i] if meshes is not None else None
+        n = len(mesh[1]) if mesh is not None else estimate_elements(body)
         total += n or 0
         unknown |= n is None
         lines.append("#   " + _body_line(case, body, n))
@@ -126,7 +174,7 @@ def what_would_run(case: Case) -> list[str]:
     lines += [f"# warning: {w}" for w in warnings(case)]
     from impactsim.case.estimate import estimate_lines
 
-    lines += estimate_lines(case)
+    lines += estimate_lines(case, meshes=meshes)
     return lines
 
 

@@ -25,6 +25,7 @@ def case_to_dict(case: Case) -> dict:
     out["output"] = _plain({k: v for k, v in output.items() if v is not None})
     out["contact"] = _plain(_fields(case.contact))
     out["fracture"] = _plain(_fields(case.fracture))
+    out["checks"] = _plain(_fields(case.checks))
     return out
 
 

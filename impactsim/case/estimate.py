@@ -65,6 +65,21 @@ GMSH_ALTITUDE_RATIO = 0.35
 # on the development machine (2 shared cores, numba 0.60, both threads), rounded up.
 DEFAULT_SPEED = {"ns_per_element_step": 500.0, "seconds_per_step": 1.0e-4, "source": "default"}
 SPEED_FILE_VERSION = 1
+# A calibration outside these bounds is noise (a busy machine, a timer glitch) and is discarded:
+# the element kernel costs 100-1000 ns per element-step on any x86 core of the last decade.
+PLAUSIBLE_NS = (30.0, 30_000.0)
+PLAUSIBLE_STEP_SECONDS = (0.0, 0.05)
+# Contact, fracture and output, measured on the bundled cases (docs/estimates.md,
+# benchmarks/estimates.py): seconds per boundary face and step of the contact passes, the
+# fracture passes as a share of the element loop, seconds per element and frame written.
+CONTACT_SECONDS_PER_FACE_STEP = 1.0e-7
+FRACTURE_SHARE = 0.5
+FRAME_SECONDS_PER_ELEMENT = {"zlib": 7e-6, "none": 1.5e-6}
+FACES_PER_H2 = 2.2  # boundary triangles per h^2 of surface (structured 2, gmsh about 2.3)
+# Peak memory: the interpreter with numpy, numba, gmsh and meshio loaded, and per element the
+# state, the integrator's buffers, the contact surface and the frames being written.
+BASE_BYTES = 400e6
+BYTES_PER_ELEMENT = 2000.0
 # A step clamped to land on an output time is a random fraction f of the stable one; growing back
 # by 10 % a step (solver.loop.DT_GROWTH) then costs ln(1/f)/ln 1.1 - 11 (1 - f) steps more than
 # at full size: 5 on average over f.
@@ -84,6 +99,10 @@ class Estimate:
     wall_seconds: float
     speed: dict  # ns_per_element_step, seconds_per_step, source ("measured ..." or "default")
     unknown_bodies: list
+    threads: int = 1  # numba threads the run will use
+    memory_bytes: float = 0.0  # peak memory of the run
+    seconds: dict | None = None  # wall seconds per part: elements, contact, fracture, output
+    steps_needed: int = 0  # steps to end_time (steps is this, capped at run.max_steps)
 
     def line(self) -> str:
         src = self.speed.get("source", "default")
@@ -92,8 +111,21 @@ class Estimate:
         extra = f" + the mesh files of {', '.join(self.unknown_bodies)}" if self.unknown_bodies \
             else ""
         return (f"≈ {self.elements:,} elements{extra}, ≈ {self.steps:,} steps, "
-                f"≈ {format_seconds(self.wall_seconds)} wall (at "
+                f"≈ {format_bytes(self.memory_bytes)} memory, "
+                f"≈ {format_seconds(self.wall_seconds)} wall on {self.threads} thread(s) (at "
                 f"{self.speed['ns_per_element_step']:.0f} ns/element-step {where})")
+
+    def detail_lines(self) -> list[str]:
+        """The wall time per part, and a warning when max_steps ends the run early."""
+        parts = self.seconds or {}
+        out = []
+        if parts:
+            out.append("wall time: " + ", ".join(f"{k} ≈ {format_seconds(v)}"
+                                                 for k, v in parts.items()))
+        if self.steps_needed > self.steps:
+            out.append(f"warning: run.max_steps = {self.steps:,} stops the run before its end "
+                       f"time (≈ {self.steps_needed:,} steps needed)")
+        return out
 
 
 # --- elements and element sizes ---------------------------------------------------------------
@@ -133,13 +165,26 @@ def body_elements(body: Body) -> int | None:
         return None
     h = body.mesh_size
     if body.mesher == "structured":
-        nx, ny, nz = cells_per_axis(body.dimensions["size"], h)
-        return 6 * nx * ny * nz
+        n = 6.0
+        for length in body.dimensions["size"]:
+            k = length / h
+            n *= max(1.0, float(round(k)) if k < MAX_COUNT else k)
+        return _count(n)
     volume = body_volume(body)
     t = _smallest_extent(body)
     if t < h:
-        return max(1, round(THIN_PER_H2 * (volume / t) / h**2))
-    return max(1, round(GMSH_PER_H3 * volume / h**3 + GMSH_PER_H2 * body_area(body) / h**2))
+        return _count(THIN_PER_H2 * (volume / t) / h / h)
+    return _count(GMSH_PER_H3 * volume / h / h / h + GMSH_PER_H2 * body_area(body) / h / h)
+
+
+MAX_COUNT = 10**18  # element counts are capped here (a mesh_size of 1e-300 m is refused anyway)
+
+
+def _count(n: float) -> int:
+    """A float count as an int >= 1, capped at MAX_COUNT (inf and overflow included)."""
+    if not n < MAX_COUNT:
+        return MAX_COUNT
+    return max(1, round(n))
 
 
 def kuhn_min_altitude(dx: float, dy: float, dz: float) -> float:
@@ -290,6 +335,11 @@ def calibrate_speed(threads: int | None = None, seconds: float = 1.6, store: boo
     speed = {"ns_per_element_step": 1e9 * per_element, "seconds_per_step": per_step,
              "threads": threads, "impactsim": __version__,
              "source": "measured " + datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")}
+    if not plausible(speed):
+        return dict(DEFAULT_SPEED, threads=threads,
+                    source=f"default (a measurement of {speed['ns_per_element_step']:.3g} "
+                           f"ns/element-step, {speed['seconds_per_step']:.3g} s/step was "
+                           "implausible and discarded)")
     if store:
         path = speed_file()
         data = _read_speeds(path)
@@ -305,12 +355,22 @@ def calibrate_speed(threads: int | None = None, seconds: float = 1.6, store: boo
     return speed
 
 
+def plausible(speed: dict) -> bool:
+    """A measured speed within PLAUSIBLE_NS and PLAUSIBLE_STEP_SECONDS."""
+    try:
+        ns, step = float(speed["ns_per_element_step"]), float(speed["seconds_per_step"])
+    except (KeyError, TypeError, ValueError):
+        return False
+    return (PLAUSIBLE_NS[0] <= ns <= PLAUSIBLE_NS[1]
+            and PLAUSIBLE_STEP_SECONDS[0] <= step <= PLAUSIBLE_STEP_SECONDS[1])
+
+
 def machine_speed(threads: int | None = None, calibrate: bool | None = None) -> dict:
     """The stored speed of this machine for `threads`; measured now if missing (unless
     IMPACTSIM_NO_CALIBRATE=1 or calibrate=False, which give DEFAULT_SPEED)."""
     threads = threads or _threads()
     found = _read_speeds(speed_file())["machines"].get(_machine_key(threads))
-    if found:
+    if found and plausible(found):
         return found
     if calibrate is None:
         calibrate = os.environ.get("IMPACTSIM_NO_CALIBRATE", "") not in ("1", "true", "yes")
@@ -323,49 +383,142 @@ def machine_speed(threads: int | None = None, calibrate: bool | None = None) -> 
 
 
 # --- the estimate -----------------------------------------------------------------------------
-def estimate_cost(case: Case, speed: dict | None = None) -> Estimate:
-    """Elements, steps and wall time of `case` (module docstring)."""
+def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = None) -> Estimate:
+    """Elements, steps, memory and wall time of `case` (module docstring). `meshes`: the bodies'
+    (points, tets), or None per body not meshed yet; counts and lengths are then exact."""
+    from impactsim.case.describe import has_contact
+
     per_body, unknown = {}, []
-    l_min, c_max = math.inf, 0.0
-    for body in case.bodies:
-        n = body_elements(body)
+    l_min, c_max, faces = math.inf, 0.0, 0.0
+    for i, body in enumerate(case.bodies):
+        mesh = meshes[i] if meshes is not None and i < len(meshes) else None
+        if mesh is not None:
+            from impactsim.mesh.quality import altitudes
+
+            n, length = len(mesh[1]), float(altitudes(*mesh).min()) if len(mesh[1]) else None
+            faces += _mesh_faces(mesh[1])
+        else:
+            n = body_elements(body)
+            length = body_min_length(body) if n is not None and n < MAX_COUNT else None
+            faces += _surface_faces(body) if n is not None else 0.0
         per_body[body.name] = n
         if n is None:
             unknown.append(body.name)
             continue
-        l_min = min(l_min, body_min_length(body))
+        if length is not None:
+            l_min = min(l_min, length)
         c_max = max(c_max, wave_speed(case, body))
-    elements = sum(n for n in per_body.values() if n)
-    if elements and c_max > 0.0:
+    elements = min(sum(n for n in per_body.values() if n), MAX_COUNT)
+    threads = run_threads(case, elements)
+    frames = len(case.output.times) if case.output.times else case.output.frames + 1
+    if elements and c_max > 0.0 and l_min < math.inf:
         dt = case.run.cfl * l_min / c_max
         # the linear viscosity's share of the step in compression, L / (Q + sqrt(Q^2 + c^2))
         # with Q = C_l c (physics.md), and the steps lost landing on each output frame
         viscous = math.sqrt(1.0 + case.run.q_linear**2) - case.run.q_linear
-        frames = len(case.output.times) if case.output.times else case.output.frames
-        steps = math.ceil(case.run.end_time / (viscous * dt)) + FRAME_STEPS * frames
-        steps = min(case.run.max_steps, steps)
+        wanted = case.run.end_time / (viscous * dt) + FRAME_STEPS * frames
+        steps_needed = int(min(wanted, 1e18)) + 1
+        steps = min(case.run.max_steps, steps_needed)
     else:
-        dt, steps = math.nan, 0
+        dt, steps, steps_needed = math.nan, 0, 0
     if speed is None:
-        speed = machine_speed(_threads(case))
-    wall = steps * (speed["seconds_per_step"] + elements * 1e-9 * speed["ns_per_element_step"])
+        speed = machine_speed(threads)
+    t_elem = 1e-9 * speed["ns_per_element_step"]
+    parts = {"elements": steps * (speed["seconds_per_step"] + elements * t_elem)}
+    if has_contact(case):
+        parts["contact"] = steps * faces * CONTACT_SECONDS_PER_FACE_STEP
+    if any(case.materials[b.material].failure.active for b in case.bodies):
+        parts["fracture"] = steps * elements * FRACTURE_SHARE * t_elem
+    per_frame = FRAME_SECONDS_PER_ELEMENT[case.output.compression]
+    parts["output"] = frames * elements * per_frame
     return Estimate(elements=elements, per_body=per_body, l_min=l_min, wave_speed=c_max, dt=dt,
-                    steps=steps, wall_seconds=wall, speed=speed, unknown_bodies=unknown)
+                    steps=steps, wall_seconds=sum(parts.values()), speed=speed,
+                    unknown_bodies=unknown, threads=threads, memory_bytes=memory_bytes(elements),
+                    seconds=parts, steps_needed=steps_needed)
 
 
-def estimate_lines(case: Case, speed: dict | None = None) -> list[str]:
+def run_threads(case: Case, elements: int) -> int:
+    """The thread count a run of `case` will use (solver.run.thread_count's rule)."""
+    from impactsim.solver.run import thread_count
+
+    return thread_count(case.run.threads, elements)
+
+
+def _surface_faces(body: Body) -> float:
+    """Boundary triangles of a primitive's mesh: about FACES_PER_H2 per h^2 of surface."""
+    if body.shape == "cube12":
+        return 12.0
+    area, h = body_area(body), body.mesh_size
+    if area is None or not h > 0.0:
+        return 0.0
+    return min(FACES_PER_H2 * (area / h) / h, float(MAX_COUNT))
+
+
+def _mesh_faces(tets) -> float:
+    from impactsim.mesh.topology import boundary_faces
+
+    return float(len(boundary_faces(tets)[0])) if len(tets) else 0.0
+
+
+def memory_bytes(elements: int) -> float:
+    """Peak memory [bytes] of a run of `elements` tetrahedra (BASE_BYTES + BYTES_PER_ELEMENT)."""
+    return BASE_BYTES + BYTES_PER_ELEMENT * float(elements)
+
+
+def available_memory() -> float | None:
+    """Bytes the system can give a new process (MemAvailable), None when unknown."""
+    try:
+        with open("/proc/meminfo") as stream:
+            for line in stream:
+                if line.startswith("MemAvailable:"):
+                    return 1024.0 * float(line.split()[1])
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return float(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def check_fits(case: Case, est: Estimate) -> None:
+    """Raise a CaseError naming the largest body's mesh_size when the run would not fit in
+    memory (the figure and what the machine has), before any meshing starts."""
+    from impactsim.case.errors import CaseError
+
+    have = available_memory()
+    if have is None or est.memory_bytes <= have:
+        return
+    known = {k: v for k, v in est.per_body.items() if v}
+    i = list(est.per_body).index(max(known, key=known.get)) if known else 0
+    label = str(case.source) if case.source else "<string>"
+    raise CaseError(f"{label}: body[{i}].mesh_size: the case would need ≈ "
+                    f"{format_bytes(est.memory_bytes)} of memory for ≈ {est.elements:,} "
+                    f"elements, and this machine has {format_bytes(have)} available: use a "
+                    "larger mesh_size")
+
+
+def format_bytes(n: float) -> str:
+    for unit, size in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6)):
+        if n >= size:
+            return f"{n / size:.3g} {unit}" if n < 1e6 * 1e12 else f"{n:.2g} B"
+    return f"{n / 1e3:.3g} kB"
+
+
+def estimate_lines(case: Case, speed: dict | None = None, meshes: list | None = None
+                   ) -> list[str]:
     """The cost lines of ``impactsim check`` (appended to describe.what_would_run)."""
     from impactsim.case.units import format_quantity
 
-    est = estimate_cost(case, speed)
+    est = estimate_cost(case, speed, meshes)
     lines = ["#", "# cost estimate:"]
     for name, n in est.per_body.items():
         lines.append(f"#   {name}: " + (f"≈ {n:,} elements" if n is not None
                                         else "mesh file: elements known after meshing"))
-    if est.elements:
+    if est.elements and math.isfinite(est.dt):
         lines.append(f"#   smallest element length ≈ {format_quantity(est.l_min, 'length')}, "
                      f"wave speed {est.wave_speed:,.0f} m/s -> first step ≈ "
                      f"{format_quantity(est.dt, 'time')}")
+    lines += ["#   " + line for line in est.detail_lines()]
     lines.append("#   " + est.line())
     return lines
 

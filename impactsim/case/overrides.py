@@ -25,7 +25,7 @@ def parse_value(text: str) -> object:
     """A TOML value, or the text itself (stripped) when it is not one."""
     try:
         return tomllib.loads("v = " + text)["v"]
-    except tomllib.TOMLDecodeError:
+    except (tomllib.TOMLDecodeError, ValueError):  # ValueError: an integer of 4300+ digits
         return text.strip()
 
 
@@ -62,6 +62,8 @@ def apply_overrides(raw: dict, overrides: Sequence[str], root: Table = ROOT) -> 
             _set(raw, split_key(key), parse_value(text), root)
         except CaseError as err:
             raise CaseError(f"{err} (from --set {item})") from None
+        except ValueError as err:  # an index of 4300+ digits
+            raise CaseError(f"--set {item}: {err}") from None
 
 
 def _set(raw: dict, parts: list[str | int], value: object, root: Table = ROOT) -> None:

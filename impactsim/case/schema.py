@@ -165,6 +165,22 @@ class Fracture:
 
 
 @dataclass
+class Checks:
+    """[checks]: conditions watched before and during a run, each with its action
+    (impactsim/checks/; docs/user-guide.md, Checks)."""
+
+    initial_penetration: str = "error"  # error | warn | ignore
+    negative_volume: str = "error"  # error | erode
+    time_step_floor: float = 0.0  # [s] 0 = off
+    time_step_floor_action: str = "error"  # error | erode
+    energy_balance: float = 0.05  # largest accepted energy gain, share of the reference energy
+    energy_balance_action: str = "error"  # error | warn | ignore
+    hourglass_share: float = 0.1  # hourglass energy / (kinetic + internal)
+    hourglass_share_action: str = "warn"  # error | warn | ignore
+    unconverged_contact: str = "warn"  # error | warn | ignore
+
+
+@dataclass
 class Case:
     source: Path | None  # the case file (None when built in Python)
     run: Run
@@ -174,3 +190,4 @@ class Case:
     output: Output = field(default_factory=Output)
     contact: Contact = field(default_factory=Contact)
     fracture: Fracture = field(default_factory=Fracture)
+    checks: Checks = field(default_factory=Checks)

@@ -130,7 +130,8 @@ RUN = Table("run", "Time integration and run control.", (
     Key("name", "string", "Name of the run; names the default output folder `out/<name>`.",
         COMPUTED, default_doc="the case file's stem"),
     Key("end_time", "quantity", "Simulated time at which the run ends (> 0).", dim="time"),
-    Key("cfl", "number", "Courant number C_cfl of the time step, in (0, 1].",
+    Key("cfl", "number", "Courant number C_cfl of the time step, in (0, 0.9]: the stable-step estimate "
+        "(smallest altitude / wave speed) goes unstable near 1 (energy gained at 0.99).",
         _d(schema.Run, "cfl")),
     Key("element", "choice", "Element formulation: constant-strain tet, or the averaged "
         "nodal-pressure tet (Bonet & Burton 1998) against volumetric locking.",
@@ -356,4 +357,37 @@ FRACTURE = Table("fracture", "How fractured material is represented.", (
         choices=EROSION_REGIONS),
 ))
 
-ROOT = Table("", "The case file.", (RUN, MATERIAL, BODY, WALL, OUTPUT, CONTACT, FRACTURE))
+CHECK_ACTIONS = ("error", "warn", "ignore")
+CHECKS = Table("checks", "Conditions watched before and during a run, each with its action "
+               "(LS-DYNA style): `error` stops the run (exit 3; before the first step, exit 2), "
+               "`warn` prints it once with its count, `ignore` only records it in summary.json; "
+               "`erode` removes the element at fault and goes on. Every triggered check is "
+               "printed once and listed under `checks` in summary.json.", (
+    Key("initial_penetration", "choice", "A body starting inside another body or a rigid wall "
+        "(checked by `impactsim check` and at run start; the depth and the bodies are named).",
+        _d(schema.Checks, "initial_penetration"), choices=CHECK_ACTIONS),
+    Key("negative_volume", "choice", "An element turned inside out: stop, or erode it (its "
+        "mass stays on its nodes, its energy goes to eroded_energy) and go on.",
+        _d(schema.Checks, "negative_volume"), choices=("error", "erode")),
+    Key("time_step_floor", "quantity", "Smallest accepted time step; 0 = off (run.dt_collapse "
+        "still applies).", _d(schema.Checks, "time_step_floor"), dim="time"),
+    Key("time_step_floor_action", "choice", "Below the floor: stop, or erode the element that "
+        "sets the step and go on.", _d(schema.Checks, "time_step_floor_action"),
+        choices=("error", "erode")),
+    Key("energy_balance", "number", "Largest accepted gain of the total energy, as a share of "
+        "the reference energy (the largest of |E0| and kinetic + internal so far), watched "
+        "every step (> 0).", _d(schema.Checks, "energy_balance")),
+    Key("energy_balance_action", "choice", "When the gain exceeds energy_balance.",
+        _d(schema.Checks, "energy_balance_action"), choices=CHECK_ACTIONS),
+    Key("hourglass_share", "number", "Largest accepted hourglass energy / (kinetic + "
+        "internal); watched when the run has an hourglass_energy history column (hexahedra).",
+        _d(schema.Checks, "hourglass_share")),
+    Key("hourglass_share_action", "choice", "When the share exceeds hourglass_share.",
+        _d(schema.Checks, "hourglass_share_action"), choices=CHECK_ACTIONS),
+    Key("unconverged_contact", "choice", "Steps whose projected contact rounds did not converge "
+        "(summary.json unconverged_steps).", _d(schema.Checks, "unconverged_contact"),
+        choices=CHECK_ACTIONS),
+))
+
+ROOT = Table("", "The case file.", (RUN, MATERIAL, BODY, WALL, OUTPUT, CONTACT, FRACTURE,
+                                    CHECKS))

@@ -34,6 +34,14 @@ DIMENSIONS: dict[str, tuple[str, str]] = {
     "expansion": ("1/K", "thermal expansion coefficient"),
 }
 
+# Magnitudes beyond these are impossible in an impact simulation (a typo, a wrong unit, a fuzzer):
+# 1000 km, 100 km/s, 1e15 Pa (a thousand times the pressure at Earth's centre), a day, ...
+PLAUSIBLE: dict[str, float] = {
+    "length": 1e6, "time": 86400.0, "velocity": 1e5, "pressure": 1e15, "density": 1e6,
+    "temperature": 1e6, "specific_heat": 1e6, "specific_energy": 1e12, "angle": 1e3,
+    "rate": 1e15, "angular_velocity": 1e9,
+}
+
 # Factors are exact fractions, so "80 us" is exactly the float nearest 8e-5 (one rounding).
 _F = Fraction
 _LENGTH = {"m": _F(1), "mm": _F("1e-3"), "cm": _F("1e-2"), "um": _F("1e-6"), "km": _F(1000),
@@ -89,6 +97,7 @@ def _normalise(unit: str) -> str:
 
 
 UNITS, _SHOWN = _build()
+MAX_EXPONENT = 400  # decimal exponents beyond this are out of a double's range (1e308, 5e-324)
 _NUMBER = re.compile(r"^\s*([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(.*?)\s*$")
 
 
@@ -116,11 +125,19 @@ def parse_quantity(value: object, dimension: str, key: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, str)):
         raise CaseError(f"{key}: expected {describe_dimension(dimension)}, got {_show(value)}")
     if isinstance(value, (int, float)):
-        result = float(value)
+        try:
+            result = float(value)
+        except OverflowError:  # an integer beyond 1.8e308
+            result = math.inf
     else:
         result = _parse_string(value, dimension, key)
     if not math.isfinite(result):
         raise CaseError(f"{key}: expected a finite value, got {_show(value)}")
+    limit = PLAUSIBLE.get(dimension)
+    if limit is not None and abs(result) > limit:
+        si, name = DIMENSIONS[dimension]
+        raise CaseError(f"{key}: {result:g} {si} is beyond any plausible {name} of an impact "
+                        f"simulation (at most {limit:g} {si} in magnitude)")
     return result
 
 
@@ -129,9 +146,15 @@ def _parse_string(text: str, dimension: str, key: str) -> float:
     if not match:
         raise CaseError(f"{key}: cannot read {text!r} as {describe_dimension(dimension)}: "
                         "expected '<number> <unit>'")
-    number, unit = Fraction(match.group(1)), match.group(2)
+    text_number, unit = match.group(1), match.group(2)
+    try:
+        number = _exact(text_number)
+    except (ValueError, OverflowError):  # more digits than int() takes, or out of range
+        number = None
+    if number is None:
+        raise CaseError(f"{key}: expected a finite value, got {_clip(text)}")
     if not unit:
-        return float(number)
+        return _to_float(number, text, key)
     norm = _normalise(unit)
     if norm not in UNITS:
         raise CaseError(f"{key}: unknown unit {unit!r} in {text!r}{_near_unit(norm, dimension)}; "
@@ -140,7 +163,30 @@ def _parse_string(text: str, dimension: str, key: str) -> float:
     if dim != dimension:
         raise CaseError(f"{key}: {text!r} is a {DIMENSIONS[dim][1]}, but this key expects "
                         f"{describe_dimension(dimension)}")
-    return float(number * factor + offset)
+    return _to_float(number * factor + offset, text, key)
+
+
+def _exact(text_number: str) -> Fraction | None:
+    """The exact value of a decimal number, or None when it is beyond a double's range. An exact
+    Fraction of 1e99999999 would take minutes to build, so a large exponent is judged first."""
+    exponent = text_number.lower().partition("e")[2]
+    if exponent and abs(int(exponent)) > MAX_EXPONENT:
+        return Fraction(0) if float(text_number) == 0.0 else None
+    return Fraction(text_number)
+
+
+def _clip(text: str, width: int = 40) -> str:
+    """repr of `text`, shortened in the middle when long (a message stays one readable line)."""
+    if len(text) <= width:
+        return repr(text)
+    return repr(text[: width // 2] + "..." + text[-width // 2:])
+
+
+def _to_float(value: Fraction, text: str, key: str) -> float:
+    try:
+        return float(value)
+    except OverflowError:
+        raise CaseError(f"{key}: expected a finite value, got {_clip(text)}") from None
 
 
 def _near_unit(norm: str, dimension: str) -> str:

@@ -40,7 +40,8 @@ from impactsim.mesh.renumber import renumber  # noqa: E402
 SHAPES = ("box", "plate", "cylinder", "sphere", "file", "cube12")
 MESHERS = ("gmsh", "structured")
 
-__all__ = ["MeshError", "mesh_body", "mesh_local", "quality", "SHAPES", "MESHERS"]
+__all__ = ["MeshError", "mesh_body", "mesh_bodies", "mesh_local", "quality", "SHAPES",
+           "MESHERS"]
 
 
 def _dimension(body: Body, name: str):
@@ -120,3 +121,21 @@ def mesh_body(body: Body, *, use_cache: bool = True) -> tuple[np.ndarray, np.nda
     """
     points, tets = mesh_local(body, use_cache=use_cache)
     return place(points, body.rotation, body.position), tets
+
+
+def mesh_bodies(case, which=None) -> list:
+    """mesh_body of each body of `case` (only the indices in `which` when given, None for the
+    others). A body that cannot be meshed raises MeshError naming the case file and the key:
+    ``cases/x.toml: body[1].path (body "plate"): ...`` (the mesh_size for a primitive)."""
+    out = []
+    for i, body in enumerate(case.bodies):
+        if which is not None and i not in which:
+            out.append(None)
+            continue
+        try:
+            out.append(mesh_body(body))
+        except MeshError as err:
+            where = f"{case.source}: " if case.source is not None else ""
+            key = "path" if body.shape == "file" else "mesh_size"
+            raise MeshError(f"{where}body[{i}].{key} (body \"{body.name}\"): {err}") from None
+    return out

@@ -9,6 +9,9 @@ imported file the sha256 of the file's bytes (not its path) and its suffix (whic
 reader). Location: $IMPACTSIM_CACHE, else ~/.cache/impactsim/meshes; IMPACTSIM_CACHE=off
 disables the cache. Files are written to a temporary name and renamed (a killed run or two runs
 at once leave no half file); an unreadable or inconsistent cache file is ignored and rewritten.
+Each entry holds its key and the sha256 of its arrays' bytes: an entry whose key is not its file
+name, whose arrays do not match their digest (a flipped bit, a file copied over another) or
+whose values make no mesh (non-finite points, node indices out of range) is not used.
 A cache directory that cannot be written only costs the re-meshing next time.
 """
 
@@ -88,13 +91,24 @@ def load(key: str) -> tuple[np.ndarray, np.ndarray] | None:
     try:
         with np.load(path, allow_pickle=False) as data:
             points, tets, stored = data["points"], data["tets"], str(data["key"])
+            digest = str(data["digest"]) if "digest" in data else ""
     except Exception:  # missing, truncated or foreign file: treat as absent
         return None
     ok = (stored == key and points.dtype == np.float64 and points.ndim == 2
           and points.shape[1] == 3 and tets.dtype == np.int32 and tets.ndim == 2
           and tets.shape[1] == 4 and len(tets) > 0
-          and tets.min() >= 0 and tets.max() < len(points))
+          and tets.min() >= 0 and tets.max() < len(points)
+          and digest == array_digest(points, tets) and bool(np.isfinite(points).all()))
     return (points, tets) if ok else None
+
+
+def array_digest(points: np.ndarray, tets: np.ndarray) -> str:
+    """sha256 of the arrays' shapes and bytes (C order)."""
+    h = hashlib.sha256()
+    for a in (points, tets):
+        h.update(repr(a.shape).encode())
+        h.update(np.ascontiguousarray(a).tobytes())
+    return h.hexdigest()
 
 
 def store(key: str, points: np.ndarray, tets: np.ndarray) -> None:
@@ -109,7 +123,8 @@ def store(key: str, points: np.ndarray, tets: np.ndarray) -> None:
         return
     try:
         with os.fdopen(fd, "wb") as stream:
-            np.savez(stream, points=points, tets=tets, key=np.array(key))
+            np.savez(stream, points=points, tets=tets, key=np.array(key),
+                     digest=np.array(array_digest(points, tets)))
         os.replace(tmp, folder / f"{key}.npz")
     except OSError:
         try:

@@ -38,7 +38,8 @@ class HistoryWriter:
         self._n_rows = 0
         self._last_flush = _time.monotonic()
         self._check_names(columns)
-        self._file = open(self.path, "wb", buffering=0)
+        self._file = _open_no_follow(self.path)
+        self._size = 0  # bytes of whole lines in the file
         self.add_columns(columns)
 
     def add_columns(self, names: list[str]) -> None:
@@ -50,6 +51,7 @@ class HistoryWriter:
         self._index = {name: i for i, name in enumerate(self.columns)}
         self._file.seek(0)
         self._file.truncate()
+        self._size = 0
         self._write((",".join(self.columns) + "\n").encode())
 
     def row(self, values: dict[str, float]) -> None:
@@ -93,9 +95,20 @@ class HistoryWriter:
         self.close()
 
     def _write(self, data: bytes) -> None:
+        """Append whole lines. A write that fails part way (a full disk, a signal) is taken
+        back: the file is cut to its last whole line and the error raised."""
         view = memoryview(data)
-        while view:  # a raw write may be partial; finish the lines before returning
-            view = view[self._file.write(view):]
+        try:
+            while view:  # a raw write may be partial; finish the lines before returning
+                view = view[self._file.write(view):]
+        except BaseException:
+            try:
+                self._file.truncate(self._size)
+                self._file.seek(self._size)
+            except OSError:
+                pass
+            raise
+        self._size += len(data)
 
     def _check_names(self, names: list[str]) -> None:
         seen = set(self.columns)
@@ -105,6 +118,16 @@ class HistoryWriter:
             if name in seen:
                 raise ValueError(f"duplicate history column {name!r}")
             seen.add(name)
+
+
+def _open_no_follow(path: Path):
+    """Open `path` for writing without following a symbolic link: a link planted at the name
+    is replaced by a file of its own, never written through (the target stays untouched)."""
+    if path.is_symlink():
+        path.unlink()
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | getattr(os, "O_NOFOLLOW", 0),
+                 0o666)
+    return os.fdopen(fd, "wb", buffering=0)
 
 
 def _format(value) -> str:

@@ -75,6 +75,9 @@ class Simulation:
         self.dt_stable = math.inf  # min stable element step at the current state [s]
         self.dt_first = None
         self.worst_element = -1
+        # called as on_inverted(sim, dt) when elements invert, instead of stopping the run
+        # (checks.negative_volume = "erode": solver/run.py)
+        self.on_inverted = None
         self._update_elements(0.0)  # forces and stable step of the initial state
 
     def set_parts(self, part_size: int) -> None:
@@ -181,9 +184,28 @@ class Simulation:
             m.energy_terms["hourglass"] += bhg
             inverted += binv
         self.timings["element"] += wallclock.perf_counter() - t0
-        if inverted:
+        if inverted and self.on_inverted is not None:
+            self.on_inverted(self, dt)
+        elif inverted:
             raise SimulationStopped(
-                f"{inverted} element(s) inverted (negative volume) at t = {m.time + dt:.6g} s")
+                f"{inverted} element(s) inverted (negative volume) at t = {m.time + dt:.6g} s"
+                f"{self._first_inverted()}: a body starting inside another or a wall, a step "
+                "too large, or crushing beyond what the mesh can follow (checks.negative_volume "
+                "= \"erode\" removes such elements and goes on)")
+
+    def _first_inverted(self) -> str:
+        m = self.model
+        vol = np.zeros(m.n_elem)
+        element_volumes(m.x, m.conn, m.status, vol)
+        bad = np.flatnonzero((vol <= 0.0) & (m.status != 3))
+        if not len(bad):
+            return ""
+        return f", first element {bad[0]} (body {m.body_names[m.elem_body[bad[0]]]!r})"
+
+    def refresh_stable_step(self) -> None:
+        """Recompute the forces and the stable step of the current state (after elements were
+        removed: the step they set no longer holds). A zero step changes no stress."""
+        self._update_elements(0.0)
 
     def refresh_forces(self, elements: np.ndarray) -> None:
         """Recompute the nodal forces of the nodes of `elements` from their live elements, after
@@ -194,11 +216,12 @@ class Simulation:
                       m.force)
 
     # --- accounting ----------------------------------------------------------------------------
-    def energies(self) -> dict[str, float]:
-        """Energy terms [J]; total = kinetic + internal + dissipated + eroded - external work."""
+    def energies(self, ke: float | None = None, ie: float | None = None) -> dict[str, float]:
+        """Energy terms [J]; total = kinetic + internal + dissipated + eroded - external work.
+        `ke`, `ie`: the kinetic and internal energy when already summed (solver/watch.py)."""
         m = self.model
-        ke = kinetic_energy(m.v, m.mass)
-        ie = internal_energy(m.energy, m.elem_mass, m.status)
+        ke = kinetic_energy(m.v, m.mass) if ke is None else ke
+        ie = internal_energy(m.energy, m.elem_mass, m.status) if ie is None else ie
         if getattr(m, "blocks", None):
             from impactsim.solver.blocks import block_internal_energy
 

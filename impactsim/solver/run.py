@@ -101,56 +101,120 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
              meshes: list | None = None) -> dict:
     """Run `case`, writing series.pvd + frames, history.csv, summary.json and case.resolved.toml
     into out_dir (default out/<run name>). Returns the summary dict. A run that has to stop
-    (inverted element, collapsing step, interrupt) still writes its last frame and summary."""
+    (a signal, a failed check, a non-finite state, a collapsing step) still writes its last
+    frame and a summary with the reason (summary["stopped"]; the CLI exits 3). SIGTERM and
+    SIGINT are watched for the whole run (solver/stop.py)."""
+    from impactsim.solver.stop import watching
+
+    with watching() as stops:
+        return _run(case, out_dir, progress, meshes, stops)
+
+
+def output_folder(case: Case, out_dir: Path | None) -> Path:
+    """The run's folder, created; an unusable one is a SimulationError naming the key."""
+    out = Path(out_dir) if out_dir is not None else (
+        case.output.directory or Path("out") / case.run.name)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / ".impactsim-write-test"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as err:
+        raise SimulationError(f"{_label(case)}output.directory: cannot write to {out}: "
+                              f"{err.strerror or err}") from None
+    return out
+
+
+def _label(case: Case) -> str:
+    return f"{case.source}: " if case.source is not None else ""
+
+
+def _run(case: Case, out_dir, progress: bool, meshes, stops) -> dict:
     import numba
 
     from impactsim.case import case_to_dict
+    from impactsim.case.estimate import check_fits, estimate_cost
+    from impactsim.checks import CheckFailed, CheckLog
     from impactsim.output.history import HistoryWriter
     from impactsim.output.progress import Progress
     from impactsim.output.series import SeriesWriter
     from impactsim.output.summary import write_resolved_case, write_summary
+    from impactsim.solver.stop import RunStopped, checkpoint_on_stop
+    from impactsim.solver.watch import NonFinite, Watch, describe_gain
 
     start = wallclock.perf_counter()
-    out = Path(out_dir) if out_dir is not None else (
-        case.output.directory or Path("out") / case.run.name)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_folder(case, out_dir)
     bar = Progress(case.run.end_time, enabled=progress)
+    checks = CheckLog(lambda msg: bar.log("warning: " + msg))
     timings: dict[str, float] = {}
+    chk = case.checks
+    sim = model = None
+    estimate = None
 
-    write_resolved_case(out / "case.resolved.toml", case_to_dict(case))
-    t = wallclock.perf_counter()
-    if meshes is None:
-        from impactsim.mesh import mesh_body
+    def write_or_fail(what: str, fn, *args):
+        try:
+            fn(*args)
+        except OSError as err:
+            raise SimulationError(f"{_label(case)}output.directory: cannot write {what} in "
+                                  f"{out}: {err.strerror or err}") from None
 
-        meshes = [mesh_body(b) for b in case.bodies]
-    timings["meshing"] = wallclock.perf_counter() - t
-    from impactsim.solver.footprint import case_memory_warning
-
-    memory = case_memory_warning(case, sum(len(m[1]) for m in meshes),
-                                 sum(len(m[0]) for m in meshes))
-    if memory:
-        bar.log("warning: " + memory)
     try:
-        model = build_model(case, meshes)
-    except ValueError as err:
-        raise SimulationError(f"{case.run.name}: {err}") from err
-    n_elem = model.n_elem + sum(b.n_elem for b in model.blocks)
-    numba.set_num_threads(thread_count(case.run.threads, n_elem))
-    if model.blocks:
-        from impactsim.solver.blocks import unsupported
+        write_or_fail("case.resolved.toml", write_resolved_case, out / "case.resolved.toml",
+                      case_to_dict(case))
+        check_fits(case, estimate_cost(case, speed=_NO_SPEED))
+        t = wallclock.perf_counter()
+        if meshes is None:
+            from impactsim.mesh import mesh_bodies
 
-        why = unsupported(case)
-        if why:
-            raise SimulationError(f"{case.run.name}: {why}")
-    passes = build_passes(case, model)
-    bar.log(f"{case.run.name}: {model.n_node} nodes, {n_elem} elements, "
-            f"{model.n_body} bodies; passes: " + (", ".join(p.name for p in passes) or "none"))
-    for w in mach_warnings(case):
-        bar.log("warning: " + w)
-    sim = Simulation(model, passes, cfl=case.run.cfl, element=case.run.element,
-                     cq=case.run.q_quadratic, cl=case.run.q_linear,
-                     dt_collapse=case.run.dt_collapse)
-    timings["setup"] = wallclock.perf_counter() - start - timings["meshing"]
+            meshes = mesh_bodies(case)
+        timings["meshing"] = wallclock.perf_counter() - t
+        from impactsim.solver.footprint import case_memory_warning
+
+        memory = case_memory_warning(case, sum(len(m[1]) for m in meshes),
+                                     sum(len(m[0]) for m in meshes))
+        if memory:
+            bar.log("warning: " + memory)
+        try:
+            model = build_model(case, meshes)
+        except ValueError as err:
+            raise SimulationError(f"{case.run.name}: {err}") from err
+        _initial_checks(case, meshes, checks)
+        estimate = estimate_cost(case, meshes=meshes)
+        n_elem = model.n_elem + sum(b.n_elem for b in model.blocks)
+        numba.set_num_threads(thread_count(case.run.threads, n_elem))
+        if model.blocks:
+            from impactsim.solver.blocks import unsupported
+
+            why = unsupported(case)
+            if why:
+                raise SimulationError(f"{case.run.name}: {why}")
+        passes = build_passes(case, model)
+        bar.log(f"{case.run.name}: {model.n_node} nodes, {n_elem} elements, "
+                f"{model.n_body} bodies; passes: " + (", ".join(p.name for p in passes) or "none"))
+        bar.log("estimate: " + estimate.line() + "".join(
+            "; " + line for line in estimate.detail_lines()))
+        for w in mach_warnings(case):
+            bar.log("warning: " + w)
+        sim = Simulation(model, passes, cfl=case.run.cfl, element=case.run.element,
+                         cq=case.run.q_quadratic, cl=case.run.q_linear,
+                         dt_collapse=case.run.dt_collapse)
+        if chk.negative_volume == "erode":
+            sim.on_inverted = lambda s, dt: _erode_inverted(s, checks)
+        timings["setup"] = wallclock.perf_counter() - start - timings["meshing"]
+    except CheckFailed as err:
+        raise SimulationError(f"{_label(case)}checks.{str(err)[6:]}") from None
+    except RunStopped as err:
+        reason = f"{err} before the first step (while setting up)"
+        bar.log(f"stopped: {reason}")
+        bar.close()
+        summary = {"case": case.run.name, "source": str(case.source) if case.source else None,
+                   "steps": 0, "time": 0.0, "end_time": case.run.end_time,
+                   "wall_seconds": wallclock.perf_counter() - start, "stopped": reason,
+                   "stop": {"reason": reason, "kind": "signal", "signal": stops.signal},
+                   "checks": checks.summary(), "seconds_per_pass": timings}
+        with stops.finishing():
+            write_or_fail("summary.json", write_summary, out / "summary.json", summary)
+        return summary
 
     # frames are written by threads of their own while the run goes on (output/series.py)
     series = SeriesWriter(out, compression=case.output.compression, background=True)
@@ -165,8 +229,11 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
     eps_t = 1e-9 * end
     e0 = None
     stopped = None
+    stop_kind = None
+    output_error = None
     first_step_seconds = None
     t_out = 0.0
+    watch = Watch(sim, energy_limit=chk.energy_balance)
 
     def write_frame():
         nonlocal t_out
@@ -197,53 +264,90 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
         for pa in passes:
             row.update(pa.history(model))
         history.row(row)
+        _hourglass_check(row, chk, checks)
         t_out += wallclock.perf_counter() - t1
         return row
 
     try:
         e0 = history_row()["total_energy"]
+        watch.after_step()
         if times.size and times[0] <= eps_t:
             write_frame()
             next_frame = 1
+        if estimate.steps_needed > case.run.max_steps:
+            bar.log(f"warning: run.max_steps = {case.run.max_steps:,} will stop the run before "
+                    f"its end time (≈ {estimate.steps_needed:,} steps needed)")
         while model.time < end - eps_t:
             if model.step >= case.run.max_steps:
                 stopped = f"max_steps = {case.run.max_steps} reached at t = {model.time:.6g} s"
+                stop_kind = "max_steps"
                 break
             target = times[next_frame] if next_frame < len(times) else end
             sim.step(target - model.time)
+            stops.urgent = False  # compiled and stepping: a signal waits for the step's end
             if abs(model.time - target) <= eps_t:
                 model.time = float(target)  # no round-off drift of frame times
             if first_step_seconds is None:
                 first_step_seconds = wallclock.perf_counter() - start
+            watch.after_step()
+            if watch.gaining() and chk.energy_balance_action != "ignore":
+                checks.trigger("energy_balance", chk.energy_balance_action, describe_gain(watch))
+            if chk.time_step_floor > 0.0 and sim.cfl * sim.dt_stable < chk.time_step_floor:
+                _time_step_floor(sim, chk, checks)
             if model.step % case.output.history_every == 0:
                 history_row()
             while next_frame < len(times) and model.time >= times[next_frame] - eps_t:
                 write_frame()
                 next_frame += 1
             bar.update(model.time, model.step, sim.dt)
+            if stops.requested:
+                stopped = f"{stops.requested} at t = {model.time:.6g} s (step {model.step})"
+                stop_kind = "signal"
+                break
     except SimulationStopped as err:
-        stopped = str(err)
-    except KeyboardInterrupt:
-        stopped = f"interrupted at t = {model.time:.6g} s"
+        stopped, stop_kind = str(err), "simulation"
+    except NonFinite as err:
+        stopped, stop_kind = str(err), "non-finite"
+    except CheckFailed as err:
+        stopped, stop_kind = str(err), "check"
+    except (RunStopped, KeyboardInterrupt):
+        stopped = f"{stops.requested or 'interrupted'} at t = {model.time:.6g} s (step {model.step})"
+        stop_kind = "signal"
+    except OSError as err:  # a full disk, a folder removed under the run
+        output_error = f"{_label(case)}output.directory: cannot write in {out}: " \
+                       f"{err.strerror or err}"
+        stopped, stop_kind = output_error, "output"
     finally:
-        if stopped is not None:
-            bar.log(f"stopped: {stopped}")
+        with stops.finishing():
+            if stopped is not None:
+                bar.log(f"stopped: {stopped}")
+                try:
+                    history_row()
+                    write_frame()
+                except Exception:  # the state may be non-finite, the disk full: what is
+                    pass            # written so far stands, whole
+                checkpoint_on_stop(sim, out, case)
             try:
-                history_row()
-                write_frame()
-            except Exception:  # the state may be non-finite; the frames so far stand
-                pass
-        history.close()
-        bar.close()
-        t1 = wallclock.perf_counter()
-        for writer in (series, *pass_series.values()):
-            writer.close()  # the frames still being written
-        t_out += wallclock.perf_counter() - t1
+                history.close()
+            except OSError as err:
+                output_error = output_error or (f"{_label(case)}output.directory: cannot write "
+                                                f"history.csv in {out}: {err.strerror or err}")
+            bar.close()
+            t1 = wallclock.perf_counter()
+            for writer in (series, *pass_series.values()):
+                try:
+                    writer.close()  # the frames still being written
+                except OSError as err:
+                    output_error = output_error or (
+                        f"{_label(case)}output.directory: cannot write a frame in {out}: "
+                        f"{err.strerror or err}")
+            t_out += wallclock.perf_counter() - t1
 
     energies = sim.energies()
     wall = wallclock.perf_counter() - start
     timings.update({k: v for k, v in sim.timings.items()})
     timings["output"] = t_out
+    timings["watch"] = watch.seconds
     summary = {
         "case": case.run.name,
         "source": str(case.source) if case.source else None,
@@ -262,6 +366,14 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
         "versions": {"impactsim": _version(), "numpy": np.__version__,
                      "numba": numba.__version__, "python": platform.python_version()},
     }
+    summary.update(watch.report())
+    if stopped is not None:
+        summary["stop"] = {"reason": stopped, "kind": stop_kind,
+                           "signal": stops.signal if stop_kind == "signal" else None}
+    summary["estimate"] = {"elements": estimate.elements, "steps": estimate.steps,
+                           "wall_seconds": estimate.wall_seconds,
+                           "memory_bytes": estimate.memory_bytes, "threads": estimate.threads,
+                           "seconds": estimate.seconds}
     for p in passes:  # one level deep: a pass may add keys to an existing table ("bodies")
         for key, val in p.summary(model).items():
             if isinstance(val, dict) and isinstance(summary.get(key), dict):
@@ -272,10 +384,107 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
                         summary[key][k2] = v2
             else:
                 summary[key] = val
-    write_summary(out / "summary.json", summary)
+    unconverged = summary.get("unconverged_steps") or 0
+    if unconverged and chk.unconverged_contact != "ignore":
+        try:
+            checks.trigger("unconverged_contact", chk.unconverged_contact,
+                           f"{unconverged} step(s) whose projected contact rounds did not "
+                           "converge", count=unconverged)
+        except CheckFailed as err:
+            if summary["stopped"] is None:
+                summary["stopped"] = str(err)
+                summary["stop"] = {"reason": str(err), "kind": "check", "signal": None}
+    summary["checks"] = checks.summary()
+    for line in checks.closing_lines():
+        bar.log(line)
+    bar.log(f"energy balance: {100 * summary['energy_balance_error']:+.3g} % at the end, "
+            f"largest {100 * watch.worst:+.3g} % at t = {watch.worst_time:.6g} s")
+    with stops.finishing():
+        try:
+            write_summary(out / "summary.json", summary)
+        except OSError as err:
+            output_error = output_error or (f"{_label(case)}output.directory: cannot write "
+                                            f"summary.json in {out}: {err.strerror or err}")
+    if output_error:
+        raise SimulationError(output_error)
     if progress:
         bar.log(_timing_table(timings, wall))
     return summary
+
+
+_NO_SPEED = {"ns_per_element_step": 0.0, "seconds_per_step": 0.0, "source": "none"}
+
+
+def _initial_checks(case: Case, meshes: list, checks) -> None:
+    """checks.initial_penetration: bodies inside each other or behind a wall at t = 0."""
+    from impactsim.checks.overlap import initial_overlaps
+
+    action = case.checks.initial_penetration
+    if action == "ignore":
+        return
+    found = initial_overlaps(case, meshes)
+    if found:
+        worst = max(found, key=lambda o: o.depth)
+        text = "; ".join(f"{o.what} overlap by {o.depth * 1e3:.4g} mm ({o.nodes} node(s))"
+                         for o in found)
+        checks.trigger("initial_penetration", action,
+                       f"at t = 0: {text} (deepest {worst.depth * 1e3:.4g} mm): move the "
+                       "bodies apart", count=len(found))
+
+
+def _hourglass_check(row: dict, chk, checks) -> None:
+    """checks.hourglass_share, when the run has an hourglass_energy column (hexahedra)."""
+    hg = row.get("hourglass_energy")
+    if hg is None or chk.hourglass_share_action == "ignore":
+        return
+    base = row.get("kinetic_energy", 0.0) + row.get("internal_energy", 0.0)
+    if base > 0.0 and hg / base > chk.hourglass_share:
+        checks.trigger("hourglass_share", chk.hourglass_share_action,
+                       f"hourglass energy is {100 * hg / base:.3g} % of kinetic + internal at "
+                       f"t = {row['time']:.6g} s (limit {100 * chk.hourglass_share:g} %)")
+
+
+def _time_step_floor(sim, chk, checks) -> None:
+    """checks.time_step_floor: stop, or erode the element that sets the step."""
+    m = sim.model
+    e = sim.worst_element
+    msg = (f"time step {sim.cfl * sim.dt_stable:.3e} s below the floor "
+           f"{chk.time_step_floor:.3e} s at t = {m.time:.6g} s, set by element {e} (body "
+           f"{m.body_names[m.elem_body[e]]!r})")
+    checks.trigger("time_step_floor", chk.time_step_floor_action, msg)
+    erode_elements(sim, np.array([e]))
+
+
+def _erode_inverted(sim, checks) -> None:
+    """checks.negative_volume = erode: remove the inverted elements and go on."""
+    from impactsim.solver.nodal import element_volumes
+
+    m = sim.model
+    vol = np.zeros(m.n_elem)
+    element_volumes(m.x, m.conn, m.status, vol)
+    bad = np.flatnonzero((vol <= 0.0) & (m.status != ERODED))
+    if not len(bad):
+        return
+    b = m.body_names[m.elem_body[bad[0]]]
+    checks.trigger("negative_volume", "erode",
+                   f"{len(bad)} element(s) inverted at t = {m.time:.6g} s, first {bad[0]} "
+                   f"(body {b!r}): eroded", count=len(bad))
+    erode_elements(sim, bad)
+
+
+def erode_elements(sim, elements: np.ndarray) -> None:
+    """Remove `elements` (status ERODED): their internal energy goes to the eroded term, their
+    mass stays on their nodes, the forces of their nodes are recomputed without them and the
+    next stable step is taken without them. Contact surfaces are not rebuilt here (a pass that
+    tracks surfaces, fracture's, does that for its own removals)."""
+    m = sim.model
+    elements = elements[m.status[elements] != ERODED]
+    if not len(elements):
+        return
+    m.energy_terms["eroded"] += float((m.elem_mass[elements] * m.energy[elements]).sum())
+    m.status[elements] = ERODED
+    sim.refresh_forces(elements)
+    sim.refresh_stable_step()
 
 
 def _timing_table(timings: dict[str, float], wall: float) -> str:

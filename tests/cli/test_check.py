@@ -46,6 +46,7 @@ radius = "5 mm"
 height = "100 mm"
 mesh_size = "2 mm"
 velocity = [0, 0, "-10 m/s"]
+position = [0, 0, "50.01 mm"]
 
 [[wall]]
 normal = [0, 0, 1]

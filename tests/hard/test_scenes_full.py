@@ -13,6 +13,7 @@ def test_sphere_plate_full(tmp_path):
     s, hist = _run(tmp_path, "sphere-plate", [])
     _check_common(s, hist)
     _check_sphere_plate(s)
+    assert s["checks"] == {} and s["stopped"] is None  # no [checks] entry triggers
 
 
 @pytest.mark.slow
@@ -20,3 +21,4 @@ def test_oblique_sphere_full(tmp_path):
     s, hist = _run(tmp_path, "oblique-sphere", [])
     _check_common(s, hist)
     _check_oblique(s)
+    assert s["checks"] == {} and s["stopped"] is None  # no [checks] entry triggers

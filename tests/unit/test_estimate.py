@@ -1,6 +1,7 @@
 """The cost estimate of `impactsim check` (impactsim.case.estimate) against real meshes and runs."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -88,5 +89,52 @@ def test_default_speed_without_calibration_then_stored_measurement(tmp_path, mon
     assert machine_speed(threads=1) == speed  # read back, not measured again
     est = estimate_cost(load_case_text(BAR.format(end="1 ms")), speed)
     per_step = speed["seconds_per_step"] + est.elements * 1e-9 * speed["ns_per_element_step"]
-    assert est.wall_seconds == pytest.approx(est.steps * per_step)
+    assert est.seconds["elements"] == pytest.approx(est.steps * per_step)
+    assert est.wall_seconds == pytest.approx(sum(est.seconds.values()))
     assert np.isfinite(DEFAULT_SPEED["ns_per_element_step"])
+
+
+def test_case_that_would_not_fit_in_memory_is_refused_with_the_figure(monkeypatch):
+    """Issue 16: a 20M-element case died of MemoryError after meshing; a 480M one was
+    estimated at 31.8 minutes."""
+    from impactsim.case import CaseError
+    from impactsim.case import estimate as E
+    from impactsim.case.describe import describe_case
+
+    monkeypatch.setattr(E, "available_memory", lambda: 8e9)
+    case = load_case_text(BAR.format(end="20 us").replace('"2.5 mm"', '"0.1 mm"'))
+    assert estimate_cost(case).elements == 6 * 100 * 100 * 600
+    with pytest.raises(CaseError, match=r"body\[0\]\.mesh_size: the case would need ≈ 72\.4 GB"
+                                        r" of memory for ≈ 36,000,000 elements.*8 GB available"):
+        describe_case(case)
+
+
+def test_implausible_calibration_is_discarded(tmp_path, monkeypatch):
+    from impactsim.case import estimate as E
+
+    monkeypatch.setenv("IMPACTSIM_CACHE", str(tmp_path / "meshes"))
+    monkeypatch.setattr(E, "_seconds_per_step", lambda cells, s, c: (
+        (384, 1e-4) if cells == 4 else (24_576, 1e-4 + 24_192 * 1e-13)))  # 0.1 ns/element
+    speed = calibrate_speed(threads=1, seconds=0.1)
+    assert speed["source"].startswith("default (a measurement of 0.1")
+    assert speed["ns_per_element_step"] == DEFAULT_SPEED["ns_per_element_step"]
+    assert not speed_file().exists()  # not stored
+
+
+def test_estimate_uses_the_thread_count_of_the_run_and_warns_of_max_steps():
+    case = load_case_text(BAR.format(end="1 ms") + "\n[run]\n".replace("[run]\n", ""))
+    est = estimate_cost(case)
+    assert est.threads == 1  # 2,304 elements: one thread, as the run (solver.run.thread_count)
+    capped = load_case_text(BAR.format(end="1 ms").replace("cfl = 0.6", "cfl = 0.6\nmax_steps = 100"))
+    est = estimate_cost(capped)
+    assert est.steps == 100 and est.steps_needed > 100
+    assert any("run.max_steps = 100 stops the run before its end time" in line
+               for line in est.detail_lines())
+
+
+def test_contact_fracture_and_output_are_in_the_wall_time():
+    two = load_case_text((Path(__file__).resolve().parents[2] / "cases" /
+                          "elastic-bars.toml").read_text())
+    est = estimate_cost(two)
+    assert est.seconds["contact"] > 0 and est.seconds["output"] > 0
+    assert est.wall_seconds == pytest.approx(sum(est.seconds.values()))
