@@ -94,5 +94,23 @@ def render(run_dir: str, field: str, every: int) -> None:
         _fail(err)
 
 
+@main.command()
+@click.argument("sweep_file", type=click.Path(dir_okay=False))
+@click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False), default=None,
+              help="Output folder (default: out/sweeps/<sweep name>/).")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="Run on an existing Dask cluster (tcp://host:8786) instead of a local one.")
+@click.option("--workers", type=int, default=None,
+              help="Local worker processes (default: one per core; 0: in this process).")
+def sweep(sweep_file: str, out_dir: str | None, scheduler: str | None, workers: int | None) -> None:
+    """Run the variants of SWEEP_FILE on Dask; results.csv / results.parquet list them."""
+    from impactsim.studies.sweep import SweepError, run_sweep
+
+    try:
+        run_sweep(Path(sweep_file), Path(out_dir) if out_dir else None, scheduler, workers)
+    except (SweepError, CaseError) as err:
+        _fail(err)
+
+
 if __name__ == "__main__":  # pragma: no cover
     main()
