@@ -112,5 +112,42 @@ def sweep(sweep_file: str, out_dir: str | None, scheduler: str | None, workers: 
         _fail(err)
 
 
+@main.command("ballistic-limit")
+@click.argument("case_file", type=click.Path(dir_okay=False))
+@click.option("--vary", required=True, metavar="KEY", help="The key searched, e.g. body.sphere.radius.")
+@click.option("--range", "range_", nargs=2, required=True, metavar="LO HI",
+              help="Where to search, e.g. --range '2 mm' '8 mm'.")
+@click.option("--at", "at", required=True, metavar="KEY=V1,V2,...",
+              help="One limit per value, e.g. --at 'body.sphere.speed=2 km/s,3 km/s'.")
+@click.option("--tol", required=True, help="Width of the final bracket, in the unit of --range.")
+@click.option("--plate", default=None, help="Perforated: a hole through this plate "
+              "(default: the case's last body of shape plate).")
+@click.option("--residual-speed", default=None, metavar="SPEED", help="Perforated instead: the "
+              "residual speed of --body above SPEED (m/s).")
+@click.option("--body", default=None, help="The body of --residual-speed.")
+@click.option("--reference", type=click.Path(dir_okay=False, exists=True), default=None,
+              help="A CSV curve (first two columns) drawn under the result.")
+@click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False), default=None,
+              help="Output folder (default: out/ballistic/<case name>/).")
+@click.option("--scheduler", default=None, metavar="ADDRESS", help="An existing Dask cluster.")
+@click.option("--workers", type=int, default=None, help="Local workers (0: in this process).")
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
+def ballistic_limit(case_file, vary, range_, at, tol, plate, residual_speed, body, reference,
+                    out_dir, scheduler, workers, overrides) -> None:
+    """Find, per value of --at, the value of --vary at which the plate is just perforated."""
+    from impactsim.studies.ballistic import Criterion, ballistic_limit, parse_at, speed_threshold
+    from impactsim.studies.sweep import SweepError
+
+    try:
+        crit = Criterion("residual", body, speed_threshold(residual_speed)) \
+            if residual_speed is not None else Criterion("hole", plate)
+        key, values = parse_at(at)
+        ballistic_limit(Path(case_file), vary, *range_, key, values, tol, crit,
+                        Path(out_dir) if out_dir else None, scheduler, workers, overrides,
+                        Path(reference) if reference else None)
+    except (SweepError, CaseError) as err:
+        _fail(err)
+
+
 if __name__ == "__main__":  # pragma: no cover
     main()

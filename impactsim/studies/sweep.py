@@ -320,12 +320,10 @@ def prepare(sweep: Sweep, folder: Path) -> list[tuple[Variant, Path, str]]:
     return out
 
 
-def run_variants(items: list[tuple[Variant, Path, str]], scheduler: str | None = None,
-                 workers: int | None = None, say: Callable[[str], None] = print,
-                 on_row: Callable[[dict], None] | None = None) -> list[dict]:
-    """Run the variants not finished yet (module docstring); rows in the order of `items`."""
-    from impactsim.studies.cluster import executor
-
+def run_variants(items: list[tuple[Variant, Path, str]], ex,
+                 say: Callable[[str], None] = print) -> list[dict]:
+    """Run on `ex` (cluster.executor) the variants not finished yet (module docstring); rows in
+    the order of `items`, each with `skipped` saying whether it ran now."""
     rows: list[dict | None] = [None] * len(items)
     todo = []
     for i, (var, path, text) in enumerate(items):
@@ -336,19 +334,21 @@ def run_variants(items: list[tuple[Variant, Path, str]], scheduler: str | None =
             todo.append(i)
     if len(todo) < len(items):
         say(f"{len(items) - len(todo)} variant(s) finished earlier, skipped")
-    if todo:
-        with executor(scheduler, workers if workers is not None else None) as ex:
-            args = [(str(items[i][1]), str(items[i][1].with_suffix(""))) for i in todo]
-            for j, res in ex.map(run_variant, args):
-                i = todo[j]
-                if isinstance(res, Exception):  # the worker itself was lost
-                    res = {"status": "failed", "error": f"{type(res).__name__}: {res}"[:500]}
-                rows[i] = res | {"skipped": False}
-                say(f"  {items[i][0].name:<44} {res['status']:<8} "
-                    f"{res.get('wall [s]', float('nan')):8.1f} s {res.get('error', '')}")
-                if on_row is not None:
-                    on_row(rows[i])
-    return [r for r in rows]
+    args = [(str(items[i][1]), str(items[i][1].with_suffix(""))) for i in todo]
+    for j, res in ex.map(run_variant, args):
+        i = todo[j]
+        if isinstance(res, Exception):  # the worker itself was lost
+            res = {"status": "failed", "error": f"{type(res).__name__}: {res}"[:500]}
+        rows[i] = res | {"skipped": False}
+        say(f"  {items[i][0].name:<44} {res['status']:<8} "
+            f"{res.get('wall [s]', float('nan')):8.1f} s {res.get('error', '')}")
+    return rows
+
+
+def where(scheduler: str | None, workers: int | None) -> str:
+    if scheduler:
+        return f"scheduler {scheduler}"
+    return "this process" if workers == 0 else f"{workers or 'one per core'} local worker(s)"
 
 
 def table(sweep: Sweep, items, rows: list[dict]):
@@ -392,11 +392,12 @@ def run_sweep(sweep_file: Path, out: Path | None = None, scheduler: str | None =
     """Run the sweep file; returns (the results DataFrame, the output folder)."""
     sweep = read_sweep(Path(sweep_file))
     folder = Path(out) if out is not None else Path("out") / "sweeps" / sweep.name
+    from impactsim.studies.cluster import executor
+
     items = prepare(sweep, folder)
-    where = f"scheduler {scheduler}" if scheduler else (
-        "this process" if workers == 0 else f"{workers or 'one per core'} local worker(s)")
-    say(f"{sweep.name}: {len(items)} variant(s) in {folder}, on {where}")
-    rows = run_variants(items, scheduler, workers, say)
+    say(f"{sweep.name}: {len(items)} variant(s) in {folder}, on {where(scheduler, workers)}")
+    with executor(scheduler, workers) as ex:
+        rows = run_variants(items, ex, say)
     df = table(sweep, items, rows)
     csv, pq = write_table(df, folder)
     say(f"results: {csv} and {pq}")
