@@ -83,14 +83,44 @@ def run(case_file: str, out_dir: str | None, overrides: tuple[str, ...], quiet: 
 @click.argument("run_dir", type=click.Path(file_okay=False, exists=True))
 @click.option("--field", default="von_mises", show_default=True, help="Cell or point field to colour by.")
 @click.option("--every", default=1, show_default=True, help="Render every N-th frame.")
-def render(run_dir: str, field: str, every: int) -> None:
+@click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False), default=None,
+              help="Folder of the PNGs (default: RUN_DIR/render/).")
+@click.option("--slice", "cut", default=None, metavar="NORMAL[,POINT]",
+              help="Cut the bodies and look at the cut: --slice y, --slice 0,1,0,0,0,0.001.")
+@click.option("--view", type=click.Choice(["impact", "all"]), default="impact", show_default=True,
+              help="Frame the impact region or every body.")
+@click.option("--no-particles", is_flag=True, help="Do not draw the particles.")
+@click.option("--animate", default=None, metavar="OUT.mp4|OUT.gif", help="Also an animation.")
+@click.option("--fps", default=4.0, show_default=True, help="Frames per second of --animate.")
+@click.option("--size", nargs=2, type=int, default=(1024, 768), show_default=True,
+              help="Image width and height in pixels.")
+def render(run_dir: str, field: str, every: int, out_dir, cut, view, no_particles, animate, fps,
+           size) -> None:
     """Render the frames of a finished run to PNG images (off-screen, pyvista)."""
-    from impactsim.output.render import RenderError, render_series
+    from impactsim.output.render import RenderError, parse_cut, render_series
 
     try:
-        for path in render_series(Path(run_dir), field=field, every=every):
+        for path in render_series(Path(run_dir), field=field, every=every, out=out_dir,
+                                  cut=parse_cut(cut), view=view, particles=not no_particles,
+                                  animate=animate, fps=fps, window_size=tuple(size)):
             click.echo(str(path))
+        if animate:
+            click.echo(animate)
     except RenderError as err:
+        _fail(err)
+
+
+@main.command()
+@click.argument("run_dir", type=click.Path(file_okay=False, exists=True))
+@click.option("-o", "--out", "out_file", type=click.Path(dir_okay=False), default=None,
+              help="The PNG (default: RUN_DIR/history.png).")
+def plot(run_dir: str, out_file: str | None) -> None:
+    """Plot history.csv: energy terms and balance, contact force, body velocities, particles."""
+    from impactsim.output.plot import PlotError, plot_history
+
+    try:
+        click.echo(str(plot_history(Path(run_dir), Path(out_file) if out_file else None)))
+    except PlotError as err:
         _fail(err)
 
 
