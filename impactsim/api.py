@@ -52,7 +52,7 @@ def run(case: Case | str | os.PathLike, out: str | os.PathLike | None = None, qu
     if not isinstance(case, Case):
         case = load_case(case)
     out = Path(out) if out is not None else (case.output.directory or Path("out") / case.run.name)
-    run_case(case, out, progress=not quiet, **({"overwrite": True} if overwrite else {}))
+    run_case(case, out, progress=not quiet, overwrite=overwrite)
     return open_result(out)
 
 

@@ -64,14 +64,17 @@ def mesh(case_file: str, out_dir: str | None, overrides: tuple[str, ...]) -> Non
 @click.option("-o", "--out", "out_dir", type=click.Path(file_okay=False), default=None,
               help="Output folder (default: out/<case name>/).")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
-@click.option("-q", "--quiet", is_flag=True, help="No progress output.")
-def run(case_file: str, out_dir: str | None, overrides: tuple[str, ...], quiet: bool) -> None:
+@click.option("-q", "--quiet", is_flag=True, help="Only warnings and errors.")
+@click.option("--overwrite", is_flag=True, help="Replace an earlier run's outputs in the folder.")
+def run(case_file: str, out_dir: str | None, overrides: tuple[str, ...], quiet: bool,
+        overwrite: bool) -> None:
     """Run CASE_FILE and write a VTU time series, history.csv and summary.json."""
     from impactsim.solver.run import SimulationError, run_case
 
     try:
         case = _load(case_file, overrides)
-        result = run_case(case, Path(out_dir) if out_dir else None, progress=not quiet)
+        result = run_case(case, Path(out_dir) if out_dir else None, progress=not quiet,
+                          overwrite=overwrite)
     except (CaseError, SimulationError) as err:
         _fail(err)
     if result.get("stopped"):
@@ -121,6 +124,18 @@ def plot(run_dir: str, out_file: str | None) -> None:
     try:
         click.echo(str(plot_history(Path(run_dir), Path(out_file) if out_file else None)))
     except PlotError as err:
+        _fail(err)
+
+
+@main.command()
+@click.argument("name", required=False)
+def materials(name: str | None) -> None:
+    """List the material library with sources, or show one entry (all its values)."""
+    from impactsim.materials.listing import MaterialError, describe, listing
+
+    try:
+        click.echo(describe(name) if name else listing())
+    except MaterialError as err:
         _fail(err)
 
 

@@ -131,3 +131,13 @@ class Result:
 def open_result(directory: str | os.PathLike) -> Result:
     """The run folder `directory` as a Result."""
     return Result(directory)
+
+
+def history_array(path: str | os.PathLike):
+    """history.csv as a numpy structured array with the plain column names (h["time"]), with
+    or without units in the header: the replacement of np.genfromtxt(..., names=True)."""
+    import numpy as np
+
+    df, _ = read_history(path)
+    return np.rec.fromarrays([df[c].to_numpy(dtype=float) for c in df.columns],
+                             names=list(df.columns))

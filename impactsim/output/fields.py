@@ -55,3 +55,17 @@ def header(name: str) -> str:
     """'time' -> 'time [s]'; a column without a unit keeps its bare name."""
     unit = history_unit(name)
     return f"{name} [{unit}]" if unit else name
+
+# units of the keys of summary.json (written into it as its "units" table); keys are the last
+# segment of a key path (bodies.<name>.mass -> "mass")
+SUMMARY_UNITS = {
+    "time": "s", "end_time": "s", "wall_seconds": "s", "seconds_to_first_step": "s",
+    "seconds_per_pass": "s", "ns_per_element_step": "ns", "energy": "J",
+    "energy_balance_error": "1 (relative to the initial total energy)",
+    "mass": "kg", "momentum": "kg m/s", "mean_velocity": "m/s", "mean_velocity_all": "m/s",
+    "residual_velocity": "m/s", "residual_speed": "m/s", "largest_fragment_mass": "kg",
+    "mass_initial": "kg", "mass_final": "kg", "mass_error": "1 (relative)",
+    "area": "m^2", "diameter_equivalent": "m", "extent": "m", "final_length": "m",
+    "initial_length": "m", "foot_diameter": "m", "particle_mass": "kg",
+    "particle_momentum": "kg m/s",
+}

@@ -20,6 +20,8 @@ class HistoryWriter:
     """CSV file at `path` with a header line of `columns`, written at creation.
 
     `add_columns` extends the header until the first `row`; after that the columns are fixed.
+    `header(name)` gives the text of a column in the header line (the run's: "time [s]",
+    output/fields.header); rows are given by the bare names.
     """
 
     def __init__(
@@ -28,6 +30,7 @@ class HistoryWriter:
         columns: list[str],
         flush_rows: int = 100,
         flush_seconds: float = 1.0,
+        header=None,
     ):
         self.path = Path(path)
         self.columns: list[str] = []
@@ -35,6 +38,7 @@ class HistoryWriter:
         self._flush_rows = max(1, int(flush_rows))
         self._flush_seconds = float(flush_seconds)
         self._pending: list[str] = []
+        self._header = header if header is not None else (lambda name: name)
         self._n_rows = 0
         self._last_flush = _time.monotonic()
         self._check_names(columns)
@@ -50,7 +54,7 @@ class HistoryWriter:
         self._index = {name: i for i, name in enumerate(self.columns)}
         self._file.seek(0)
         self._file.truncate()
-        self._write((",".join(self.columns) + "\n").encode())
+        self._write((",".join(self._header(c) for c in self.columns) + "\n").encode())
 
     def row(self, values: dict[str, float]) -> None:
         """Append one line; columns absent from `values` (or None) are left empty."""

@@ -11,7 +11,10 @@ import numpy as np
 
 from impactsim.case.schema import Case
 from impactsim.model import ERODED, Model
+from impactsim.output.fields import SUMMARY_UNITS
+from impactsim.output.fields import header as history_header
 from impactsim.solver.build import build_model
+from impactsim.solver.derived import body_velocities, velocity_columns, wall_measures
 from impactsim.solver.loop import Simulation, SimulationStopped
 from impactsim.solver.pipeline import build_passes, mach_warnings
 
@@ -48,7 +51,8 @@ def frame_fields(model: Model) -> tuple[dict, dict]:
             "plastic_strain": model.eps_p, "temperature": model.temperature,
             "status": model.status.astype(np.int32), "body": model.elem_body,
             "density": model.elem_mass / np.where(model.vol > 0, model.vol, np.inf),
-            "internal_energy": model.energy}
+            "specific_internal_energy": model.energy,
+            "cell_id": np.arange(model.n_elem, dtype=np.int32), "jc_damage": model.damage}
     return point, cell
 
 
@@ -80,10 +84,13 @@ def thread_count(requested: int, n_elem: int) -> int:
 
 
 def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
-             meshes: list | None = None) -> dict:
+             meshes: list | None = None, overwrite: bool = True) -> dict:
     """Run `case`, writing series.pvd + frames, history.csv, summary.json and case.resolved.toml
     into out_dir (default out/<run name>). Returns the summary dict. A run that has to stop
-    (inverted element, collapsing step, interrupt) still writes its last frame and summary."""
+    (inverted element, collapsing step, interrupt) still writes its last frame and summary.
+    A folder holding an earlier run's frames is cleared first, or refused (SimulationError)
+    when overwrite is False (output/rundir.py). progress=False also silences the log lines
+    (warnings are still printed)."""
     import numba
 
     from impactsim.case import case_to_dict
@@ -95,8 +102,14 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
     start = wallclock.perf_counter()
     out = Path(out_dir) if out_dir is not None else (
         case.output.directory or Path("out") / case.run.name)
-    out.mkdir(parents=True, exist_ok=True)
+    from impactsim.output import rundir
+
+    try:
+        rundir.prepare(out, overwrite)
+    except rundir.OutputExists as err:
+        raise SimulationError(str(err)) from None
     bar = Progress(case.run.end_time, enabled=progress)
+    info = bar.log if progress else (lambda msg: None)
     timings: dict[str, float] = {}
 
     write_resolved_case(out / "case.resolved.toml", case_to_dict(case))
@@ -112,7 +125,7 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
         raise SimulationError(f"{case.run.name}: {err}") from err
     numba.set_num_threads(thread_count(case.run.threads, model.n_elem))
     passes = build_passes(case, model)
-    bar.log(f"{case.run.name}: {model.n_node} nodes, {model.n_elem} elements, "
+    info(f"{case.run.name}: {model.n_node} nodes, {model.n_elem} elements, "
             f"{model.n_body} bodies; passes: " + (", ".join(p.name for p in passes) or "none"))
     for w in mach_warnings(case):
         bar.log("warning: " + w)
@@ -125,8 +138,10 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
     series = SeriesWriter(out, compression=case.output.compression, background=True)
     pass_series: dict[str, SeriesWriter] = {}  # the passes' own series (particles)
     fields = case.output.fields
-    columns = CORE_COLUMNS + [k for p in passes for k in p.history(model)]
-    history = HistoryWriter(out / "history.csv", list(dict.fromkeys(columns)))
+    columns = (CORE_COLUMNS + velocity_columns(model)
+               + [k for p in passes for k in p.history(model)])
+    history = HistoryWriter(out / "history.csv", list(dict.fromkeys(columns)),
+                            header=history_header)
     times = frame_times(case)
     next_frame = 0
     end = case.run.end_time
@@ -161,6 +176,7 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
         row = {k: v for k, v in row.items() if k in history.columns}
         p = sim.momentum()
         row.update(momentum_x=p[0], momentum_y=p[1], momentum_z=p[2])
+        row.update(body_velocities(model))
         for pa in passes:
             row.update(pa.history(model))
         history.row(row)
@@ -239,9 +255,14 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
                         summary[key][k2] = v2
             else:
                 summary[key] = val
+    for name, vals in wall_measures(model).items():
+        summary["bodies"].setdefault(name, {}).update(vals)
+    summary["units"] = SUMMARY_UNITS
     write_summary(out / "summary.json", summary)
     if progress:
         bar.log(_timing_table(timings, wall))
+        bar.log(f"outputs in {out}/: series.pvd (frames), history.csv, summary.json, "
+                "case.resolved.toml")
     return summary
 
 
