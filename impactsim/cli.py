@@ -66,15 +66,17 @@ def mesh(case_file: str, out_dir: str | None, overrides: tuple[str, ...]) -> Non
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
 @click.option("-q", "--quiet", is_flag=True, help="Only warnings and errors.")
 @click.option("--overwrite", is_flag=True, help="Replace an earlier run's outputs in the folder.")
+@click.option("--resume", "resume_dir", type=click.Path(file_okay=False), default=None,
+              help="Continue the run in this folder from its last checkpoint.")
 def run(case_file: str, out_dir: str | None, overrides: tuple[str, ...], quiet: bool,
-        overwrite: bool) -> None:
+        overwrite: bool, resume_dir: str | None) -> None:
     """Run CASE_FILE and write a VTU time series, history.csv and summary.json."""
     from impactsim.solver.run import SimulationError, run_case
 
     try:
         case = _load(case_file, overrides)
-        result = run_case(case, Path(out_dir) if out_dir else None, progress=not quiet,
-                          overwrite=overwrite)
+        result = run_case(case, Path(resume_dir or out_dir) if (resume_dir or out_dir) else None,
+                          progress=not quiet, overwrite=overwrite, resume=resume_dir is not None)
     except (CaseError, SimulationError) as err:
         _fail(err)
     if result.get("stopped"):

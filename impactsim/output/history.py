@@ -69,6 +69,31 @@ class HistoryWriter:
         if len(self._pending) >= self._flush_rows or _time.monotonic() - self._last_flush >= self._flush_seconds:
             self.flush()
 
+    def position(self) -> int:
+        """Flush, then the file's length in bytes: where a resumed run goes on writing."""
+        self.flush()
+        return os.fstat(self._file.fileno()).st_size
+
+    @classmethod
+    def reopen(cls, path: str | os.PathLike, columns: list[str], offset: int,
+               header=None, **kw) -> HistoryWriter:
+        """The writer of a resumed run: the file cut back to `offset` (a `position()` of the
+        interrupted run, so the rows after its checkpoint go) and appended to."""
+        self = cls.__new__(cls)
+        self.path = Path(path)
+        self.columns = list(columns)
+        self._index = {name: i for i, name in enumerate(self.columns)}
+        self._flush_rows = max(1, int(kw.get("flush_rows", 100)))
+        self._flush_seconds = float(kw.get("flush_seconds", 1.0))
+        self._pending = []
+        self._header = header if header is not None else (lambda name: name)
+        self._n_rows = 1  # the columns are fixed
+        self._last_flush = _time.monotonic()
+        self._file = open(self.path, "r+b", buffering=0)
+        self._file.truncate(offset)
+        self._file.seek(offset)
+        return self
+
     def flush(self) -> None:
         """Hand the pending whole lines to the operating system in one write."""
         if self._pending:

@@ -45,4 +45,8 @@ def prepare(out: Path, overwrite: bool) -> None:
             shutil.rmtree(p)
         else:
             p.unlink(missing_ok=True)
+    if old:
+        from impactsim.output.atomic import remove_stale_temporaries
+
+        remove_stale_temporaries(out)
     out.mkdir(parents=True, exist_ok=True)

@@ -13,6 +13,7 @@ from impactsim.case.schema import Case
 from impactsim.model import ERODED, Model
 from impactsim.output.fields import SUMMARY_UNITS
 from impactsim.output.fields import header as history_header
+from impactsim.solver import checkpoint as ckpt
 from impactsim.solver.build import build_model
 from impactsim.solver.derived import body_velocities, velocity_columns, wall_measures
 from impactsim.solver.loop import Simulation, SimulationStopped
@@ -84,13 +85,14 @@ def thread_count(requested: int, n_elem: int) -> int:
 
 
 def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
-             meshes: list | None = None, overwrite: bool = True) -> dict:
+             meshes: list | None = None, overwrite: bool = True, resume: bool = False) -> dict:
     """Run `case`, writing series.pvd + frames, history.csv, summary.json and case.resolved.toml
     into out_dir (default out/<run name>). Returns the summary dict. A run that has to stop
     (inverted element, collapsing step, interrupt) still writes its last frame and summary.
     A folder holding an earlier run's frames is cleared first, or refused (SimulationError)
     when overwrite is False (output/rundir.py). progress=False also silences the log lines
-    (warnings are still printed)."""
+    (warnings are still printed). resume=True continues the run in out_dir from its last
+    checkpoint (solver/checkpoint.py)."""
     import numba
 
     from impactsim.case import case_to_dict
@@ -105,8 +107,10 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
     from impactsim.output import rundir
 
     try:
-        rundir.prepare(out, overwrite)
-    except rundir.OutputExists as err:
+        saved = ckpt.open_resume(out, case_to_dict(case)) if resume else None
+        if not resume:
+            rundir.prepare(out, overwrite)
+    except (rundir.OutputExists, ckpt.CheckpointError) as err:
         raise SimulationError(str(err)) from None
     bar = Progress(case.run.end_time, enabled=progress)
     info = bar.log if progress else (lambda msg: None)
@@ -132,21 +136,36 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
     sim = Simulation(model, passes, cfl=case.run.cfl, element=case.run.element,
                      cq=case.run.q_quadratic, cl=case.run.q_linear,
                      dt_collapse=case.run.dt_collapse)
+    if saved is not None:
+        saved = ckpt.resume_into(sim, saved)
+        info(f"resumed from step {model.step}, t = {model.time:.6g} s")
+    schedule = ckpt.Schedule(case.output.checkpoint_every, model.step, model.time)
     timings["setup"] = wallclock.perf_counter() - start - timings["meshing"]
 
     # frames are written by threads of their own while the run goes on (output/series.py)
     series = SeriesWriter(out, compression=case.output.compression, background=True)
     pass_series: dict[str, SeriesWriter] = {}  # the passes' own series (particles)
+
+    def pass_writer(key):
+        return SeriesWriter(out, prefix=key, pvd_name=f"{key}.pvd",
+                            compression=case.output.compression, background=True)
     fields = case.output.fields
-    columns = (CORE_COLUMNS + velocity_columns(model)
-               + [k for p in passes for k in p.history(model)])
-    history = HistoryWriter(out / "history.csv", list(dict.fromkeys(columns)),
-                            header=history_header)
+    columns = list(dict.fromkeys(CORE_COLUMNS + velocity_columns(model)
+                                 + [k for p in passes for k in p.history(model)]))
+    if saved is None:
+        history = HistoryWriter(out / "history.csv", columns, header=history_header)
+    else:  # the writers go on where the checkpoint left them
+        history = HistoryWriter.reopen(out / "history.csv", columns, saved["history_bytes"],
+                                       header=history_header)
+        series.resume(saved["series"])
+        for key, pos in saved["pass_series"].items():
+            pass_series[key] = pass_writer(key)
+            pass_series[key].resume(pos)
     times = frame_times(case)
-    next_frame = 0
+    next_frame = 0 if saved is None else saved["next_frame"]
     end = case.run.end_time
     eps_t = 1e-9 * end
-    e0 = None
+    e0 = None if saved is None else saved["e0"]
     stopped = None
     first_step_seconds = None
     t_out = 0.0
@@ -162,9 +181,7 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
         for pa in passes:  # passes with series of their own (particles) write with every frame
             for key, (points, data) in (pa.frame(model) if hasattr(pa, "frame") else {}).items():
                 if key not in pass_series:
-                    pass_series[key] = SeriesWriter(out, prefix=key, pvd_name=f"{key}.pvd",
-                                                    compression=case.output.compression,
-                                                    background=True)
+                    pass_series[key] = pass_writer(key)
                 pass_series[key].write(model.time, points, None, point_data=data)
         t_out += wallclock.perf_counter() - t1
 
@@ -183,9 +200,15 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
         t_out += wallclock.perf_counter() - t1
         return row
 
+    # what a checkpoint needs of the run besides the Simulation (solver/checkpoint.py)
+    sim.run_bookkeeping = lambda: {
+        "next_frame": next_frame, "e0": e0, "history_bytes": history.position(),
+        "series": series.position(),
+        "pass_series": {k: w.position() for k, w in pass_series.items()}}
     try:
-        e0 = history_row()["total_energy"]
-        if times.size and times[0] <= eps_t:
+        if saved is None:
+            e0 = history_row()["total_energy"]
+        if saved is None and times.size and times[0] <= eps_t:
             write_frame()
             next_frame = 1
         while model.time < end - eps_t:
@@ -204,6 +227,8 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
                 write_frame()
                 next_frame += 1
             bar.update(model.time, model.step, sim.dt)
+            if schedule.due(model.step, model.time):
+                ckpt.write_checkpoint(sim, out)
     except SimulationStopped as err:
         stopped = str(err)
     except KeyboardInterrupt:
