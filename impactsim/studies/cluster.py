@@ -75,9 +75,22 @@ def executor(scheduler: str | None = None, workers: int | None = None):
             yield _Dask(client)
         return
     n = workers if workers is not None else default_workers()
-    with dask.config.set({f"distributed.nanny.pre-spawn-environ.{k}": v
-                          for k, v in WORKER_ENV.items()}):
-        with LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                          dashboard_address=None, env=dict(WORKER_ENV)) as cluster, \
-                Client(cluster) as client:
-            yield _Dask(client)
+    before = {k: os.environ.get(k) for k in WORKER_ENV}
+    try:
+        with dask.config.set({f"distributed.nanny.pre-spawn-environ.{k}": v
+                              for k, v in WORKER_ENV.items()}):
+            with LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                              dashboard_address=None, env=dict(WORKER_ENV)) as cluster, \
+                    Client(cluster) as client:
+                _restore_env(before)  # the nanny sets them in this process to spawn workers
+                yield _Dask(client)
+    finally:
+        _restore_env(before)
+
+
+def _restore_env(values: dict[str, str | None]) -> None:
+    for k, v in values.items():
+        if v is None:
+            os.environ.pop(k, None)
+        else:
+            os.environ[k] = v

@@ -142,3 +142,40 @@ def test_named_variants_and_mesh_size_sweep_file(tmp_path):
     bad.write_text(f'base = "{cases / "elastic-bar-wall.toml"}"\nset = []\n')
     with pytest.raises(S.SweepError, match="nothing to run"):
         S.read_sweep(bad)
+
+
+def test_existing_cluster_by_scheduler_address(tmp_path):
+    from distributed import LocalCluster
+
+    path = _files(tmp_path)
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster:
+        df, _ = S.run_sweep(path, tmp_path / "remote", scheduler=cluster.scheduler_address,
+                            say=lambda s: None)
+    serial, _ = S.run_sweep(path, tmp_path / "serial", workers=0, say=lambda s: None)
+    pd.testing.assert_frame_equal(df.drop(columns=VOLATILE), serial.drop(columns=VOLATILE))
+
+
+def test_workers_run_one_numba_thread(tmp_path):
+    from impactsim.studies.cluster import executor
+
+    with executor(None, 2) as ex:
+        got = dict(ex.map(_numba_threads, [(), ()]))
+    assert got == {0: 1, 1: 1}
+
+
+def _numba_threads():
+    import numba
+
+    return numba.config.NUMBA_NUM_THREADS
+
+
+def test_local_cluster_leaves_this_process_environment_alone():
+    import os
+
+    from impactsim.studies.cluster import WORKER_ENV, executor
+
+    before = {k: os.environ.get(k) for k in WORKER_ENV}
+    with executor(None, 1):
+        pass
+    assert {k: os.environ.get(k) for k in WORKER_ENV} == before
