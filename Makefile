@@ -40,7 +40,7 @@ accuracy: setup
 
 # the variants of a sweep file (docs/user-guide.md, Sweeps): make sweep SWEEP=cases/sweeps/x.toml
 sweep: setup
-	$(BIN)/python benchmarks/accuracy_sweep.py $(SWEEP)
+	$(BIN)/impactsim sweep $(SWEEP)
 
 # run the bundled scenes (outputs in out/<case>/)
 cases: setup

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from impactsim.results import history_array
 
 
 @dataclass
@@ -31,7 +32,7 @@ class Quantity:
 
 
 def read_history(out: Path) -> np.ndarray:
-    return np.genfromtxt(Path(out) / "history.csv", delimiter=",", names=True)
+    return history_array(Path(out) / "history.csv")
 
 
 def _wave_speed(case, uniaxial: bool) -> tuple[float, float]:

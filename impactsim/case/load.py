@@ -203,6 +203,7 @@ def _output(r: Reader, run: Run) -> Output:
         history_every=int(positive(r.get("history_every"), r.at("history_every"))),
         fields=fields,
         compression=r.get("compression"),
+        checkpoint_every=r.get("checkpoint_every"),
     )
 
 

@@ -141,6 +141,15 @@ def convert(value: object, spec: Key, path: KeyPath, kind: str):
         if isinstance(value, bool) or not isinstance(value, int):
             raise path.error(f"expected an integer, got {type_name(value)} {_show(value)}")
         return value
+    if kind == "steps-or-time":  # an int counts steps; a float or "<t> <unit>" is a time
+        if isinstance(value, int) and not isinstance(value, bool):
+            if value < 0:
+                raise path.error(f"expected a number of steps >= 0, got {value}")
+            return value
+        t = parse_quantity(value, "time", str(path))
+        if t < 0:
+            raise path.error(f"expected a time >= 0, got {_show(value)}")
+        return t
     if kind == "bool":
         if not isinstance(value, bool):
             raise path.error(f"expected true or false, got {type_name(value)} {_show(value)}")

@@ -96,6 +96,8 @@ def _type(key: Key) -> str:
         return 'length [m] × 3, each may be `"free"`'
     if key.kind == "length-or-vector":
         return "length [m], or 3 × length"
+    if key.kind == "steps-or-time":
+        return "integer (steps), or time [s]"
     if key.kind in ("choice", "choice-list"):
         choices = " \\| ".join(f'`"{c}"`' for c in key.choices)
         return choices if key.kind == "choice" else f"array of: {choices}"

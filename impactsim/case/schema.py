@@ -148,6 +148,7 @@ class Output:
     history_every: int = 1  # write a history row every N steps
     fields: list[str] | None = None  # None = all fields
     compression: str = "zlib"  # VTU data blocks: "zlib" or "none"
+    checkpoint_every: int | float = 0  # int: every N steps; float: every so much time [s]; 0: off
 
 
 @dataclass

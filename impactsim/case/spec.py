@@ -36,9 +36,10 @@ COMPUTED = _Marker("COMPUTED")  # the default depends on other keys (see default
 #   velocity-or-free      3 velocities, each may be "free"
 #   length-or-free        3 lengths, each may be "free" (prescribed displacements)
 #   length-or-vector      a length (cube12) or 3 lengths (box, plate)
+#   steps-or-time         an integer (steps) or a time ("0.5 us", or a float in s)
 KINDS = {"quantity", "vector", "quantity-list", "number", "number-list", "int", "bool", "string",
          "path", "choice", "choice-list", "string-list", "velocity-or-free", "length-or-vector",
-         "length-or-free"}
+         "length-or-free", "steps-or-time"}
 
 
 @dataclass(frozen=True)
@@ -335,6 +336,10 @@ OUTPUT = Table("output", "What is written, and where.", (
     Key("compression", "choice", "Compression of the frames' data: zlib (measured on a "
         "sphere-plate frame of 164k tets: 19 MB, 1.1 s to write) or none (34 MB, 0.2 s).",
         _d(schema.Output, "compression"), choices=("zlib", "none")),
+    Key("checkpoint_every", "steps-or-time", "Write a checkpoint of the whole state (into "
+        "checkpoints/ of the output folder) every N steps (an integer) or every so much "
+        "simulated time (\"0.5 us\"); `impactsim run CASE --resume DIR` continues from the last "
+        "one. 0: none.", 0),
 ))
 
 CONTACT = Table("contact", "Contact between bodies. Contact passes run only with two or more "

@@ -20,6 +20,8 @@ class HistoryWriter:
     """CSV file at `path` with a header line of `columns`, written at creation.
 
     `add_columns` extends the header until the first `row`; after that the columns are fixed.
+    `header(name)` gives the text of a column in the header line (the run's: "time [s]",
+    output/fields.header); rows are given by the bare names.
     """
 
     def __init__(
@@ -28,6 +30,7 @@ class HistoryWriter:
         columns: list[str],
         flush_rows: int = 100,
         flush_seconds: float = 1.0,
+        header=None,
     ):
         self.path = Path(path)
         self.columns: list[str] = []
@@ -35,6 +38,7 @@ class HistoryWriter:
         self._flush_rows = max(1, int(flush_rows))
         self._flush_seconds = float(flush_seconds)
         self._pending: list[str] = []
+        self._header = header if header is not None else (lambda name: name)
         self._n_rows = 0
         self._last_flush = _time.monotonic()
         self._check_names(columns)
@@ -52,7 +56,7 @@ class HistoryWriter:
         self._file.seek(0)
         self._file.truncate()
         self._size = 0
-        self._write((",".join(self.columns) + "\n").encode())
+        self._write((",".join(self._header(c) for c in self.columns) + "\n").encode())
 
     def row(self, values: dict[str, float]) -> None:
         """Append one line; columns absent from `values` (or None) are left empty."""
@@ -66,6 +70,31 @@ class HistoryWriter:
         self._n_rows += 1
         if len(self._pending) >= self._flush_rows or _time.monotonic() - self._last_flush >= self._flush_seconds:
             self.flush()
+
+    def position(self) -> int:
+        """Flush, then the file's length in bytes: where a resumed run goes on writing."""
+        self.flush()
+        return os.fstat(self._file.fileno()).st_size
+
+    @classmethod
+    def reopen(cls, path: str | os.PathLike, columns: list[str], offset: int,
+               header=None, **kw) -> HistoryWriter:
+        """The writer of a resumed run: the file cut back to `offset` (a `position()` of the
+        interrupted run, so the rows after its checkpoint go) and appended to."""
+        self = cls.__new__(cls)
+        self.path = Path(path)
+        self.columns = list(columns)
+        self._index = {name: i for i, name in enumerate(self.columns)}
+        self._flush_rows = max(1, int(kw.get("flush_rows", 100)))
+        self._flush_seconds = float(kw.get("flush_seconds", 1.0))
+        self._pending = []
+        self._header = header if header is not None else (lambda name: name)
+        self._n_rows = 1  # the columns are fixed
+        self._last_flush = _time.monotonic()
+        self._file = open(self.path, "r+b", buffering=0)
+        self._file.truncate(offset)
+        self._file.seek(offset)
+        return self
 
     def flush(self) -> None:
         """Hand the pending whole lines to the operating system in one write."""

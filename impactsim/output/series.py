@@ -127,6 +127,19 @@ class SeriesWriter:
             self._pending.append(self._pool.submit(self._write, time, name, mesh))
         return self.directory / name
 
+    def position(self) -> dict:
+        """Wait for the frames being written; then what a resumed writer needs to go on:
+        the frames listed so far and the number of the next file."""
+        while self._pending:
+            self._pending.popleft().result()
+        return {"frames": [tuple(f) for f in self.frames], "count": self._count}
+
+    def resume(self, position: dict) -> None:
+        """Go on from a `position()` of an interrupted run's writer."""
+        self.frames = [(float(t), str(name)) for t, name in position["frames"]]
+        self._count = int(position["count"])
+        write_text(self.pvd_path, collection_xml(self.frames))
+
     def close(self) -> None:
         """Wait for the frames still being written (background mode); raises the first error.
         Frames written after this are written at once, as without background."""

@@ -11,7 +11,11 @@ import numpy as np
 
 from impactsim.case.schema import Case
 from impactsim.model import ERODED, Model
+from impactsim.output.fields import SUMMARY_UNITS
+from impactsim.output.fields import header as history_header
+from impactsim.solver import checkpoint as ckpt
 from impactsim.solver.build import build_model
+from impactsim.solver.derived import body_velocities, velocity_columns, wall_measures
 from impactsim.solver.loop import Simulation, SimulationStopped
 from impactsim.solver.pipeline import build_passes, mach_warnings
 
@@ -42,6 +46,7 @@ def frame_fields(model: Model) -> tuple[dict, dict]:
     if model.blocks:  # the further blocks' cells follow the tets' (frame_cells)
         blocks = [cell_fields(b) for b in model.blocks]
         cell = {k: np.concatenate([v] + [b[k] for b in blocks]) for k, v in cell.items()}
+        cell["cell_id"] = np.arange(cell["status"].shape[0], dtype=np.int32)
     return point, cell
 
 
@@ -57,7 +62,8 @@ def cell_fields(src) -> dict:
             "plastic_strain": src.eps_p, "temperature": src.temperature,
             "status": src.status.astype(np.int32), "body": src.elem_body,
             "density": src.elem_mass / np.where(src.vol > 0, src.vol, np.inf),
-            "internal_energy": src.energy}
+            "specific_internal_energy": src.energy,
+            "cell_id": np.arange(src.status.shape[0], dtype=np.int32), "jc_damage": src.damage}
 
 
 def frame_cells(model: Model) -> tuple:
@@ -98,16 +104,21 @@ def thread_count(requested: int, n_elem: int) -> int:
 
 
 def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
-             meshes: list | None = None) -> dict:
+             meshes: list | None = None, overwrite: bool = True, resume: bool = False) -> dict:
     """Run `case`, writing series.pvd + frames, history.csv, summary.json and case.resolved.toml
     into out_dir (default out/<run name>). Returns the summary dict. A run that has to stop
     (a signal, a failed check, a non-finite state, a collapsing step) still writes its last
     frame and a summary with the reason (summary["stopped"]; the CLI exits 3). SIGTERM and
-    SIGINT are watched for the whole run (solver/stop.py)."""
+    SIGINT are watched for the whole run (solver/stop.py).
+
+    A folder holding an earlier run's frames is cleared first, or refused (SimulationError)
+    when overwrite is False (output/rundir.py). progress=False also silences the log lines
+    (warnings are still printed). resume=True continues the run in out_dir from its last
+    checkpoint (solver/checkpoint.py)."""
     from impactsim.solver.stop import watching
 
     with watching() as stops:
-        return _run(case, out_dir, progress, meshes, stops)
+        return _run(case, out_dir, progress, meshes, stops, overwrite, resume)
 
 
 def output_folder(case: Case, out_dir: Path | None) -> Path:
@@ -129,7 +140,8 @@ def _label(case: Case) -> str:
     return f"{case.source}: " if case.source is not None else ""
 
 
-def _run(case: Case, out_dir, progress: bool, meshes, stops) -> dict:
+def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
+         resume: bool) -> dict:
     import numba
 
     from impactsim.case import case_to_dict
@@ -144,7 +156,16 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops) -> dict:
 
     start = wallclock.perf_counter()
     out = output_folder(case, out_dir)
+    from impactsim.output import rundir
+
+    try:
+        saved = ckpt.open_resume(out, case_to_dict(case)) if resume else None
+        if not resume:
+            rundir.prepare(out, overwrite)
+    except (rundir.OutputExists, ckpt.CheckpointError) as err:
+        raise SimulationError(str(err)) from None
     bar = Progress(case.run.end_time, enabled=progress)
+    info = bar.log if progress else (lambda msg: None)
     checks = CheckLog(lambda msg: bar.log("warning: " + msg))
     timings: dict[str, float] = {}
     chk = case.checks
@@ -189,9 +210,9 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops) -> dict:
             if why:
                 raise SimulationError(f"{case.run.name}: {why}")
         passes = build_passes(case, model)
-        bar.log(f"{case.run.name}: {model.n_node} nodes, {n_elem} elements, "
+        info(f"{case.run.name}: {model.n_node} nodes, {n_elem} elements, "
                 f"{model.n_body} bodies; passes: " + (", ".join(p.name for p in passes) or "none"))
-        bar.log("estimate: " + estimate.line() + "".join(
+        info("estimate: " + estimate.line() + "".join(
             "; " + line for line in estimate.detail_lines()))
         for w in mach_warnings(case):
             bar.log("warning: " + w)
@@ -200,6 +221,12 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops) -> dict:
                          dt_collapse=case.run.dt_collapse)
         if chk.negative_volume == "erode":
             sim.on_inverted = lambda s, dt: _erode_inverted(s, checks)
+        # the energy watch lives on the Simulation so that a checkpoint carries its state
+        sim.watch = Watch(sim, energy_limit=chk.energy_balance)
+        if saved is not None:
+            saved = ckpt.resume_into(sim, saved)
+            info(f"resumed from step {model.step}, t = {model.time:.6g} s")
+        schedule = ckpt.Schedule(case.output.checkpoint_every, model.step, model.time)
         timings["setup"] = wallclock.perf_counter() - start - timings["meshing"]
     except CheckFailed as err:
         raise SimulationError(f"{_label(case)}checks.{str(err)[6:]}") from None
@@ -219,21 +246,34 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops) -> dict:
     # frames are written by threads of their own while the run goes on (output/series.py)
     series = SeriesWriter(out, compression=case.output.compression, background=True)
     pass_series: dict[str, SeriesWriter] = {}  # the passes' own series (particles)
+
+    def pass_writer(key):
+        return SeriesWriter(out, prefix=key, pvd_name=f"{key}.pvd",
+                            compression=case.output.compression, background=True)
     fields = case.output.fields
-    columns = CORE_COLUMNS + (["hourglass_energy"] if model.blocks else []) + [
-        k for p in passes for k in p.history(model)]
-    history = HistoryWriter(out / "history.csv", list(dict.fromkeys(columns)))
+    columns = list(dict.fromkeys(CORE_COLUMNS + (["hourglass_energy"] if model.blocks else [])
+                                 + velocity_columns(model)
+                                 + [k for p in passes for k in p.history(model)]))
+    if saved is None:
+        history = HistoryWriter(out / "history.csv", columns, header=history_header)
+    else:  # the writers go on where the checkpoint left them
+        history = HistoryWriter.reopen(out / "history.csv", columns, saved["history_bytes"],
+                                       header=history_header)
+        series.resume(saved["series"])
+        for key, pos in saved["pass_series"].items():
+            pass_series[key] = pass_writer(key)
+            pass_series[key].resume(pos)
     times = frame_times(case)
-    next_frame = 0
+    next_frame = 0 if saved is None else saved["next_frame"]
     end = case.run.end_time
     eps_t = 1e-9 * end
-    e0 = None
+    e0 = None if saved is None else saved["e0"]
     stopped = None
     stop_kind = None
     output_error = None
     first_step_seconds = None
     t_out = 0.0
-    watch = Watch(sim, energy_limit=chk.energy_balance)
+    watch = sim.watch
 
     def write_frame():
         nonlocal t_out
@@ -247,9 +287,7 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops) -> dict:
         for pa in passes:  # passes with series of their own (particles) write with every frame
             for key, (points, data) in (pa.frame(model) if hasattr(pa, "frame") else {}).items():
                 if key not in pass_series:
-                    pass_series[key] = SeriesWriter(out, prefix=key, pvd_name=f"{key}.pvd",
-                                                    compression=case.output.compression,
-                                                    background=True)
+                    pass_series[key] = pass_writer(key)
                 pass_series[key].write(model.time, points, None, point_data=data)
         t_out += wallclock.perf_counter() - t1
 
@@ -261,6 +299,7 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops) -> dict:
         row = {k: v for k, v in row.items() if k in history.columns}
         p = sim.momentum()
         row.update(momentum_x=p[0], momentum_y=p[1], momentum_z=p[2])
+        row.update(body_velocities(model))
         for pa in passes:
             row.update(pa.history(model))
         history.row(row)
@@ -268,10 +307,16 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops) -> dict:
         t_out += wallclock.perf_counter() - t1
         return row
 
+    # what a checkpoint needs of the run besides the Simulation (solver/checkpoint.py)
+    sim.run_bookkeeping = lambda: {
+        "next_frame": next_frame, "e0": e0, "history_bytes": history.position(),
+        "series": series.position(),
+        "pass_series": {k: w.position() for k, w in pass_series.items()}}
     try:
-        e0 = history_row()["total_energy"]
-        watch.after_step()
-        if times.size and times[0] <= eps_t:
+        if saved is None:
+            e0 = history_row()["total_energy"]
+            watch.after_step()
+        if saved is None and times.size and times[0] <= eps_t:
             write_frame()
             next_frame = 1
         if estimate.steps_needed > case.run.max_steps:
@@ -300,6 +345,9 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops) -> dict:
                 write_frame()
                 next_frame += 1
             bar.update(model.time, model.step, sim.dt)
+            if schedule.due(model.step, model.time):
+                with stops.finishing():
+                    ckpt.write_checkpoint(sim, out)
             if stops.requested:
                 stopped = f"{stops.requested} at t = {model.time:.6g} s (step {model.step})"
                 stop_kind = "signal"
@@ -394,10 +442,13 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops) -> dict:
             if summary["stopped"] is None:
                 summary["stopped"] = str(err)
                 summary["stop"] = {"reason": str(err), "kind": "check", "signal": None}
+    for name, vals in wall_measures(model).items():
+        summary["bodies"].setdefault(name, {}).update(vals)
+    summary["units"] = SUMMARY_UNITS
     summary["checks"] = checks.summary()
     for line in checks.closing_lines():
         bar.log(line)
-    bar.log(f"energy balance: {100 * summary['energy_balance_error']:+.3g} % at the end, "
+    info(f"energy balance: {100 * summary['energy_balance_error']:+.3g} % at the end, "
             f"largest {100 * watch.worst:+.3g} % at t = {watch.worst_time:.6g} s")
     with stops.finishing():
         try:
@@ -409,6 +460,8 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops) -> dict:
         raise SimulationError(output_error)
     if progress:
         bar.log(_timing_table(timings, wall))
+        bar.log(f"outputs in {out}/: series.pvd (frames), history.csv, summary.json, "
+                "case.resolved.toml")
     return summary
 
 

@@ -123,21 +123,14 @@ def watching() -> Iterator[StopSignals]:
 
 
 def checkpoint_on_stop(sim, directory, case) -> str | None:
-    """HOOK for the lead: where a run that stops writes a checkpoint, when checkpoints are on.
+    """A run that stops writes a checkpoint when checkpoints are on (``[output]
+    checkpoint_every``), so that ``impactsim run --resume`` continues it. Returns the path
+    written, or None. Called inside ``finishing()`` so a signal cannot tear the checkpoint."""
+    if sim is None or not getattr(case.output, "checkpoint_every", 0):
+        return None
+    from impactsim.solver.checkpoint import write_checkpoint
 
-    The workflow branch adds ``impactsim.solver.checkpoint.write_checkpoint(sim, directory)`` and
-    a case switch for checkpoints; until both are merged this does nothing. Returns the path
-    written, or None. Called inside ``finishing()`` so a signal cannot tear the checkpoint.
-    """
-    enabled = getattr(getattr(case, "output", None), "checkpoints", None) or \
-        getattr(getattr(case, "checkpoint", None), "enabled", None)
-    if not enabled or sim is None:
-        return None
-    try:
-        from impactsim.solver.checkpoint import write_checkpoint  # type: ignore[import-not-found]
-    except ImportError:
-        return None
-    return write_checkpoint(sim, directory)
+    return str(write_checkpoint(sim, directory))
 
 
 def stopped_early(case, out_dir, err: BaseException, stops: StopSignals) -> str:

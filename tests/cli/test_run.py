@@ -9,6 +9,7 @@ from click.testing import CliRunner
 
 from impactsim.cli import main
 from impactsim.output.series import read_collection
+from impactsim.results import history_array
 
 BAR = """
 [run]
@@ -52,7 +53,7 @@ def test_run_writes_series_history_summary_and_resolved_case(tmp_path):
     for name in ("stress", "pressure", "von_mises", "plastic_strain", "temperature", "body"):
         assert name in mesh.cell_data
     assert {"velocity", "displacement"} <= set(mesh.point_data)
-    hist = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
+    hist = history_array(out / "history.csv")
     for col in ("time", "dt", "kinetic_energy", "internal_energy", "total_energy"):
         assert col in hist.dtype.names
     summary = json.loads((out / "summary.json").read_text())

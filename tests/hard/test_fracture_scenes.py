@@ -14,6 +14,7 @@ import pytest
 
 from impactsim.case import load_case
 from impactsim.solver.run import run_case
+from impactsim.results import history_array
 
 CASES = Path(__file__).resolve().parents[2] / "cases"
 
@@ -28,7 +29,7 @@ COARSE = {
 def _run(tmp_path, name, overrides):
     case = load_case(CASES / f"{name}.toml", overrides)
     s = run_case(case, tmp_path, progress=False)
-    hist = np.genfromtxt(tmp_path / "history.csv", delimiter=",", names=True)
+    hist = history_array(tmp_path / "history.csv")
     return s, hist
 
 

@@ -88,33 +88,3 @@ def test_analyse_study_from_fake_runs(tmp_path):
     assert fb.richardson[0] == pytest.approx(2.0)
     table = runs_table(study, runs, columns)
     assert len(table) == 2 + len(runs) and "(ref.)" in table[-1]
-
-
-def test_sweep_variants_and_files(tmp_path):
-    import tomllib
-    from pathlib import Path
-
-    from benchmarks.accuracy_sweep import SweepError, variants, write_variants
-
-    sweep = {"set": ["output.frames=2"],
-             "vary": {"body.0.mesh_size": ["5 mm", "2.5 mm"], "run.element": ["tet4", "anp"]},
-             "variant": [{"name": "slow cfl", "set": ["run.cfl=0.3"]}]}
-    got = variants(sweep, "s.toml")
-    assert len(got) == 5
-    assert got["mesh_size-2.5mm_element-anp"] == ["output.frames=2",
-                                                  'body.0.mesh_size="2.5 mm"',
-                                                  'run.element="anp"']
-    assert got["slowcfl"] == ["output.frames=2", "run.cfl=0.3"]
-    with pytest.raises(SweepError, match="unknown keys"):
-        variants({"vari": {}}, "s.toml")
-    with pytest.raises(SweepError, match="nothing to run"):
-        variants({"set": []}, "s.toml")
-
-    cases = Path(__file__).parents[2] / "cases"
-    sweep_file = tmp_path / "sw.toml"
-    sweep_file.write_text(f'base = "{cases / "elastic-bar-wall.toml"}"\n'
-                          '[vary]\n"run.cfl" = [0.3, 0.5]\n')
-    name, files = write_variants(sweep_file, tmp_path / "out")
-    assert name == "sw" and [f.name for f in files] == ["cfl-0.3.toml", "cfl-0.5.toml"]
-    raw = tomllib.loads(files[1].read_text())
-    assert raw["run"]["cfl"] == 0.5 and raw["run"]["name"] == "cfl-0.5"

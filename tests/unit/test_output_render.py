@@ -45,10 +45,12 @@ def test_renders_selected_frames_to_png(tmp_path):
         pytest.skip(f"no off-screen rendering here: {reason}")
     run_dir = _run_dir(tmp_path)
     paths = render_series(run_dir, field="velocity", every=2, window_size=(160, 120))
-    assert paths == [run_dir / "render" / "frame_00000.png", run_dir / "render" / "frame_00002.png"]
+    assert paths == [run_dir / "render" / "velocity_frame_00000.png",
+                     run_dir / "render" / "velocity_frame_00002.png"]
     for path in paths:
         assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert sorted(p.name for p in (run_dir / "render").iterdir()) == ["frame_00000.png", "frame_00002.png"]
+    assert sorted(p.name for p in (run_dir / "render").iterdir()) == ["velocity_frame_00000.png",
+                                                                       "velocity_frame_00002.png"]
 
 
 @pytest.mark.parametrize(

@@ -12,6 +12,7 @@ import pytest
 
 from impactsim.case import load_case
 from impactsim.solver.run import run_case
+from impactsim.results import history_array
 
 CASE = Path(__file__).parents[2] / "cases" / "elastic-bar-wall.toml"
 
@@ -21,7 +22,7 @@ def bar_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("bar")
     case = load_case(CASE)
     summary = run_case(case, out, progress=False)
-    hist = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
+    hist = history_array(out / "history.csv")
     return case, summary, hist
 
 

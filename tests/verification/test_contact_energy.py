@@ -29,6 +29,7 @@ import pytest
 
 from impactsim.case import load_case
 from impactsim.solver.run import run_case
+from impactsim.results import history_array
 
 CASES = Path(__file__).parents[2] / "cases"
 BALANCE = 0.01  # |KE + IE + contact_dissipated - start| / start, at most
@@ -46,7 +47,7 @@ def test_contact_creates_no_energy(name, passes, tmp_path):
         "output.history_every=1", "output.frames=1", f"contact.passes=[{chosen}]"])
     summary = run_case(case, tmp_path, progress=False)
     assert summary["stopped"] is None
-    h = np.genfromtxt(tmp_path / "history.csv", delimiter=",", names=True)
+    h = history_array(tmp_path / "history.csv")
     mech = h["kinetic_energy"] + h["internal_energy"]
     e0 = mech[0]
     assert h["contact_impulse"].sum() > 0  # the bodies did meet

@@ -15,6 +15,7 @@ import pytest
 
 from impactsim.case import load_case
 from impactsim.solver.run import run_case
+from impactsim.results import history_array
 
 CASE = Path(__file__).parents[2] / "cases" / "hertz-spheres.toml"
 
@@ -24,7 +25,7 @@ def spheres(tmp_path_factory):
     out = tmp_path_factory.mktemp("hertz")
     case = load_case(CASE)
     summary = run_case(case, out, progress=False)
-    return case, summary, np.genfromtxt(out / "history.csv", delimiter=",", names=True)
+    return case, summary, history_array(out / "history.csv")
 
 
 def hertz(case):

@@ -12,6 +12,7 @@ import pytest
 
 from impactsim.case import load_case
 from impactsim.solver.run import run_case
+from impactsim.results import history_array
 
 CASE = Path(__file__).parents[2] / "cases" / "two-cubes.toml"
 
@@ -19,7 +20,7 @@ CASE = Path(__file__).parents[2] / "cases" / "two-cubes.toml"
 def run(tmp_path_factory, name, overrides=()):
     out = tmp_path_factory.mktemp(name)
     summary = run_case(load_case(CASE, overrides), out, progress=False)
-    return summary, np.genfromtxt(out / "history.csv", delimiter=",", names=True), out
+    return summary, history_array(out / "history.csv"), out
 
 
 @pytest.fixture(scope="module")

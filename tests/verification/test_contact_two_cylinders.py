@@ -13,6 +13,7 @@ import pytest
 
 from impactsim.case import load_case
 from impactsim.solver.run import run_case
+from impactsim.results import history_array
 
 CASE = Path(__file__).parents[2] / "cases" / "two-cylinders.toml"
 COARSE = ['body.target.mesh_size="2 mm"', 'body.striker.mesh_size="2 mm"']
@@ -21,7 +22,7 @@ COARSE = ['body.target.mesh_size="2 mm"', 'body.striker.mesh_size="2 mm"']
 def run(tmp_path_factory, name, overrides):
     out = tmp_path_factory.mktemp(name)
     summary = run_case(load_case(CASE, COARSE + overrides), out, progress=False)
-    return summary, np.genfromtxt(out / "history.csv", delimiter=",", names=True)
+    return summary, history_array(out / "history.csv")
 
 
 @pytest.fixture(scope="module")

@@ -21,6 +21,7 @@ from impactsim.solver.loop import Simulation
 from impactsim.solver.pipeline import build_passes
 from impactsim.solver.run import run_case
 from tests.builders import box_case, box_model, material
+from impactsim.results import history_array
 
 
 def test_flyer_plate_spall_plane_at_the_analytic_depth():
@@ -94,7 +95,7 @@ def test_expanding_block_conserves_mass_momentum_energy(tmp_path, n_per, collide
     assert s["particles"] == n_per * s["fracture"]["converted_to_particles"]
     assert abs(s["mass_final"] - s["mass_initial"]) <= 1e-13 * s["mass_initial"]
     assert abs(s["energy_balance_error"]) < 0.02
-    hist = np.genfromtxt(tmp_path / "history.csv", delimiter=",", names=True)
+    hist = history_array(tmp_path / "history.csv")
     scale = s["mass_initial"] * rate * 4e-3
     for ax in "xyz":
         total = hist[f"momentum_{ax}"] + hist[f"particle_momentum_{ax}"]

@@ -1,0 +1,76 @@
+"""Ballistic limit: the bisection (k-section) converges to a known threshold within the
+tolerance, with a stand-in criterion and on real runs of a cheap monotone scene."""
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from impactsim.studies import ballistic as B
+from tests.studies.test_sweep import BAR
+
+
+def _standin(thresholds, calls):
+    def evaluate(points):
+        calls.append(len(points))
+        return [x > thresholds[c] for c, x in points]
+    return evaluate
+
+
+@pytest.mark.parametrize("width", [1, 2, 5])
+def test_search_brackets_the_threshold_within_tolerance(width):
+    thr = [0.3141, 0.5, 0.7777]
+    calls = []
+    st = B.search(_standin(thr, calls), 3, 0.1, 0.9, 1e-3, width)
+    for s, t in zip(st, thr):
+        assert s["status"] == "ok"
+        assert s["lo"] <= t <= s["hi"] and s["hi"] - s["lo"] <= 1e-3
+        assert abs(s["limit"] - t) <= 0.5e-3
+    if width == 1:  # bisection: log2(0.8 / 1e-3) = 9.6 -> 10 rounds after the two ends
+        assert st[0]["runs"] == 2 + 10
+
+
+def test_search_falling_criterion_and_unbracketed():
+    # perforated at low values (a thicker plate stops it): the sense is found from the ends
+    st = B.search(lambda pts: [x < 0.4 if c == 0 else True for c, x in pts], 2, 0.0, 1.0, 0.01)
+    assert st[0]["status"] == "ok" and abs(st[0]["limit"] - 0.4) <= 0.005
+    assert st[1]["status"] == "perforated over the whole range" and math.isnan(st[1]["limit"])
+    st = B.search(lambda pts: [None for _ in pts], 1, 0.0, 1.0, 0.01)
+    assert st[0]["status"] == "failed run"
+
+
+def test_ballistic_limit_on_runs_of_a_bar_rebounding_from_a_wall(tmp_path):
+    """The elastic bar leaves the wall with a fixed fraction r of its impact speed (linear
+    elasticity), so 'residual speed above 30 m/s' switches at 30 / r."""
+    case = tmp_path / "bar.toml"
+    case.write_text(BAR)
+    ref = tmp_path / "ref.csv"
+    ref.write_text("cfl,speed\n0.5,33\n0.6,33\n")
+    crit = B.Criterion("residual", "bar", 30.0)
+    curve, folder = B.ballistic_limit(case, "body.bar.speed", "20 m/s", "60 m/s", "run.cfl",
+                                      [0.5, 0.6], "0.5 m/s", crit, tmp_path / "bl", workers=0,
+                                      reference=ref, say=lambda s: None)
+    runs = pd.read_csv(folder / "runs.csv")
+    for cfl, limit in zip(curve["run.cfl"], curve["body.bar.speed limit [m/s]"]):
+        r = runs[(runs["run.cfl"] == cfl) & (runs["body.bar.speed"] == 20.0)]
+        ratio = float(r["bar.mean_velocity_z [m/s]"].iloc[0]) / 20.0
+        assert 0.8 < ratio < 1.0
+        assert abs(limit - 30.0 / ratio) <= 0.25 + 1e-9  # half the tolerance
+    assert (curve["status"] == "ok").all()
+    assert (folder / "ballistic.png").stat().st_size > 10_000
+    # a second call runs nothing new: every run finished earlier
+    again, _ = B.ballistic_limit(case, "body.bar.speed", "20 m/s", "60 m/s", "run.cfl",
+                                 [0.5, 0.6], "0.5 m/s", crit, tmp_path / "bl", workers=0,
+                                 say=lambda s: None)
+    np.testing.assert_array_equal(again.iloc[:, 1], curve.iloc[:, 1])
+
+
+def test_default_criterion_is_the_last_plate(tmp_path):
+    raw = {"body": [{"name": "front", "shape": "plate"}, {"name": "s", "shape": "sphere"},
+                    {"name": "rear", "shape": "plate"}]}
+    assert B.resolve_criterion(B.Criterion(), raw, "c.toml").body == "rear"
+    with pytest.raises(B.SweepError, match="no body 'x'"):
+        B.resolve_criterion(B.Criterion("hole", "x"), raw, "c.toml")
+    assert B.Criterion("hole", "rear").perforated({"status": "ok", "rear.perforated": True})
+    assert B.Criterion("hole", "rear").perforated({"status": "failed"}) is None
