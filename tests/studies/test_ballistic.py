@@ -74,3 +74,25 @@ def test_default_criterion_is_the_last_plate(tmp_path):
         B.resolve_criterion(B.Criterion("hole", "x"), raw, "c.toml")
     assert B.Criterion("hole", "rear").perforated({"status": "ok", "rear.perforated": True})
     assert B.Criterion("hole", "rear").perforated({"status": "failed"}) is None
+
+
+def test_cli_errors_are_one_line(tmp_path):
+    from click.testing import CliRunner
+
+    from impactsim.cli import main
+
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[run]\nname = 1\nname = 2\n")
+    r = CliRunner().invoke(main, ["ballistic-limit", str(bad), "--vary", "body.0.radius",
+                                  "--range", "1 mm", "2 mm", "--at", "run.cfl=0.5",
+                                  "--tol", "0.1 mm"])
+    assert r.exit_code == 2 and "invalid TOML" in r.output and "Traceback" not in r.output
+    case = tmp_path / "bar.toml"
+    case.write_text(BAR)
+    r = CliRunner().invoke(main, ["ballistic-limit", str(case), "--vary", "body.bar.speed",
+                                  "--range", "1 mm", "2 m/s", "--at", "run.cfl=0.5",
+                                  "--tol", "0.1"])
+    assert r.exit_code == 2 and "one unit" in r.output
+    r = CliRunner().invoke(main, ["ballistic-limit", str(case), "--vary", "body.bar.speed",
+                                  "--range", "1", "2", "--at", "run.cfl=0.5", "--tol", "0.1"])
+    assert r.exit_code == 2 and "no body of shape 'plate'" in r.output
