@@ -96,3 +96,24 @@ def test_cli_errors_are_one_line(tmp_path):
     r = CliRunner().invoke(main, ["ballistic-limit", str(case), "--vary", "body.bar.speed",
                                   "--range", "1", "2", "--at", "run.cfl=0.5", "--tol", "0.1"])
     assert r.exit_code == 2 and "no body of shape 'plate'" in r.output
+
+
+@pytest.mark.slow
+def test_hole_criterion_on_a_coarse_sphere_through_a_plate(tmp_path):
+    """The default criterion (a hole through the case's plate) on real fracture runs: the
+    bracket's ends disagree, every run below the limit left the plate whole and every run above
+    perforated it."""
+    from tests.solver.test_checkpoint import PLATE
+
+    case = tmp_path / "sp.toml"
+    case.write_text(PLATE.replace('checkpoint_every = "0.7 us"', "history_every = 5")
+                    .replace('end_time = "3 us"', 'end_time = "4 us"'))
+    curve, folder = B.ballistic_limit(case, "body.sphere.radius", "1 mm", "4 mm",
+                                      "body.sphere.speed", ["1 km/s"], "0.5 mm", None,
+                                      tmp_path / "bl", workers=0, say=lambda s: None)
+    assert curve["status"].iloc[0] == "ok"
+    limit = curve.iloc[0, 1]
+    runs = pd.read_csv(folder / "runs.csv")
+    r = runs["body.sphere.radius"]
+    assert runs[r < limit]["plate.perforated"].eq(False).all()
+    assert runs[r > limit]["plate.perforated"].eq(True).all()
