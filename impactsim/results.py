@@ -6,7 +6,7 @@
     r.summary                 # summary.json as a dict
     r.case                    # case.resolved.toml as a dict (the case as run, SI units)
     r.times                   # frame times [s]
-    r.frame(-1)               # the last frame as a pyvista UnstructuredGrid
+    r.frame(-1)               # the last frame as a pyvista UnstructuredGrid (with body_name)
     r.particles(-1)           # the particles of that frame as pyvista PolyData (or None)
 """
 
@@ -17,6 +17,8 @@ import os
 import re
 import tomllib
 from functools import cached_property
+
+import numpy as np
 from pathlib import Path
 
 _HEADER = re.compile(r"^(.*?)\s*\[(.*)\]\s*$")
@@ -98,7 +100,8 @@ class Result:
 
     def frame(self, index: int = -1):
         """Frame `index` (negative counts from the end) as a pyvista UnstructuredGrid, with its
-        cell and point fields; its time is in `mesh.field_data['time']`."""
+        cell and point fields, its time in `mesh.field_data['time']`, and the bodies' names
+        (`field_data['body_names']`, and per cell `cell_data['body_name']`)."""
         import pyvista as pv
 
         frames = self._series("series.pvd")
@@ -107,7 +110,16 @@ class Result:
         t, path = frames[index]
         mesh = pv.read(path)
         mesh.field_data["time"] = [t]
+        names = self.body_names
+        if names and "body" in mesh.cell_data.keys():
+            mesh.field_data["body_names"] = names
+            mesh.cell_data["body_name"] = np.asarray(names)[np.asarray(mesh.cell_data["body"])]
         return mesh
+
+    @property
+    def body_names(self) -> list[str]:
+        """The bodies' names in the order of the `body` field's values."""
+        return [b.get("name", str(i)) for i, b in enumerate(self.case.get("body", []))]
 
     def particles(self, index: int = -1):
         """The particles written with frame `index` as pyvista PolyData (points with velocity,

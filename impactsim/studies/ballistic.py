@@ -187,6 +187,8 @@ def ballistic_limit(case_file: Path, vary: str, lo: str, hi: str, at: str, at_va
         raw0 = tomllib.loads(case_file.read_text())
     except FileNotFoundError:
         raise SweepError(f"{case_file}: file not found") from None
+    except tomllib.TOMLDecodeError as err:
+        raise SweepError(f"{case_file}: invalid TOML: {err}") from None
     crit = resolve_criterion(criterion or Criterion(), raw0, str(case_file))
     name = raw0.get("run", {}).get("name", case_file.stem)
     folder = Path(out) if out is not None else Path("out") / "ballistic" / name

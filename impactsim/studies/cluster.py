@@ -80,7 +80,7 @@ def executor(scheduler: str | None = None, workers: int | None = None):
         with dask.config.set({f"distributed.nanny.pre-spawn-environ.{k}": v
                               for k, v in WORKER_ENV.items()}):
             with LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                              dashboard_address=None, env=dict(WORKER_ENV)) as cluster, \
+                              dashboard_address=":0", env=dict(WORKER_ENV)) as cluster, \
                     Client(cluster) as client:
                 _restore_env(before)  # the nanny sets them in this process to spawn workers
                 yield _Dask(client)

@@ -210,7 +210,10 @@ def variant_case(base: Path, variant: Variant, where: str = "") -> dict:
     """The raw tables of a variant: the base case with its overrides (not yet validated)."""
     from impactsim.case.overrides import apply_overrides
 
-    raw = tomllib.loads(base.read_text())
+    try:
+        raw = tomllib.loads(base.read_text())
+    except tomllib.TOMLDecodeError as err:
+        raise SweepError(f"{base}: invalid TOML: {err}") from None
     apply_overrides(raw, variant.overrides)
     for k, v in variant.special.items():
         apply_special(raw, k, v, where or str(base))

@@ -74,3 +74,46 @@ def test_default_criterion_is_the_last_plate(tmp_path):
         B.resolve_criterion(B.Criterion("hole", "x"), raw, "c.toml")
     assert B.Criterion("hole", "rear").perforated({"status": "ok", "rear.perforated": True})
     assert B.Criterion("hole", "rear").perforated({"status": "failed"}) is None
+
+
+def test_cli_errors_are_one_line(tmp_path):
+    from click.testing import CliRunner
+
+    from impactsim.cli import main
+
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[run]\nname = 1\nname = 2\n")
+    r = CliRunner().invoke(main, ["ballistic-limit", str(bad), "--vary", "body.0.radius",
+                                  "--range", "1 mm", "2 mm", "--at", "run.cfl=0.5",
+                                  "--tol", "0.1 mm"])
+    assert r.exit_code == 2 and "invalid TOML" in r.output and "Traceback" not in r.output
+    case = tmp_path / "bar.toml"
+    case.write_text(BAR)
+    r = CliRunner().invoke(main, ["ballistic-limit", str(case), "--vary", "body.bar.speed",
+                                  "--range", "1 mm", "2 m/s", "--at", "run.cfl=0.5",
+                                  "--tol", "0.1"])
+    assert r.exit_code == 2 and "one unit" in r.output
+    r = CliRunner().invoke(main, ["ballistic-limit", str(case), "--vary", "body.bar.speed",
+                                  "--range", "1", "2", "--at", "run.cfl=0.5", "--tol", "0.1"])
+    assert r.exit_code == 2 and "no body of shape 'plate'" in r.output
+
+
+@pytest.mark.slow
+def test_hole_criterion_on_a_coarse_sphere_through_a_plate(tmp_path):
+    """The default criterion (a hole through the case's plate) on real fracture runs: the
+    bracket's ends disagree, every run below the limit left the plate whole and every run above
+    perforated it."""
+    from tests.solver.test_checkpoint import PLATE
+
+    case = tmp_path / "sp.toml"
+    case.write_text(PLATE.replace('checkpoint_every = "0.7 us"', "history_every = 5")
+                    .replace('end_time = "3 us"', 'end_time = "4 us"'))
+    curve, folder = B.ballistic_limit(case, "body.sphere.radius", "1 mm", "4 mm",
+                                      "body.sphere.speed", ["1 km/s"], "0.5 mm", None,
+                                      tmp_path / "bl", workers=0, say=lambda s: None)
+    assert curve["status"].iloc[0] == "ok"
+    limit = curve.iloc[0, 1]
+    runs = pd.read_csv(folder / "runs.csv")
+    r = runs["body.sphere.radius"]
+    assert runs[r < limit]["plate.perforated"].eq(False).all()
+    assert runs[r > limit]["plate.perforated"].eq(True).all()

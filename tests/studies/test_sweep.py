@@ -149,7 +149,7 @@ def test_existing_cluster_by_scheduler_address(tmp_path):
 
     path = _files(tmp_path)
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster:
+                      dashboard_address=":0") as cluster:
         df, _ = S.run_sweep(path, tmp_path / "remote", scheduler=cluster.scheduler_address,
                             say=lambda s: None)
     serial, _ = S.run_sweep(path, tmp_path / "serial", workers=0, say=lambda s: None)
