@@ -75,7 +75,7 @@ HROWS = HC2 + 1
 @numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
 def _vol_der(x0, x1, x2, x3, x4, x5, y0, y1, y2, y3, y4, y5, z0, z1, z2, z3, z4, z5):
     """One node's dV/dx, dV/dy, dV/dz from the six other nodes that enter it (Flanagan &
-    Belytschko 1981 eq. 79, in the grouping of LULESH's `VoluDer`)."""
+    Belytschko 1981's closed form of dV/dx, in the grouping of LULESH's `VoluDer`)."""
     dx = ((y1 + y2) * (z0 + z1) - (y0 + y1) * (z1 + z2) + (y0 + y4) * (z3 + z4)
           - (y3 + y4) * (z0 + z4) - (y2 + y5) * (z3 + z5) + (y3 + y5) * (z2 + z5))
     dy = (-(x1 + x2) * (z0 + z1) + (x0 + x1) * (z1 + z2) - (x0 + x4) * (z3 + z4)

@@ -163,6 +163,8 @@ def body_elements(body: Body) -> int | None:
         return 12
     if body.shape == "file":
         return None
+    if body.element == "hex8":  # hexes (mesh/hexes.py): meshed here, it takes milliseconds
+        return len(_hex_mesh(body)[1])
     h = body.mesh_size
     if body.mesher == "structured":
         n = 6.0
@@ -185,6 +187,17 @@ def _count(n: float) -> int:
     if not n < MAX_COUNT:
         return MAX_COUNT
     return max(1, round(n))
+
+
+# a hex-step costs about this many tet-steps (docs/performance.md: 190 against 80 ns on one
+# thread, the Johnson-Cook bench of each, measured at the same time)
+HEX_COST = 2.4
+
+
+def _hex_mesh(body: Body):
+    from impactsim.mesh.hexes import raw_hex_mesh
+
+    return raw_hex_mesh(body)
 
 
 def kuhn_min_altitude(dx: float, dy: float, dz: float) -> float:
@@ -212,6 +225,10 @@ def body_min_length(body: Body) -> float | None:
     d = body.dimensions
     if body.shape == "file":
         return None
+    if body.element == "hex8":  # the hex kernel's V / largest face area
+        from impactsim.mesh.hexes import hex_report
+
+        return hex_report(*_hex_mesh(body), 1.0, 1.0)["length_min"]
     if body.shape == "cube12":
         from impactsim.mesh.quality import altitudes
         from impactsim.mesh.structured import cube12
@@ -395,7 +412,13 @@ def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = N
         if mesh is not None:
             from impactsim.mesh.quality import altitudes
 
-            n, length = len(mesh[1]), float(altitudes(*mesh).min()) if len(mesh[1]) else None
+            n = len(mesh[1])
+            if n and mesh[1].shape[1] == 8:  # hexes: the hex kernel's V / largest face area
+                from impactsim.mesh.hexes import hex_report
+
+                length = float(hex_report(*mesh, 1.0, 1.0)["length_min"])
+            else:
+                length = float(altitudes(*mesh).min()) if n else None
             faces += _mesh_faces(mesh[1])
         else:
             n = body_elements(body)
@@ -409,9 +432,12 @@ def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = N
             l_min = min(l_min, length)
         c_max = max(c_max, wave_speed(case, body))
     elements = min(sum(n for n in per_body.values() if n), MAX_COUNT)
+    # the cost in tet-steps: a hex costs HEX_COST of them
+    work = min(sum(n * (HEX_COST if b.element == "hex8" else 1.0)
+                   for b, n in zip(case.bodies, per_body.values()) if n), float(MAX_COUNT))
     threads = run_threads(case, elements)
     frames = len(case.output.times) if case.output.times else case.output.frames + 1
-    if elements and c_max > 0.0 and l_min < math.inf:
+    if elements and c_max > 0.0 and 0.0 < l_min < math.inf:
         dt = case.run.cfl * l_min / c_max
         # the linear viscosity's share of the step in compression, L / (Q + sqrt(Q^2 + c^2))
         # with Q = C_l c (physics.md), and the steps lost landing on each output frame
@@ -424,7 +450,7 @@ def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = N
     if speed is None:
         speed = machine_speed(threads)
     t_elem = 1e-9 * speed["ns_per_element_step"]
-    parts = {"elements": steps * (speed["seconds_per_step"] + elements * t_elem)}
+    parts = {"elements": steps * (speed["seconds_per_step"] + work * t_elem)}
     if has_contact(case):
         parts["contact"] = steps * faces * CONTACT_SECONDS_PER_FACE_STEP
     if any(case.materials[b.material].failure.active for b in case.bodies):
@@ -454,10 +480,18 @@ def _surface_faces(body: Body) -> float:
     return min(FACES_PER_H2 * (area / h) / h, float(MAX_COUNT))
 
 
-def _mesh_faces(tets) -> float:
+def _mesh_faces(cells) -> float:
+    """Boundary triangles of a meshed body (a hex body's quads count as two, as contact splits
+    them)."""
+    if not len(cells):
+        return 0.0
+    if cells.shape[1] == 8:
+        from impactsim.contact.hexes import boundary_quads
+
+        return 2.0 * len(boundary_quads(cells)[0])
     from impactsim.mesh.topology import boundary_faces
 
-    return float(len(boundary_faces(tets)[0])) if len(tets) else 0.0
+    return float(len(boundary_faces(cells)[0]))
 
 
 def memory_bytes(elements: int) -> float:

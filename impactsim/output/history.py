@@ -94,6 +94,7 @@ class HistoryWriter:
         self._file = open(self.path, "r+b", buffering=0)
         self._file.truncate(offset)
         self._file.seek(offset)
+        self._size = offset  # bytes of whole lines in the file
         return self
 
     def flush(self) -> None:

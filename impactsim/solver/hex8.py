@@ -1,26 +1,31 @@
 """The one-point 8-node hexahedron with Flanagan-Belytschko hourglass control.
 
 Flanagan, D.P. & Belytschko, T. (1981), "A uniform strain hexahedron and quadrilateral with
-orthogonal hourglass control", IJNME 17:679-706 [FB81]; ALGORITHMS.md 7.1.
+orthogonal hourglass control", IJNME 17:679-706 [FB81]; ALGORITHMS.md 7.1. The formulas below
+are FB81's in its notation (uniform strain B = (1/V) dV/dx with the exact volume, the
+hourglass base and shape vectors, the viscous and stiffness resultants); the paper was not at
+hand to check its equation numbers, so they are named by content, each tested
+(tests/unit/test_hex8.py).
 
 Nodes in the VTK / standard order: 0-3 the face zeta = -1 counter-clockwise seen from zeta > 0,
 4-7 the face zeta = +1 above them.
 
 Per element (`_hex_element`), with x^{n+1} and the step's velocity U^{n+1/2}:
 - b_iI = dV/dx_iI, the gradient of the exact volume V = sum_I x_I b_xI (V is linear in the
-  x-coordinates alone, FB81 eqs. 15-16 with the closed form of eq. 79; `_volume_gradient`);
-  the uniform (mean) strain gradient is B_iI = b_iI / V (FB81 eq. 13);
+  x-coordinates alone; FB81's closed form of dV/dx, grouped as in LULESH's `VoluDer`;
+  `_volume_gradient`, tested against central differences of the Gauss-integrated volume);
+  the uniform (mean) strain gradient is B_iI = b_iI / V;
 - the velocity gradient L_ij = sum_I v_iI B_jI on the mid-step geometry x^{n+1} - dt/2 U
   (as the tet, ALGORITHMS.md 1), the Jaumann trial deviator, the radial return, the EOS with the
   energy integrated implicitly and the bulk viscosity: the same pointwise laws as the tets
   (materials/laws.py; `element._jaumann_trial`, `element._return_map`);
-- nodal forces f_iI = -sigma_ij b_jI (FB81 eq. 17 with B = b/V), at x^{n+1};
-- hourglass control (FB81 section 4): base vectors Gamma_alpha (eq. 20), shape vectors
-  gamma_alpha = (1/8) [Gamma_alpha - (1/V) (Gamma_alpha . x_i) b_i] (eq. 51; the 1/8 of FB81),
-  orthogonal to every linear field (sum_I gamma_aI = 0, sum_I gamma_aI x_jI = 0: eqs. 52-53);
-  hourglass rates qdot_ia = sum_I v_iI gamma_aI (eq. 54) and generalized forces Q_ia with nodal
-  forces f_iI = -sum_a Q_ia gamma_aI (eq. 55). Viscous form (eq. 57 with kappa in front):
-  Q_ia = c_v rho c V^{2/3} qdot_ia; stiffness form (eq. 60-61): Q accumulated,
+- nodal forces f_iI = -sigma_ij b_jI, at x^{n+1};
+- hourglass control (FB81 section 4): base vectors Gamma_alpha, shape vectors
+  gamma_alpha = (1/8) [Gamma_alpha - (1/V) (Gamma_alpha . x_i) b_i] (FB81's
+  1/8 in front), orthogonal to every linear field (sum_I gamma_aI = 0, sum_I gamma_aI x_jI = 0);
+  hourglass rates qdot_ia = sum_I v_iI gamma_aI and generalized forces Q_ia with nodal
+  forces f_iI = -sum_a Q_ia gamma_aI. Viscous form:
+  Q_ia = c_v rho c V^{2/3} qdot_ia; stiffness form: Q accumulated,
   dQ_ia = c_s dt (K + 4G/3) / (3 V) (sum_jI b_jI b_jI) qdot_ia. Both coefficients may be given
   (per element; from the body's `hourglass` / `hourglass_coefficient`). The hourglass power
   Q . qdot is integrated with the mid-step value of the stiffness part (trapezoid, as the
@@ -35,7 +40,7 @@ Per element (`_hex_element`), with x^{n+1} and the step's velocity U^{n+1/2}:
 Determinism: the elements run in parts of `part_size` consecutive hexes, one thread per part,
 each corner adding to its (node, part) row of an fext of the block's own
 (`scatter.force_rows` with 8 corners); each node's rows are added to `force` in part order
-after the tets' sum (`gather_add`). The result is the same on any number of threads.
+after the tets' sum (at the end of `hex_update`). The result is the same on any number of threads.
 """
 
 from __future__ import annotations
@@ -61,7 +66,7 @@ OUT_DT, OUT_QWORK, OUT_INVERTED, OUT_WORST, OUT_HGWORK = 0, 1, 2, 3, 4
 N_OUT = 5
 SCRATCH = 8 * 3 * 4 + 8  # per-thread work space of `_hex_element`
 
-# FB81 eq. 20: the hourglass base vectors, rows alpha = 0..3, columns the 8 nodes
+#: the hourglass base vectors, rows alpha = 0..3, columns the 8 nodes
 GAMMA = np.array([[1.0, 1.0, -1.0, -1.0, -1.0, -1.0, 1.0, 1.0],
                   [1.0, -1.0, -1.0, 1.0, -1.0, 1.0, 1.0, -1.0],
                   [1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -1.0],
@@ -86,8 +91,8 @@ VD = np.array(_VD, dtype=np.int64)
 
 @numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
 def _volume_gradient(p, b):
-    """b[3 I + i] = dV/dx_iI of the hex with corners p[3 I + i] (FB81 eq. 79); returns the exact
-    volume V = sum_I x_I b_xI (FB81 eq. 16)."""
+    """b[3 I + i] = dV/dx_iI of the hex with corners p[3 I + i]; returns the exact
+    volume V = sum_I x_I b_xI."""
     for n in range(8):
         a0, a1, a2, a3, a4, a5 = VD[n, 0], VD[n, 1], VD[n, 2], VD[n, 3], VD[n, 4], VD[n, 5]
         bx, by, bz = _vol_der(p[3 * a0], p[3 * a1], p[3 * a2], p[3 * a3], p[3 * a4], p[3 * a5],
@@ -247,7 +252,7 @@ def _hex_element(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_
     qq = cl * c + cq * cq * length * (-trd) if trd < 0.0 else 0.0
     limits = st != FRACTURED and (c2 > 0.0 or qq > 0.0)
     dte = length / (qq + math.sqrt(qq * qq + c2)) if limits else math.inf
-    # --- stress forces f_I = -sigma b_I (FB81 eq. 17)
+    # --- stress forces f_I = -sigma b_I
     ptot = pn + qn
     txx, tyy, tzz = nxx - ptot, nyy - ptot, nzz - ptot
     for n in range(8):
@@ -366,8 +371,9 @@ def hex_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
     the tets' element update has written it). Per chunk of CHUNK hexes, chunk_out holds
     [min stable dt, viscous work, inverted count, element of min dt, hourglass work].
     Parts of `part_chunks` chunks run one per thread (part t, t + T, ... on thread t of
-    T = `threads`), every corner adds to its row of `fext` (`scatter.force_rows(conn, n, 8 *
-    ...)`), and each node's rows are added to force in part order: the same bits on any
+    T = `threads`), every corner adds to its row of `fext` (`scatter.force_rows(conn, n_node,
+    part_chunks * CHUNK)` for the (n, 8) conn), and each node's rows are added to force in part
+    order: the same bits on any
     number of threads."""
     n_elem = conn.shape[0]
     half = 0.5 * dt

@@ -158,3 +158,20 @@ def test_mesh_report_of_a_hex_body(tmp_path):
     assert "O-grid" in text and "warning" not in text
     mesh = meshio.read(tmp_path / "mesh.vtu")
     assert [b.type for b in mesh.cells] == ["hexahedron"]
+
+
+def test_cost_estimate_counts_hexes():
+    """`impactsim check`'s estimate meshes a hex body to count it (exact), takes its smallest
+    V / face area for the step, and weighs a hex-step as HEX_COST tet-steps."""
+    from impactsim.case import load_case
+    from impactsim.case.estimate import HEX_COST, estimate_cost
+
+    case = load_case(Path(__file__).parents[2] / "cases" / "taylor-bar-hex.toml")
+    pts, hexes = mesh_body(case.bodies[0])
+    speed = {"seconds_per_step": 0.0, "ns_per_element_step": 100.0}
+    e = estimate_cost(case, speed=speed)
+    assert e.elements == len(hexes)
+    from impactsim.mesh.hexes import hex_report
+
+    assert e.l_min == pytest.approx(hex_report(pts, hexes, 1.0, 1.0)["length_min"], rel=1e-9)
+    assert e.wall_seconds == pytest.approx(e.steps * len(hexes) * HEX_COST * 1e-7)

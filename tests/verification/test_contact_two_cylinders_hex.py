@@ -30,7 +30,8 @@ def test_no_overlap_with_hexes(tmp_path_factory, hexes):
     case, over = CASE, []
     if hexes == "target":  # the tet scene with its target in hexes
         case = CASE.with_name("two-cylinders.toml")
-        over = ['body.target.element="hex8"', 'body.target.hourglass="stiffness"']
+        over = ['body.target.element="hex8"', 'body.target.hourglass="stiffness"',
+                'body.target.hourglass_coefficient=0.1']
     summary, h, out = _run(tmp_path_factory, f"cyl-hex-{hexes}", case, over)
     assert summary["stopped"] is None
     assert h["time"][-1] == pytest.approx(12e-6)
