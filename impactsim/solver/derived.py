@@ -38,9 +38,13 @@ def wall_measures(model) -> dict[str, dict]:
         ns = slice(model.node_start[b], model.node_start[b + 1])
         es = slice(model.elem_start[b], model.elem_start[b + 1])
         x, x0 = model.x[ns], model.x0[ns]
-        conn = model.conn[es] - model.node_start[b]
-        if conn.shape[0] == 0:
-            continue
+        conn = model.conn[es]
+        for blk in getattr(model, "blocks", ()):  # a hex body's elements are in a block
+            if conn.shape[0] == 0:
+                conn = blk.conn[blk.body_start[b]:blk.body_start[b + 1]]
+        if conn.shape[0] == 0 or not np.isfinite(x).all():
+            continue  # no elements, or a state that stopped non-finite
+        conn = conn - model.node_start[b]
         e = x0[conn[:, 1]] - x0[conn[:, 0]]
         reach = 0.1 * float(np.sqrt((e * e).sum(axis=1)).mean())
         for w in model.walls:

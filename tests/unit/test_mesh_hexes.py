@@ -174,4 +174,4 @@ def test_cost_estimate_counts_hexes():
     from impactsim.mesh.hexes import hex_report
 
     assert e.l_min == pytest.approx(hex_report(pts, hexes, 1.0, 1.0)["length_min"], rel=1e-9)
-    assert e.wall_seconds == pytest.approx(e.steps * len(hexes) * HEX_COST * 1e-7)
+    assert e.seconds["elements"] == pytest.approx(e.steps * len(hexes) * HEX_COST * 1e-7)
