@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from impactsim.case import load_case, load_case_text
+from impactsim.results import history_array
 from impactsim.solver.run import run_case
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -43,7 +44,7 @@ history_every = 10000
 def test_1e5_steps_of_a_spinning_elastic_cube_keep_the_energy(tmp_path):
     summary = run_case(load_case_text(SPIN.format(steps=100_000)), tmp_path, progress=False)
     assert summary["steps"] == 100_000
-    hist = np.genfromtxt(tmp_path / "history.csv", delimiter=",", names=True)
+    hist = history_array(tmp_path / "history.csv")
     e = hist["total_energy"]
     drift = (e - e[0]) / e[0]
     report = ", ".join(f"{int(s)}: {d:+.2e}" for s, d in zip(hist["step"], drift))

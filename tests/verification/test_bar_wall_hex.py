@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from impactsim.case import load_case
+from impactsim.results import history_array
 from impactsim.solver.run import run_case
 
 CASE = Path(__file__).parents[2] / "cases" / "elastic-bar-wall-hex.toml"
@@ -22,7 +23,7 @@ def bar_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("barhex")
     case = load_case(CASE)
     summary = run_case(case, out, progress=False)
-    hist = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
+    hist = history_array(out / "history.csv")
     return case, summary, hist, out
 
 

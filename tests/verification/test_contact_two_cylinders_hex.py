@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from impactsim.case import load_case
+from impactsim.results import history_array
 from impactsim.mesh.hexes import hex_quality
 from impactsim.solver.run import run_case
 
@@ -22,7 +23,7 @@ COARSE = ['body.target.mesh_size="2 mm"', 'body.striker.mesh_size="2 mm"']
 def _run(tmp_path_factory, name, case, overrides):
     out = tmp_path_factory.mktemp(name)
     summary = run_case(load_case(case, COARSE + overrides), out, progress=False)
-    return summary, np.genfromtxt(out / "history.csv", delimiter=",", names=True), out
+    return summary, history_array(out / "history.csv"), out
 
 
 @pytest.mark.parametrize("hexes", ["striker", "target"])
