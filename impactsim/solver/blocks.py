@@ -81,3 +81,18 @@ def unsupported(case) -> str:
             return (f"body {b.name!r}: fracture is not available for element = \"hex8\" bodies "
                     f"yet; material {b.material!r} has failure criteria")
     return ""
+
+
+HOURGLASS_WARN = 0.1  # hourglass over internal energy above which the run warns
+
+
+def hourglass_warning(energies: dict) -> str:
+    """A warning when the hourglass work exceeds HOURGLASS_WARN of the internal energy (the
+    usual industry flag: the mesh is too coarse for the flow, or the control too weak), else
+    ''."""
+    hg, ie = energies.get("hourglass_energy", 0.0), energies.get("internal_energy", 0.0)
+    if ie > 0.0 and hg > HOURGLASS_WARN * ie:
+        return (f"hourglass energy {hg:.4g} J is {100 * hg / ie:.0f} % of the internal energy "
+                f"({ie:.4g} J): refine the hex mesh or raise body.hourglass_coefficient (the "
+                "stiffness form holds large plastic flow better)")
+    return ""

@@ -392,6 +392,11 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
             t_out += wallclock.perf_counter() - t1
 
     energies = sim.energies()
+    if model.blocks:
+        from impactsim.solver.blocks import hourglass_warning
+
+        if hourglass_warning(energies):
+            bar.log("warning: " + hourglass_warning(energies))
     wall = wallclock.perf_counter() - start
     timings.update({k: v for k, v in sim.timings.items()})
     timings["output"] = t_out

@@ -230,3 +230,12 @@ def test_one_and_two_threads_give_the_same_bits():
     assert np.array_equal(a.blocks[0].sdev, b.blocks[0].sdev)
     assert np.array_equal(a.blocks[0].hg, b.blocks[0].hg)
     assert a.energy_terms["hourglass"] == b.energy_terms["hourglass"]
+
+
+def test_hourglass_warning_above_a_tenth_of_the_internal_energy():
+    from impactsim.solver.blocks import hourglass_warning
+
+    assert hourglass_warning({"hourglass_energy": 1.0, "internal_energy": 20.0}) == ""
+    msg = hourglass_warning({"hourglass_energy": 3.0, "internal_energy": 20.0})
+    assert "15 %" in msg and "hourglass_coefficient" in msg
+    assert hourglass_warning({"kinetic_energy": 1.0}) == ""  # tets only: nothing to say

@@ -8,6 +8,7 @@ meshes (2 mm) keep the test short; the bundled cases/two-cylinders-hex.toml runs
 from pathlib import Path
 
 import meshio
+import numba
 import numpy as np
 import pytest
 
@@ -46,3 +47,32 @@ def test_no_overlap_with_hexes(tmp_path_factory, hexes):
     blocks = {b.type: b.data for b in mesh.cells}
     assert set(blocks) == {"tetra", "hexahedron"}
     assert hex_quality(mesh.points, blocks["hexahedron"])["scaled_jacobian"].min() > 0.0
+
+
+@pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two numba threads")
+def test_mixed_scene_same_bits_on_one_and_two_threads():
+    """Tets and hexes in contact: the same bits on one thread and on two (the tets' force rows,
+    then the hexes', each in part order; the contact passes' fixed orders)."""
+    from impactsim.solver.build import build_model
+    from impactsim.solver.loop import Simulation
+    from impactsim.solver.pipeline import build_passes
+
+    def run(threads):
+        prev = numba.get_num_threads()
+        numba.set_num_threads(threads)
+        try:
+            case = load_case(CASE, ['body.target.mesh_size="1.5 mm"',
+                                    'body.striker.mesh_size="0.7 mm"'])
+            model = build_model(case)
+            assert model.n_elem > 2 * 2048 and model.blocks[0].n_elem > 1024  # several parts each
+            sim = Simulation(model, build_passes(case, model))
+            for _ in range(40):
+                sim.step()
+            return model
+        finally:
+            numba.set_num_threads(prev)
+
+    a, b = run(1), run(2)
+    assert np.array_equal(a.x, b.x) and np.array_equal(a.v, b.v)
+    assert np.array_equal(a.sdev, b.sdev) and np.array_equal(a.blocks[0].hg, b.blocks[0].hg)
+    assert a.energy_terms == b.energy_terms
