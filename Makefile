@@ -7,7 +7,7 @@ CASES := elastic-bar-wall taylor-bar two-cubes two-cylinders elastic-bars hertz-
 SWEEP ?= cases/sweeps/mesh-size.toml
 REV ?= HEAD
 
-.PHONY: setup test hard bench compare accuracy sweep cases demo clean
+.PHONY: setup test hard bench bench-quasistatic compare accuracy sweep cases demo clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -29,6 +29,10 @@ hard: setup
 
 bench: setup
 	$(BIN)/python benchmarks/run.py
+
+# the quasistatic pellet stack: 10, 50 and 350 bodies with 1 and 2 Dask workers (minutes)
+bench-quasistatic: setup
+	QS_SIZES=10,50,350 QS_WORKERS=1,2 $(BIN)/python benchmarks/bench_quasistatic.py
 
 # whole-step time of the working tree against a revision, in one process: make compare REV=HEAD~3
 compare: setup

@@ -37,6 +37,7 @@ def render_reference() -> str:
         assert isinstance(table, Table)
         parts += _table_sections(table, table.name)
     parts.append(_shapes_section())
+    parts.append(_quasistatic_section())
     parts.append(_library_section())
     return "\n".join(parts).rstrip() + "\n"
 
@@ -134,6 +135,22 @@ def _shapes_section() -> str:
     for shape, keys in SHAPE_KEYS.items():
         lines.append(f"| `{shape}` | {', '.join(f'`{k}`' for k in keys)} |")
     return "\n".join(lines) + "\n"
+
+
+def _quasistatic_section() -> str:
+    """The tables of a quasistatic case ([run] analysis = "quasistatic", docs/quasistatic.md);
+    [[material]] is the table above."""
+    from impactsim.case.quasistatic_spec import QS_ROOT
+
+    out = ["## Quasistatic cases", "",
+           'A case with `[run] analysis = "quasistatic"` is read against these tables '
+           "(docs/quasistatic.md); `[[material]]` is the table above.", ""]
+    for table in QS_ROOT.keys:
+        if table.name == "material":
+            continue
+        out += [part.replace("## `[", "### quasistatic `[", 1)
+                for part in _table_sections(table, table.name)]
+    return "\n".join(out) + "\n"
 
 
 def _library_section() -> str:

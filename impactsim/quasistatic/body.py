@@ -66,10 +66,12 @@ class BodyState:
         for k, _, L in self.spec.heat:
             if k in received:
                 f += L @ received[k]
+        change = 0.0
         if self.spec.thermal:
             self.heat.solve(f, tolerance, max_picard)
+            change = self.heat.change
         self.seconds["heat"] += time.perf_counter() - t0
-        return self.heat_send()
+        return self.heat_send(), change
 
     # --- mechanics ---
     def mech_begin(self, scale: float) -> None:

@@ -105,5 +105,6 @@ class HeatBody:
             T = Tn
             if self.constant_k or change < tolerance:
                 break
+        self.change = change
         self.T = T
         return T

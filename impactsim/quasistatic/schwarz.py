@@ -48,12 +48,15 @@ class ContactState:
 
 
 def update_active(itf: Interface, act: np.ndarray, p: np.ndarray, penetration: np.ndarray,
-                  pen_tol: float, p_scale: float) -> np.ndarray:
+                  pen_tol: float, p_scale: float, release: bool = True) -> np.ndarray:
     """Compressive-only contact: release active nodes in tension, activate penetrating ones.
     The nodal pressures M^-1 lambda oscillate in sign where the pressure varies fast, so the
     release looks at them smoothed over each node's neighbours (weights |M|)."""
     if itf.tied:
         return act
+    enter = (~act) & itf.matched & (penetration > pen_tol)
+    if not release:  # between settled states only nodes that penetrate enter
+        return act | enter
     if itf.order == 1:
         # tet4: the nodal reactions themselves (M_aa p) say which nodes pull
         idx = np.nonzero(act)[0]
@@ -65,7 +68,7 @@ def update_active(itf: Interface, act: np.ndarray, p: np.ndarray, penetration: n
         Mabs = abs(itf.M_a)
         smooth = (Mabs @ np.where(act, p, 0.0)) / np.maximum(Mabs @ act.astype(float), 1e-300)
         release = act & (smooth < -RELEASE * p_scale)
-    return (act & ~release) | ((~act) & itf.matched & (penetration > pen_tol))
+    return (act & ~release) | enter
 
 
 def initial_state(interfaces: list[Interface]) -> ContactState:
@@ -88,13 +91,16 @@ def heat_phase(pool, route: dict, settings: Settings, dt: float | None, log: lis
         for body, values in sends.items():
             for key, v in values.items():
                 received.setdefault(route[key], {})[key] = v
-        sends = pool.call("heat_solve", settings.picard_tolerance, settings.max_picard,
-                          per_body=received)
+        # one Picard step per body and iteration: the k(T) and the exchange iterations
+        # converge together (a factorisation per body and iteration, not per Picard step)
+        out = pool.call("heat_solve", settings.picard_tolerance, 1, per_body=received)
+        sends = {b: v[0] for b, v in out.items()}
+        picard = max((v[1] for v in out.values()), default=0.0)
         flat = np.concatenate([v for b in sorted(sends) for _, v in sorted(sends[b].items())])
         if old is not None:
             change = np.max(np.abs(flat - old)) / max(np.max(np.abs(flat)), 1e-30)
-            log.append({"phase": "heat", "iteration": it, "change": change})
-            if change < settings.heat_tolerance:
+            log.append({"phase": "heat", "iteration": it, "change": max(change, picard)})
+            if max(change, picard) < settings.heat_tolerance:
                 return it
         old = flat
     raise NotConverged(f"heat: the interface temperatures did not settle in "
@@ -126,8 +132,9 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
         residuals = []
         new_active = []
         ua_all, ub_all, pa_all = [], [], []
-        # the active set changes only once the iteration has settled for the current one (an
-        # outer loop): changing it at every iteration makes the contact chatter
+        # nodes that penetrate enter at once; nodes leave only once the iteration has settled
+        # for the current active set (an outer loop): releasing at every iteration makes the
+        # contact chatter
         for c, itf in enumerate(interfaces):
             ua, pa = out[itf.a][("a", c)]
             ub = out[itf.b][("b", c)]
@@ -153,7 +160,7 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
             gap_res = max(gap_res, np.max(np.abs(r), initial=0) / u_scale)
             p_change = max(p_change, np.max(np.abs(pa - state.p[c]), initial=0) / p_scale)
             na = update_active(itf, act, pa, ua - target, ACTIVATE * settings.gap_tolerance * u_scale,
-                               p_scale) if settle else act
+                               p_scale, release=settle)
             changed |= bool((na != act).any())
             new_active.append(na)
         r = np.concatenate(residuals) if residuals else np.zeros(0)
