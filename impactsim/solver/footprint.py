@@ -6,7 +6,7 @@ state the run keeps (`Model`, the integrator's buffers in `solver/loop.py` and
 `solver/scatter.py`), the contact surface (`contact/surface.py`) and the fracture state
 (`fracture/`); tests/unit/test_footprint.py checks them against the bytes numpy actually
 holds after a built run has taken steps. Setup needs more for a moment (meshing and the
-force rows' sort): PEAK_FACTOR, measured the same way.
+force rows' sort): PEAK_FACTOR, and the process itself BASE_BYTES.
 
 ``run_bytes(n_elem, n_node, ...)`` is the estimate; ``memory_warning(...)`` the message to
 print before a run whose estimate exceeds the memory the machine has available. It is meant
@@ -43,7 +43,10 @@ CONTACT_ELEMENT = 16 + 4 + 1.2 * 16 + 48 + 32 + 1 + 4 + 16
 # positions 4 int64, alive), action (int8), ids (int64), eps_p_prev (float64)
 FRACTURE_ELEMENT = 16 + 4 + 32 + 4 + 32 + 1 + 1 + 8 + 8
 FRACTURE_NODE = 4  # node_live (int32)
-PEAK_FACTOR = 1.8  # peak during setup over the kept state (tests/unit/test_footprint.py)
+# peak during setup over the kept state: 1.2-1.35 measured for a block on a wall at 1M-2M
+# elements (benchmarks/bench_scale.py), up to 1.6 with contact and fracture at 120k-160k
+PEAK_FACTOR = 1.8
+BASE_BYTES = 300 * 2**20  # the interpreter, numpy, numba and the loaded kernels (~290 MB)
 
 
 def run_bytes(n_elem: int, n_node: int, contact: bool = False, fracture: bool = False,
@@ -61,8 +64,8 @@ def run_bytes(n_elem: int, n_node: int, contact: bool = False, fracture: bool = 
 
 
 def peak_bytes(n_elem: int, n_node: int, **kw) -> float:
-    """What the run needs at its peak (setup), from run_bytes."""
-    return PEAK_FACTOR * run_bytes(n_elem, n_node, **kw)
+    """What the run's process needs at its peak (setup), from run_bytes."""
+    return BASE_BYTES + PEAK_FACTOR * run_bytes(n_elem, n_node, **kw)
 
 
 def available_bytes() -> int | None:
