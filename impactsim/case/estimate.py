@@ -26,8 +26,19 @@ seconds, run by ``python -m impactsim.case.estimate`` or the first time an estim
 for. The figures are stored per host and thread count in ``speed.json`` next to the mesh cache
 (the parent of $IMPACTSIM_CACHE when set, else ~/.cache/impactsim). IMPACTSIM_NO_CALIBRATE=1
 skips the measurement when no file exists and uses ``DEFAULT_SPEED`` (for tests and CI).
-Contact and fracture passes and frame output come on top of this figure: the end-of-run table of
-seconds per pass shows what they cost.
+The speed is measured and used for the thread count the run will use (``run_threads``: the rule
+of solver.run.thread_count, one thread below 50,000 elements); a measurement outside
+PLAUSIBLE_NS / PLAUSIBLE_STEP_SECONDS is noise and is discarded (never stored).
+
+On top of the element loop: the contact passes (CONTACT_SECONDS_PER_FACE_STEP per boundary face
+and step), the fracture passes (FRACTURE_SHARE of the element loop), frame output (per element
+and frame), the run's per-step history row, watch and progress, setting up, and gmsh meshing of
+bodies not in the mesh cache: the constants are fitted to the bundled cases (docs/estimates.md).
+
+Memory. BASE_BYTES + BYTES_PER_ELEMENT per element (peak RSS of the bundled runs: 300-350 MB up
+to 35k tets, 531 MB at 164k, 740 MB at 212k). ``check_fits`` refuses, before meshing, a case
+whose estimate exceeds the memory the machine has available, naming the largest body's
+mesh_size and both figures.
 """
 
 from __future__ import annotations
@@ -69,12 +80,19 @@ SPEED_FILE_VERSION = 1
 # the element kernel costs 100-1000 ns per element-step on any x86 core of the last decade.
 PLAUSIBLE_NS = (30.0, 30_000.0)
 PLAUSIBLE_STEP_SECONDS = (0.0, 0.05)
-# Contact, fracture and output, measured on the bundled cases (docs/estimates.md,
-# benchmarks/estimates.py): seconds per boundary face and step of the contact passes, the
-# fracture passes as a share of the element loop, seconds per element and frame written.
-CONTACT_SECONDS_PER_FACE_STEP = 1.0e-7
-FRACTURE_SHARE = 0.5
-FRAME_SECONDS_PER_ELEMENT = {"zlib": 7e-6, "none": 1.5e-6}
+# Contact, fracture, output and the run's own per-step work, from the seconds per pass of the
+# bundled cases (benchmarks/estimates.py, docs/estimates.md; 2 shared cores): the contact passes
+# took 1,000-3,400 ns per boundary face and step (median about 2,200), the fracture passes 1.1-1.7
+# times the element loop (with the node work they add), frame output 5-25 us per element and
+# frame (zlib), the loop's history row, watch and progress 170-650 us per step; setting up a
+# run (imports, loading the compiled kernels) 1-8 s; gmsh about 250 us per tetrahedron when the
+# mesh is not in the cache (a 17k-tet sphere in 4.7 s).
+CONTACT_SECONDS_PER_FACE_STEP = 2.2e-6
+FRACTURE_SHARE = 1.5
+FRAME_SECONDS_PER_ELEMENT = {"zlib": 12e-6, "none": 3e-6}
+RUN_SECONDS_PER_STEP = 3e-4
+SETUP_SECONDS = 3.0
+GMSH_SECONDS_PER_ELEMENT = 2.5e-4
 FACES_PER_H2 = 2.2  # boundary triangles per h^2 of surface (structured 2, gmsh about 2.3)
 # Peak memory: the interpreter with numpy, numba, gmsh and meshio loaded, and per element the
 # state, the integrator's buffers, the contact surface and the frames being written.
@@ -305,8 +323,9 @@ normal = [0, 0, 1]
 
 
 def _seconds_per_step(cells: int, seconds: float, chunk: int) -> tuple[int, float]:
-    """(elements, loop seconds per step) of the copper block run for about `seconds`: the median
-    over chunks of `chunk` steps, so a moment when other processes hold the cores counts little."""
+    """(elements, loop seconds per step) of the copper block run for about `seconds`: the fastest
+    of the chunks of `chunk` steps, since other processes holding the cores only ever slow a
+    chunk down (the median of a busy minute measured 4x the quiet figure)."""
     from impactsim.mesh import mesh_body
     from impactsim.solver.build import build_model
     from impactsim.solver.loop import Simulation
@@ -325,7 +344,7 @@ def _seconds_per_step(cells: int, seconds: float, chunk: int) -> tuple[int, floa
             sim.step()
             sim.energies(), sim.momentum()  # what a history row costs per step
         rates.append((wallclock.perf_counter() - t0) / chunk)
-    return model.n_elem, float(np.median(rates))
+    return model.n_elem, float(np.min(rates))
 
 
 def calibrate_speed(threads: int | None = None, seconds: float = 1.6, store: bool = True) -> dict:
@@ -457,10 +476,27 @@ def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = N
         parts["fracture"] = steps * elements * FRACTURE_SHARE * t_elem
     per_frame = FRAME_SECONDS_PER_ELEMENT[case.output.compression]
     parts["output"] = frames * elements * per_frame
+    parts["per-step output and checks"] = RUN_SECONDS_PER_STEP * steps
+    parts["setup"] = SETUP_SECONDS
+    if meshes is None:
+        parts["meshing"] = sum(GMSH_SECONDS_PER_ELEMENT * (n or 0) for b, n in zip(
+            case.bodies, per_body.values()) if b.mesher == "gmsh" and b.shape != "file"
+            and not _cached(b))
     return Estimate(elements=elements, per_body=per_body, l_min=l_min, wave_speed=c_max, dt=dt,
                     steps=steps, wall_seconds=sum(parts.values()), speed=speed,
                     unknown_bodies=unknown, threads=threads, memory_bytes=memory_bytes(elements),
                     seconds=parts, steps_needed=steps_needed)
+
+
+def _cached(body: Body) -> bool:
+    """The body's mesh is in the mesh cache (meshing it costs nothing then)."""
+    from impactsim.mesh import cache
+
+    try:
+        folder = cache.cache_dir()
+        return folder is not None and (folder / f"{cache.cache_key(body)}.npz").exists()
+    except Exception:  # noqa: BLE001  an estimate never fails on the cache
+        return False
 
 
 def run_threads(case: Case, elements: int) -> int:

@@ -217,3 +217,28 @@ def test_reproducers_of_issue_16(text_edit, fragment):
         load_case = load_case_text(text, source=SOURCE)
         describe_case(load_case, mesh=False)
     assert fragment in str(err.value) and "\n" not in str(err.value)
+
+
+override_keys = st.one_of(
+    st.sampled_from(["run.cfl", "run.end_time", "body.0.mesh_size", "body[0].velocity",
+                     "body.bar.position", "output.frames", "contact.passes", "run.name",
+                     "material.0.density", "body.9.size", "wall.0.normal", "checks.energy_balance",
+                     "body." + "9" * 5000 + ".x", "run", "body", ""]),
+    st.text(max_size=20))
+override_values = st.one_of(
+    st.sampled_from(["0.5", "1e99999999", '"1e99999999 us"', "[[[[[]]]]]", "nan", "inf", '"x"',
+                     "{a = 1}", "true", '"../../x"', "[" * 3000 + "]" * 3000, "1" * 5000, ""]),
+    st.text(max_size=20))
+
+
+@settings(max_examples=FAST_EXAMPLES, **FUZZ)
+@given(st.lists(st.tuples(override_keys, override_values), min_size=1, max_size=3))
+def test_fuzzed_overrides_end_clean(pairs):
+    text = (ROOT / "cases" / "elastic-bar-wall.toml").read_text()
+    try:
+        case = load_case_text(text, source=SOURCE, overrides=[f"{k}={v}" for k, v in pairs])
+        describe_case(case, mesh=False)
+    except CaseError as err:
+        assert str(err).startswith(str(SOURCE) + ": "), str(err)
+        return
+    sensible(case)
