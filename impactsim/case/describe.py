@@ -124,6 +124,11 @@ def what_would_run(case: Case) -> list[str]:
               f"# end time: {format_quantity(run.end_time, 'time')} "
               f"(at most {run.max_steps:,} steps)"]
     lines += [f"# warning: {w}" for w in warnings(case)]
+    from impactsim.solver.formulation import locking_hint
+
+    hint = locking_hint(case)
+    if hint:
+        lines.append(f"# hint: {hint}")
     from impactsim.case.estimate import estimate_lines
 
     lines += estimate_lines(case)
@@ -198,7 +203,9 @@ def _element_line(case: Case) -> str:
     eos = sorted({m.eos.model for m in used})
     thermal = any(m.strength.model == "johnson-cook" and m.strength.melt_temperature < 1e8
                   for m in used)
-    return (f"{case.run.element}, strength {'/'.join(strength)}, eos {'/'.join(eos)}, "
+    from impactsim.solver.formulation import element_reason, resolve_element
+
+    return (f"{resolve_element(case)} ({element_reason(case)}), strength {'/'.join(strength)}, eos {'/'.join(eos)}, "
             f"artificial viscosity C_q {case.run.q_quadratic:g} C_l {case.run.q_linear:g}"
             + (", adiabatic temperature" if thermal else ""))
 

@@ -12,6 +12,7 @@ import numpy as np
 from impactsim.case.schema import Case
 from impactsim.model import ERODED, Model
 from impactsim.solver.build import build_model
+from impactsim.solver.formulation import resolve_element
 from impactsim.solver.loop import Simulation, SimulationStopped
 from impactsim.solver.pipeline import build_passes, mach_warnings
 
@@ -116,7 +117,8 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
             f"{model.n_body} bodies; passes: " + (", ".join(p.name for p in passes) or "none"))
     for w in mach_warnings(case):
         bar.log("warning: " + w)
-    sim = Simulation(model, passes, cfl=case.run.cfl, element=case.run.element,
+    element = resolve_element(case)
+    sim = Simulation(model, passes, cfl=case.run.cfl, element=element,
                      cq=case.run.q_quadratic, cl=case.run.q_linear,
                      dt_collapse=case.run.dt_collapse)
     timings["setup"] = wallclock.perf_counter() - start - timings["meshing"]
@@ -221,6 +223,7 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
         "ns_per_element_step": (1e9 * sim.timings["element"] / (model.n_elem * model.step)
                                 if model.step else None),
         "passes": [p.name for p in passes],
+        "element": element,
         "energy": energies,
         "energy_balance_error": ((energies["total_energy"] - e0) / max(abs(e0), 1e-300)
                                  if e0 else 0.0),
