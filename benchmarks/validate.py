@@ -343,8 +343,7 @@ def report(results: list[dict]) -> str:
         d = (per["anp"]["residual_speed"] - per["tet4"]["residual_speed"]) \
             / per["tet4"]["residual_speed"]
         lines += ["", f"The two formulations differ by {100 * d:+.1f} % in the residual speed "
-                  "(anp's plate, which does not lock, lets the sphere through faster): at this "
-                  "mesh the element is a first-order source of uncertainty of a perforation, "
+                  "(not analysed further): at this mesh the element is a first-order source of uncertainty of a perforation, "
                   "larger than the 1 % [R20] claim against their experiment. anp ran this "
                   "contact scene to its end here, but collapsed the step in two others "
                   "(docs/physics.md), so contact scenes keep tet4 by default."]
