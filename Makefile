@@ -7,7 +7,7 @@ CASES := elastic-bar-wall taylor-bar two-cubes two-cylinders elastic-bars hertz-
 SWEEP ?= cases/sweeps/mesh-size.toml
 REV ?= HEAD
 
-.PHONY: setup test hard bench bench-quasistatic compare accuracy sweep cases demo clean
+.PHONY: setup test hard bench bench-quasistatic compare accuracy validate sweep cases demo clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -41,6 +41,11 @@ compare: setup
 # accuracy against cost: runs the studies, writes docs/accuracy.md and docs/accuracy/*.png
 accuracy: setup
 	$(BIN)/python benchmarks/accuracy.py
+
+# the validation ladder: Taylor bars, a plate impact, a perforation, both tet formulations;
+# writes docs/validation.md, docs/validation/*.png, benchmarks/validation_reference.json
+validate: setup
+	$(BIN)/python benchmarks/validate.py
 
 # the variants of a sweep file (docs/user-guide.md, Sweeps): make sweep SWEEP=cases/sweeps/x.toml
 sweep: setup

@@ -172,6 +172,11 @@ def what_would_run(case: Case, meshes: list | None = None) -> list[str]:
               f"# end time: {format_quantity(run.end_time, 'time')} "
               f"(at most {run.max_steps:,} steps)"]
     lines += [f"# warning: {w}" for w in warnings(case)]
+    from impactsim.solver.formulation import locking_hint
+
+    hint = locking_hint(case)
+    if hint:
+        lines.append(f"# hint: {hint}")
     from impactsim.case.estimate import estimate_lines
 
     lines += estimate_lines(case, meshes=meshes)
@@ -246,7 +251,10 @@ def _element_line(case: Case) -> str:
     eos = sorted({m.eos.model for m in used})
     thermal = any(m.strength.model == "johnson-cook" and m.strength.melt_temperature < 1e8
                   for m in used)
-    kinds = [case.run.element] if any(b.element != "hex8" for b in case.bodies) else []
+    from impactsim.solver.formulation import element_reason, resolve_element
+
+    tets = f"{resolve_element(case)} ({element_reason(case)})"
+    kinds = [tets] if any(b.element != "hex8" for b in case.bodies) else []
     kinds += [f"hex8 ({b.name}: {b.hourglass} hourglass control {b.hourglass_coefficient:g})"
               for b in case.bodies if b.element == "hex8"]
     return (f"{' + '.join(kinds)}, strength {'/'.join(strength)}, eos {'/'.join(eos)}, "

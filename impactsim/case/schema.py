@@ -132,7 +132,9 @@ class Run:
     name: str
     end_time: float  # [s]
     cfl: float = 0.6  # Courant number
-    element: str = "tet4"  # "tet4" | "anp" (averaged nodal pressure tet, Bonet & Burton 1998)
+    # "auto" | "tet4" | "anp" (averaged nodal pressure tet, Bonet & Burton 1998); "auto": anp
+    # with plastic materials, else tet4 (impactsim.solver.formulation)
+    element: str = "auto"
     q_quadratic: float = 1.2  # artificial viscosity C_q (q uses C_q^2 = 1.44, close to LS-DYNA Q1 = 1.5)
     q_linear: float = 0.06  # artificial viscosity C_l
     max_steps: int = 10_000_000

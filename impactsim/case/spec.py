@@ -88,7 +88,7 @@ def _d(cls: type, name: str) -> object:
     raise KeyError(f"{cls.__name__}.{name} has no default")
 
 
-ELEMENTS = ("tet4", "anp")
+ELEMENTS = ("auto", "tet4", "anp")
 STRENGTH_MODELS = ("elastic", "ideal-plastic", "johnson-cook")
 EOS_MODELS = ("linear", "mie-gruneisen")
 EROSION_CRITERIA = ("plastic-strain", "jc-damage", "principal-strain", "fractured")
@@ -135,7 +135,8 @@ RUN = Table("run", "Time integration and run control.", (
         "(smallest altitude / wave speed) goes unstable near 1 (energy gained at 0.99).",
         _d(schema.Run, "cfl")),
     Key("element", "choice", "Element formulation: constant-strain tet, or the averaged "
-        "nodal-pressure tet (Bonet & Burton 1998) against volumetric locking.",
+        "nodal-pressure tet (Bonet & Burton 1998) against volumetric locking; auto: anp when "
+        "a body's material is plastic, else tet4 (docs/physics.md).",
         _d(schema.Run, "element"), choices=ELEMENTS),
     Key("q_quadratic", "number", "Quadratic artificial viscosity coefficient C_q (>= 0).",
         _d(schema.Run, "q_quadratic")),

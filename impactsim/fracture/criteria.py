@@ -3,13 +3,29 @@
 Per live element e, after the element update of the step:
 
 1. Spall [D19 after Fomin et al.]: an intact element whose largest principal stress of
-   sigma = s - p I exceeds the material's spall strength becomes DAMAGED (the element kernel
-   then keeps only bulk compression: zero deviator, p >= 0).
-2. Loosening: a damaged element with chi = 1 - V0/V > chi* becomes FRACTURED (zero pressure).
+   sigma = s - p_patch I exceeds the material's spall strength becomes DAMAGED (the element
+   kernel then keeps only bulk compression: zero deviator, p >= 0). p_patch is the pressure
+   averaged over the patch of live elements around the element's four nodes (`patch_fields`:
+   volume-weighted nodal means, then the mean of the element's nodes), not the element's own.
+   The linear tet's own pressure carries the checkerboard mode of volumetric locking: in a
+   Taylor bar's foot single tets sat at -1.5 to -1.9 GPa (V/V0 = 1.02) inside a compressed
+   foot, so spall damaged cells of a compressive flow and loosening then fractured them (a
+   6061-T6 bar at 262 m/s: 431 damaged, 331 particles). The patch mean removes that mode (the
+   averaging the ANP tet applies to its EOS, Bonet & Burton 1998) and keeps a tensile field
+   resolved over a few cells, such as a plate impact's spall layer (docs/fracture.md, with
+   what it costs at coarse meshes).
+2. Loosening: a damaged element with chi = 1 - V0/V > chi* becomes FRACTURED (zero pressure):
+   the cell's own opening, as in [D19] (a crack opens one cell, not a patch).
 3. Johnson-Cook damage (materials with erosion = "jc-damage"): D += d eps_p / eps_f with
-   eps_f = (D1 + D2 exp(D3 s*)) (1 + D4 ln max(eps_dot*, 1)) (1 + D5 T*), s* = -p / sigma_eq the
-   stress triaxiality (capped at 1.5 as usual, where the fit is unreliable), T* the homologous
-   temperature of the strength model.
+   eps_f = (D1 + D2 exp(D3 s*)) (1 + D4 ln max(eps_dot*, 1)) (1 + D5 T*), s* = -p / sigma_eq
+   the stress triaxiality (capped at 1.5 as usual, where the fit is unreliable), T* the
+   homologous temperature of the strength model.
+3b. Melt and runaway strain (materials with failure data): a cell at or above the melt
+   temperature of its strength model (no strength left: the Johnson-Cook law ends there) or
+   with a plastic strain above MAX_PLASTIC_STRAIN is no longer a solid the tet can represent;
+   on the surface it becomes particles (mass, momentum and energy kept) like a fractured cell
+   (``MELT``, counted apart). Left in the mesh such cells at a Taylor bar's rim were stretched
+   into slivers that set the step to 0.6 ns.
 4. What leaves the mesh this step (``action``):
    PARTICLE  a FRACTURED element with a face on the body surface (4.1: one or several particles),
              unless the material's erosion criterion is "fractured" (then it erodes); also an
@@ -41,8 +57,9 @@ from impactsim.fracture.principal import max_principal, max_principal_stretch
 from impactsim.materials import params as P
 from impactsim.model import DAMAGED, ERODED, FRACTURED, INTACT
 
-NONE, PARTICLE, ERODE, GUARD = 0, 1, 2, 3
+NONE, PARTICLE, ERODE, GUARD, MELT = 0, 1, 2, 3, 4
 GUARD_FRACTION = 0.01  # [-] predicted V / V0 below which the distortion guard removes a cell
+MAX_PLASTIC_STRAIN = 200.0  # [-] a cell strained beyond this leaves the mesh (3b)
 TRIAXIALITY_CAP = 1.5
 
 
@@ -83,13 +100,31 @@ def jc_fracture_strain(mat_params, mk, pressure, seq, rate, temperature):
 
 
 @numba.njit(cache=True, parallel=True)
+def patch_fields(vol, vol0, pressure, status, n2e_ptr, n2e, pnode, jnode):
+    """Nodal means over the live elements around each node: pressure pnode_i = sum V_e p_e /
+    sum V_e and volume ratio jnode_i = sum V_e / sum V0_e (1 and 0 at a node without any)."""
+    for i in numba.prange(pnode.shape[0]):
+        vs = 0.0
+        v0s = 0.0
+        ps = 0.0
+        for k in range(n2e_ptr[i], n2e_ptr[i + 1]):
+            e = n2e[k] // 4
+            if status[e] != ERODED:
+                vs += vol[e]
+                v0s += vol0[e]
+                ps += vol[e] * pressure[e]
+        pnode[i] = ps / vs if vs > 0.0 else 0.0
+        jnode[i] = vs / v0s if v0s > 0.0 else 1.0
+
+
+@numba.njit(cache=True, parallel=True)
 def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p,
                       eps_p_prev, damage, eps_rate, temperature, mat_params, face_flag, adj,
-                      surface_only, dt, action):
+                      surface_only, dt, action, pnode, jnode):
     """Apply spall and loosening to ``status`` and decide ``action (e,) int8`` (module docstring).
 
     face_flag (4e,) bool free faces and adj (e,4) face neighbours at t = 0 (-1: none)
-    (impactsim.fracture.boundary.Boundary).
+    (impactsim.fracture.boundary.Boundary). pnode, jnode the nodal means of `patch_fields`.
     eps_p_prev (e,) plastic strain at the previous call (updated here). Returns
     (newly damaged, newly fractured, elements with an action).
     """
@@ -103,14 +138,16 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
         if st == ERODED:
             continue
         mk = elem_mat[e]
-        p = pressure[e]
+        i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
+        p = 0.25 * (pnode[i0] + pnode[i1] + pnode[i2] + pnode[i3])  # p_patch
         sxx, syy, szz = sdev[e, 0], sdev[e, 1], sdev[e, 2]
         sxy, syz, szx = sdev[e, 3], sdev[e, 4], sdev[e, 5]
         spall = mat_params[mk, P.SPALL]
         # Gershgorin's bound on the largest principal stress first: most cells are far below
         # the spall strength and skip the closed-form eigenvalue
-        if st == INTACT and max(sxx + abs(sxy) + abs(szx), syy + abs(sxy) + abs(syz),
-                                szz + abs(syz) + abs(szx)) - p > spall:
+        if st == INTACT and max(
+                sxx + abs(sxy) + abs(szx), syy + abs(sxy) + abs(syz),
+                szz + abs(syz) + abs(szx)) - p > spall:
             if max_principal(sxx - p, syy - p, szz - p, sxy, syz, szx) > spall:
                 st = DAMAGED
                 n_dam += 1
@@ -132,13 +169,15 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
         act = NONE
         if st == FRACTURED and on_surface and code != 4:
             act = PARTICLE
+        elif failing and on_surface and (temperature[e] >= mat_params[mk, P.T_MELT]
+                                         or eps_p[e] > MAX_PLASTIC_STRAIN):
+            act = MELT  # molten or runaway strain (3b): particles
         elif (failing and face_flag[4 * e] and face_flag[4 * e + 1] and face_flag[4 * e + 2]
               and face_flag[4 * e + 3] and (adj[e, 0] >= 0 or adj[e, 1] >= 0
                                             or adj[e, 2] >= 0 or adj[e, 3] >= 0)):
             act = PARTICLE  # a one-cell fragment: every face neighbour has left the mesh
         elif code != 0 and (on_surface or not surface_only):
             val = mat_params[mk, P.EROSION_VALUE]
-            i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
             if code == 1:
                 hit = eps_p[e] >= val
             elif code == 2:
@@ -150,7 +189,6 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
             if hit:
                 act = ERODE
         if act == NONE and failing:
-            i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
             lim = 6.0 * GUARD_FRACTION * vol0[e]
             if (_volume6(x, v, 1.1 * dt, i0, i1, i2, i3) < lim
                     or _volume6(x, v, 2.2 * dt, i0, i1, i2, i3) < lim):

@@ -4,10 +4,14 @@ mass-weighted mean velocity of its largest remaining fragment) and, for a plate,
 Fragments: connected components of a body's live elements through shared faces
 (impactsim.mesh.topology.face_adjacency). Plates: a body whose initial nodes have a thickness
 (extent along the smallest principal axis of their spread) below a quarter of the next extent.
-Hole: the plate's live elements, at their current positions, are projected onto its initial
-mid-plane and rasterised on a grid of cell size h/2 (h the mean initial edge length); uncovered
-cells not connected to the grid border are holes. The largest hole is reported by its area, the
-diameter of the circle of that area, and its extent along the plate's two in-plane axes.
+Hole: the live elements of the plate's largest connected piece (its most elements; detached
+plugs, petals and spall fragments still flying below the plate are not the plate), at their
+current positions, are projected onto its initial mid-plane and rasterised on a grid of cell
+size h/2 (h the mean initial edge length); uncovered cells not connected to the grid border are
+holes. The largest hole is reported by its area, the diameter of the circle of that area, and
+its extent along the plate's two in-plane axes; `definition` names this definition in
+summary.json. Counting every live element instead made the hole smaller than the opening a
+reader measures on the plate itself whenever a plug or fragment flew just below it.
 Debris: the particles that came from a body (their number, mass and mean velocity), and the mean
 velocity of all of a body's material, for a projectile that has broken up.
 """
@@ -23,6 +27,8 @@ from impactsim.mesh.topology import face_adjacency
 from impactsim.model import ERODED
 
 MAX_CELLS = 1200  # raster cells per axis at most
+HOLE_DEFINITION = ("largest uncovered region, enclosed by the plate, of the projection onto "
+                   "the initial mid-plane of the plate's largest connected piece")
 
 
 def fragments(conn, active):
@@ -117,14 +123,14 @@ def hole_size(x, x0, conn, live, h):
     sizes[border] = 0
     if sizes.max() == 0:
         return {"area": 0.0, "diameter_equivalent": 0.0, "extent": [0.0, 0.0], "axes":
-                [a1.tolist(), a2.tolist()]}
+                [a1.tolist(), a2.tolist()], "definition": HOLE_DEFINITION}
     k = int(np.argmax(sizes))
     ii, jj = np.nonzero(lab == k)
     area = float(sizes[k]) * cell * cell
     return {"area": area, "diameter_equivalent": math.sqrt(4.0 * area / math.pi),
             "extent": [float((ii.max() - ii.min() + 1) * cell),
                        float((jj.max() - jj.min() + 1) * cell)],
-            "axes": [a1.tolist(), a2.tolist()]}
+            "axes": [a1.tolist(), a2.tolist()], "definition": HOLE_DEFINITION}
 
 
 def body_measures(model, node_live=None, particles=None) -> dict:
@@ -145,11 +151,13 @@ def body_measures(model, node_live=None, particles=None) -> dict:
         x, x0 = model.x[ns], model.x0[ns]
         m, v = model.mass[ns], model.v[ns]
         info = {"remaining_elements": int(live.sum())}
+        piece = live
         if live.any():
             lab, nfrag = fragments(conn, live)
             counts = np.bincount(lab[lab >= 0], minlength=nfrag)
             big = int(np.argmax(counts))
-            nodes = np.unique(conn[lab == big])
+            piece = lab == big
+            nodes = np.unique(conn[piece])
             mm = m[nodes]
             vel = (mm @ v[nodes]) / mm.sum() if mm.sum() > 0 else np.zeros(3)
             info.update(fragments=nfrag, residual_velocity=vel.tolist(),
@@ -160,7 +168,7 @@ def body_measures(model, node_live=None, particles=None) -> dict:
                         largest_fragment_mass=0.0)
         e01 = x0[conn[:, 1]] - x0[conn[:, 0]]
         h = float(np.sqrt((e01 * e01).sum(axis=1)).mean()) if conn.shape[0] else 0.0
-        hole = hole_size(x, x0, conn, live, h) if conn.shape[0] else None
+        hole = hole_size(x, x0, conn, piece, h) if conn.shape[0] else None
         if hole is not None:
             info["hole"] = hole
         if particles is not None:

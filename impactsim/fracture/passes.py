@@ -65,7 +65,11 @@ class FractureState:
         self.h_face = float(d.mean())  # [m] mean edge length of the free faces at t = 0
         self.eps_p_prev = model.eps_p.copy()
         self.mass_initial = float(model.mass.sum())
-        self.counts = {"damaged": 0, "fractured": 0, "eroded": 0, "converted": 0, "guard": 0}
+        self.counts = {"damaged": 0, "fractured": 0, "eroded": 0, "converted": 0, "guard": 0,
+                       "melt": 0}
+        # nodal means of pressure and volume ratio over the live elements (criteria.patch_fields)
+        self.pnode = np.zeros(model.n_node)
+        self.jnode = np.ones(model.n_node)
         model.energy_terms.setdefault("eroded", 0.0)
         model.energy_terms["particles"] = 0.0
 
@@ -92,11 +96,13 @@ class FracturePass(Pass):
     def run(self, model, dt):
         s = self.s
         b = s.boundary
+        C.patch_fields(model.vol, model.vol0, model.pressure, model.status, model.n2e_ptr,
+                       model.n2e, s.pnode, s.jnode)
         n_dam, n_frac, n_act = C.fracture_criteria(
             model.x, model.v, model.x0, model.conn, model.elem_mat, model.status, model.sdev,
             model.pressure, model.vol, model.vol0, model.eps_p, s.eps_p_prev, model.damage,
             model.eps_rate, model.temperature, model.mat_params, b.face_flag, b.adj,
-            s.surface_only, dt, s.action)
+            s.surface_only, dt, s.action, s.pnode, s.jnode)
         s.counts["damaged"] += int(n_dam)
         s.counts["fractured"] += int(n_frac)
         if n_act:
@@ -108,10 +114,11 @@ class FracturePass(Pass):
         s = self.s
         kinds = s.action[ids]
         s.counts["guard"] += int(np.count_nonzero(kinds == C.GUARD))
+        s.counts["melt"] += int(np.count_nonzero(kinds == C.MELT))
         pa = s.particles
         pa.reserve(s.n_per * ids.shape[0])
         n_p, e_out, n_er, n_conv = remove_elements(
-            ids, kinds == C.PARTICLE, model.conn, model.status, model.elem_mass, model.energy,
+            ids, (kinds == C.PARTICLE) | (kinds == C.MELT), model.conn, model.status, model.elem_mass, model.energy,
             model.elem_body, model.x, model.v, model.mass, s.node_live, s.n_per, pa.x, pa.v,
             pa.m, pa.radius, pa.energy, pa.body, pa.n)
         pa.n = int(n_p)
@@ -149,6 +156,7 @@ class FracturePass(Pass):
                              "eroded": s.counts["eroded"],
                              "converted_to_particles": s.counts["converted"],
                              "distortion_guard": s.counts["guard"],
+                             "molten_or_runaway_strain": s.counts["melt"],
                              "particles_per_element": s.n_per,
                              "particle_mass": pa.mass(),
                              "particle_momentum": pa.momentum().tolist(),

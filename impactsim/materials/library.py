@@ -1,4 +1,5 @@
-"""The built-in material library: named materials with their sources (library.toml).
+"""The built-in material library: named materials with their sources and the tests or experiments
+they were checked against (library.toml).
 
 An entry is a raw [[material]] table (values as written, units as strings); the case reader
 merges it with the keys a case gives and validates the result. ``get`` answers to an entry's
@@ -45,11 +46,19 @@ def canonical(name: str) -> str | None:
 
 
 def get(name: str) -> dict:
-    """A copy of the entry (a raw [[material]] table without `aliases`); KeyError if unknown."""
+    """A copy of the entry (a raw [[material]] table without `aliases` and `checked_against`);
+    KeyError if unknown."""
     entries, _ = _entries()
     key = canonical(name)
     if key is None:
         raise KeyError(f"no material {name!r} in the library")
     entry = copy.deepcopy(entries[key])
     entry.pop("aliases", None)
+    entry.pop("checked_against", None)
     return entry
+
+
+def checked_against(name: str) -> str:
+    """The tests and experiments an entry was checked against (its `checked_against`)."""
+    entries, _ = _entries()
+    return entries[canonical(name)].get("checked_against", "")

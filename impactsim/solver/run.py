@@ -16,6 +16,7 @@ from impactsim.output.fields import header as history_header
 from impactsim.solver import checkpoint as ckpt
 from impactsim.solver.build import build_model
 from impactsim.solver.derived import body_velocities, velocity_columns, wall_measures
+from impactsim.solver.formulation import resolve_element
 from impactsim.solver.loop import Simulation, SimulationStopped
 from impactsim.solver.pipeline import build_passes, mach_warnings
 
@@ -216,7 +217,8 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
             "; " + line for line in estimate.detail_lines()))
         for w in mach_warnings(case):
             bar.log("warning: " + w)
-        sim = Simulation(model, passes, cfl=case.run.cfl, element=case.run.element,
+        element = resolve_element(case)
+        sim = Simulation(model, passes, cfl=case.run.cfl, element=element,
                          cq=case.run.q_quadratic, cl=case.run.q_linear,
                          dt_collapse=case.run.dt_collapse)
         if chk.negative_volume == "erode":
@@ -411,6 +413,7 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
         "ns_per_element_step": (1e9 * sim.timings["element"] / (n_elem * model.step)
                                 if model.step and n_elem else None),
         "passes": [p.name for p in passes],
+        "element": element,
         "energy": energies,
         "energy_balance_error": ((energies["total_energy"] - e0) / max(abs(e0), 1e-300)
                                  if e0 else 0.0),

@@ -115,3 +115,24 @@ def test_self_contact_turns_contact_on_for_one_body(tmp_path):
     path = tmp_path / "bar.toml"
     path.write_text(ONE_ELASTIC_BAR + "[contact]\nself_contact = true\npasses = [\"node-face\"]\n")
     assert ("velocity", "contact.node-face") in active_passes(load_case(path))
+
+
+def test_check_hints_at_a_locking_element(tmp_path):
+    """tet4 asked for with a plastic material gets a one-line hint; the default (auto: anp for
+    a plastic body on a wall, tet4 with contact between bodies or elastic materials) gets
+    none, and the element line says what auto chose and why."""
+    case = tmp_path / "c.toml"
+    runner = CliRunner()
+    case.write_text(ONE_ELASTIC_BAR.replace('"steel-elastic"', '"ofhc-copper"'))
+    out = runner.invoke(main, ["check", str(case)]).output
+    assert "# hint:" not in out
+    assert "element update: anp (auto: plastic material 'ofhc-copper')" in out
+    out = runner.invoke(main, ["check", str(case), "--set", 'run.element="tet4"']).output
+    hints = [line for line in out.splitlines() if line.startswith("# hint:")]
+    assert len(hints) == 1 and "locks" in hints[0] and "anp" in hints[0]
+    case.write_text(TWO_BODIES)
+    out = runner.invoke(main, ["check", str(case)]).output
+    assert "# hint:" not in out and "element update: tet4 (auto: contact between bodies)" in out
+    case.write_text(ONE_ELASTIC_BAR)
+    out = runner.invoke(main, ["check", str(case), "--set", 'run.element="tet4"']).output
+    assert "# hint:" not in out and "element update: tet4" in out

@@ -164,7 +164,7 @@ def test_minimal_case_fills_defaults(tmp_path):
     case = load(tmp_path, BASE)
     assert case.run.name == "case"  # the file stem
     assert case.run.end_time == 1e-5
-    assert case.run.cfl == 0.6 and case.run.element == "tet4"
+    assert case.run.cfl == 0.6 and case.run.element == "auto"
     body = case.bodies[0]
     assert body.dimensions == {"size": (0.01, 0.01, 0.002)}
     assert body.mesh_size == 0.001 and body.mesher == "gmsh"

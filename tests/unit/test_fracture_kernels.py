@@ -73,7 +73,9 @@ def _fracture_model(failure, **frac):
 
 
 def test_spall_then_loosening_thresholds():
-    """sigma_1 > sigma* marks DAMAGED (only intact cells); chi = 1 - V0/V > chi* FRACTURED."""
+    """sigma_1 of s - p_patch I > sigma* marks DAMAGED (only intact cells), with the pressure
+    averaged over the patch of cells around the element's nodes (criteria.patch_fields);
+    chi = 1 - V0/V > chi* FRACTURED."""
     model, passes = _fracture_model(Failure(spall_strength=1e9, loosening=0.03))
     frac = passes[-1]
     n = model.n_elem
@@ -81,16 +83,49 @@ def test_spall_then_loosening_thresholds():
     model.sdev[:] = 0.0
     model.sdev[0, 3] = 1.1e9  # pure shear 1.1 GPa: sigma_1 = 1.1 GPa > 1 GPa
     model.sdev[1, 3] = 0.9e9
-    model.pressure[2] = -1.2e9  # hydrostatic tension 1.2 GPa
     frac.run(model, 1e-9)
-    assert model.status[0] == DAMAGED and model.status[2] == DAMAGED
-    assert model.status[1] == INTACT and np.all(model.status[3:] == INTACT)
-    # loosening: chi just below and above 0.03
+    assert model.status[0] == DAMAGED
+    assert np.all(model.status[1:] == INTACT)
+    # one cell in tension 1.2 GPa among unloaded neighbours: a checkerboard mode, not a tensile
+    # field, and its patch mean is far below the spall strength
+    model.pressure[2] = -1.2e9
+    frac.run(model, 1e-9)
+    assert model.status[2] == INTACT
+    # a tensile field of 1.2 GPa: every cell spalls
+    model.pressure[:] = -1.2e9
+    frac.run(model, 1e-9)
+    assert np.all(model.status == DAMAGED)
+    model.pressure[:] = 0.0
+    # loosening on the cell's own volume: chi just below and above 0.03
     model.vol[0] = model.vol0[0] / (1 - 0.029)
     model.vol[2] = model.vol0[2] / (1 - 0.031)
     frac.run(model, 1e-9)
     assert model.status[0] == DAMAGED and model.status[2] in (FRACTURED, ERODED)
     assert n == model.n_elem
+
+
+def test_molten_surface_cell_becomes_particles():
+    """A cell at the melt temperature (or strained past MAX_PLASTIC_STRAIN) on the surface
+    leaves the mesh as particles with its mass; one inside stays until it is exposed."""
+    from impactsim.case.schema import Strength
+    from impactsim.fracture import criteria as C
+
+    mat = material(name="m", failure=Failure(spall_strength=1e12),
+                   strength=Strength(model="johnson-cook", A=1e8, B=1e8, n=0.3, C=0.0, m=1.0,
+                                     melt_temperature=1000.0, room_temperature=293.0))
+    model, case = box_model(mat, h=0.5)
+    case.fracture = Fracture()
+    passes = make_fracture_passes(case, model)
+    frac = passes[-1]
+    m0 = model.mass.sum()
+    model.temperature[0] = 1000.0
+    model.eps_p[1] = C.MAX_PLASTIC_STRAIN * 1.01
+    frac.run(model, 1e-9)
+    assert model.status[0] == ERODED and model.status[1] == ERODED
+    assert np.all(model.status[2:] != ERODED)
+    s = frac.summary(model)
+    assert s["fracture"]["molten_or_runaway_strain"] == 2 and s["particles"] == 2
+    assert s["mass_final"] == pytest.approx(m0, rel=1e-14)
 
 
 def _random_removal(n_per, seed):
@@ -212,3 +247,21 @@ def test_fractured_elements_set_no_time_step_limit():
     sim._update_elements(0.0)
     assert sim.dt_stable == np.inf
     assert np.all(model.force == 0.0)
+
+
+def test_hole_is_measured_on_the_plates_largest_piece():
+    """A plug still in the plate's plane (a ring of cells around it eroded, the plug itself
+    intact and flying with the plate) is not plate: the hole is the whole opening, the ring
+    and the plug together, not the ring alone."""
+    from impactsim.fracture.measures import HOLE_DEFINITION, body_measures
+
+    model, _ = box_model(material(), size=(20e-3, 20e-3, 2e-3), h=1e-3)
+    c = model.x[model.conn].mean(axis=1)
+    r = np.hypot(c[:, 0], c[:, 1])
+    model.status[(r >= 3e-3) & (r < 5e-3)] = ERODED
+    info = body_measures(model)["box"]
+    assert info["fragments"] == 2
+    hole = info["hole"]
+    assert hole["definition"] == HOLE_DEFINITION
+    # the ring alone would be pi (5^2 - 3^2) = 50 mm^2; the opening is pi 5^2 = 79 mm^2
+    assert np.pi * 4.5e-3 ** 2 < hole["area"] < np.pi * 5.5e-3 ** 2

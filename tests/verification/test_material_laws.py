@@ -236,7 +236,10 @@ def test_johnson_cook_simple_shear(rate, isothermal):
     _compare(COPPER, simple_shear(rate), 2.0 / rate, 600, isothermal=isothermal)
 
 
-@pytest.mark.parametrize("name", ["ofhc-copper", "al-2024-t3", "al-6061-t6", "steel-4340"])
+JC_METALS = ["ofhc-copper", "al-2024-t3", "al-6061-t6", "steel-4340"]
+
+
+@pytest.mark.parametrize("name", JC_METALS)
 def test_adiabatic_shear_softens_to_melt(name):
     """Every Johnson-Cook library metal, in adiabatic simple shear at 1e4 1/s to gamma = 12
     from T* = 0.8 until T* > 0.9 (the aluminium alloys above 0.98, where their yield stress
@@ -259,10 +262,15 @@ def test_adiabatic_shear_softens_to_melt(name):
     assert np.max(np.abs(eps[plastic] - eps_ref[plastic]) / eps_ref[plastic]) < TOL
 
 
+PRANDTL_REUSS = ["steel-52100", "al-ideal-plastic"]
+
+
+@pytest.mark.parametrize("name", PRANDTL_REUSS)
 @pytest.mark.parametrize("path", ["uniaxial-strain", "simple-shear"])
-def test_prandtl_reuss(path):
-    """Ideal plasticity (steel-52100: Y0 = 2 GPa), rate- and temperature-independent."""
-    mat = library_material("steel-52100")
+def test_prandtl_reuss(path, name):
+    """Ideal plasticity (steel-52100: Y0 = 2 GPa; al-ideal-plastic: 345 MPa), rate- and
+    temperature-independent."""
+    mat = library_material(name)
     L = uniaxial_strain(1e3) if path == "uniaxial-strain" else simple_shear(1e3)
     _compare(mat, L, 0.2e-3 if path == "uniaxial-strain" else 2e-3, 500)
 
@@ -276,7 +284,7 @@ def test_anp_element_gives_the_same_material_response():
 # --- Mie-Grueneisen ---------------------------------------------------------------------------
 
 MG_METALS = ["ofhc-copper", "al-2024-t3", "al-6061-t6", "steel-4340", "steel-52100",
-             "steel-generic"]
+             "steel-generic", "al-ideal-plastic"]
 
 
 def mg_pressure(mat: Material, rho, e):

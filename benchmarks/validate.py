@@ -1,0 +1,383 @@
+"""The validation ladder (issue 17, item 2): `make validate` runs every rung with each tet
+formulation and writes docs/validation.md (tables), docs/validation/*.png (plots) and
+benchmarks/validation_reference.json (the stored results the cheap rung of `make test` checks,
+tests/verification/test_validation_rung.py).
+
+    python benchmarks/validate.py              # run the ladder, write the report
+    python benchmarks/validate.py --report-only  # rewrite the report from out/validation/
+
+Rungs (each with tet4 and anp; modest resolutions, for a shared two-core machine):
+- Taylor bars: OFHC copper at 190 m/s (the bundled case), 6061-T6 at 373 m/s and 4340 at
+  343 m/s (7.62 x 25.4 mm rods): final length, foot diameter, cells fractured, wall time; the
+  measured values where a reference is on record here (REFERENCES, with their status);
+- a symmetric plate impact (6061-T6 onto 6061-T6 at 500 m/s, uniaxial strain): the rear free
+  surface's velocity history, its plateau against the impact speed (the free-surface
+  approximation u_fs = 2 u_p, u_p = V/2 exactly by symmetry) and the pull-back signal of the
+  spall, its acoustic spall-strength estimate rho0 c0 du / 2 against the 1.6 GPa the material
+  was given;
+- a perforation: the bundled oblique-sphere case [R20] at the coarse test mesh, the sphere's
+  residual velocity and the hole.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+OUT = ROOT / "out" / "validation"
+DOC = ROOT / "docs" / "validation.md"
+FIG = ROOT / "docs" / "validation"
+STORED = ROOT / "benchmarks" / "validation_reference.json"
+ELEMENTS = ("tet4", "anp")
+
+# measured values on record here, with how sure we are of them
+REFERENCES = {
+    "taylor-cu-190": {"length_mm": 16.2, "source": "Johnson & Cook (1983), OFHC copper Taylor "
+                      "test, 7.62 x 25.4 mm at 190 m/s, as quoted in cases/taylor-bar.toml; "
+                      "not confirmed against the original paper in this session (unsure)"},
+}
+
+TAYLOR = """
+[run]
+name = "{name}"
+end_time = "{end} us"
+element = "{element}"
+
+[[body]]
+name = "rod"
+material = "{material}"
+shape = "cylinder"
+diameter = "7.62 mm"
+height = "25.4 mm"
+axis = [0, 0, 1]
+position = ["0 mm", "0 mm", "12.7001 mm"]
+mesh_size = "{h} mm"
+velocity = ["0 m/s", "0 m/s", "-{speed} m/s"]
+
+[[wall]]
+point = [0, 0, 0]
+normal = [0, 0, 1]
+
+[output]
+frames = 1
+"""
+
+TAYLORS = [  # name, material, speed [m/s], mesh size [mm], end [us]
+    ("taylor-cu-190", "ofhc-copper", 190.0, 0.8, 80.0),
+    ("taylor-6061-373", "al-6061-t6", 373.0, 1.0, 60.0),
+    ("taylor-4340-343", "steel-4340", 343.0, 1.0, 40.0),
+]
+
+
+def taylor_measures(out: Path) -> dict:
+    import meshio
+
+    frame = sorted(out.glob("frame_*.vtu"))[-1]
+    x = np.asarray(meshio.read(frame).points)
+    return {"length_mm": 1e3 * float(np.ptp(x[:, 2])),
+            "foot_diameter_mm": 2e3 * float(np.hypot(x[:, 0], x[:, 1]).max())}
+
+
+def run_taylor(name, material, speed, h, end, element) -> dict:
+    from impactsim.case import load_case_text
+    from impactsim.solver.run import run_case
+
+    case = load_case_text(TAYLOR.format(name=name, end=end, element=element,
+                                        material=material, h=h, speed=speed))
+    out = OUT / f"{name}-{element}"
+    t0 = time.perf_counter()
+    s = run_case(case, out, progress=False)
+    wall = time.perf_counter() - t0
+    res = {"rung": name, "element": element, "h_mm": h, "elements": s["elements"],
+           "steps": s["steps"], "wall_s": wall, "energy_balance_error": s["energy_balance_error"],
+           "stopped": s["stopped"]}
+    res.update(taylor_measures(out))
+    f = s.get("fracture")
+    res["fractured_cells"] = (f["fractured_total"] + f["damaged_total"]) if f else 0
+    return res
+
+
+def run_plate(element: str) -> dict:
+    """Symmetric 6061-T6 plate impact in uniaxial strain: flyer F = 2 mm, target T = 4 mm,
+    500 m/s closing speed, h = 0.1 mm, one column of cells held in x and y; the target's rear
+    free-surface velocity every step."""
+    from impactsim.case.material import library_material
+    from impactsim.case.schema import Constraint, NodeSelector
+    from impactsim.mesh.structured import structured_box
+    from impactsim.solver.build import build_model
+    from impactsim.solver.loop import Simulation
+    from impactsim.solver.pipeline import build_passes
+    from tests.builders import box_case
+
+    F, T, h, u = 2e-3, 4e-3, 0.1e-3, 500.0
+    mat = library_material("al-6061-t6")
+    case = box_case(mat, size=(h, h, F + T), h=h)
+    case.bodies[0].constraints = [Constraint(NodeSelector("all"), (0.0, 0.0, None))]
+    pts, tets = structured_box((h, h, F + T), h)
+    model = build_model(case, [(pts, tets)])
+    z = model.x[:, 2]
+    z_if = -(F + T) / 2 + F
+    model.v[:, 2] = np.where(z < z_if - 1e-9, 0.5 * u, np.where(z > z_if + 1e-9, -0.5 * u, 0.0))
+    rear = np.isclose(z, (F + T) / 2)
+    sim = Simulation(model, build_passes(case, model), cfl=0.5, element=element)
+    t0 = time.perf_counter()
+    ts, us = [], []
+    c0 = mat.eos.c0
+    while model.time < 3.2e-6:
+        sim.step()
+        ts.append(model.time)
+        us.append(float(model.v[rear, 2].mean()))  # +z: away from the target
+    wall = time.perf_counter() - t0
+    ts, us = np.array(ts), np.array(us)
+    # the target moves at -u/2 before the shock arrives; the free surface's velocity change
+    # jumps to 2 u_p = u in a symmetric impact
+    rel = us + 0.5 * u
+    peak_i = int(np.argmax(rel))
+    peak = float(np.median(rel[max(peak_i - 5, 0):peak_i + 6]))
+    after = rel[peak_i:]
+    pull = float(peak - after.min()) if after.size else 0.0
+    np.savez(OUT / f"plate-{element}.npz", t=ts, u=rel)
+    return {"rung": "plate-6061-500", "element": element, "h_mm": 0.1,
+            "elements": model.n_elem, "steps": model.step, "wall_s": wall,
+            "free_surface_plateau": peak, "impact_speed": u, "pullback": pull,
+            "spall_estimate_gpa": 0.5 * mat.density * c0 * pull / 1e9,
+            "spall_given_gpa": mat.failure.spall_strength / 1e9,
+            "damaged": int(np.count_nonzero(model.status > 0))}
+
+
+def run_perforation(element: str) -> dict:
+    from impactsim.case import load_case
+    from impactsim.solver.run import run_case
+
+    over = ['body.0.mesh_size="1.8 mm"', 'body.1.mesh_size="1.4 mm"', 'run.end_time="30 us"',
+            'output.frames=1', f'run.element="{element}"']
+    case = load_case(ROOT / "cases" / "oblique-sphere.toml", over)
+    out = OUT / f"oblique-sphere-{element}"
+    t0 = time.perf_counter()
+    s = run_case(case, out, progress=False)
+    wall = time.perf_counter() - t0
+    b = s["bodies"]
+    v = b["sphere"]["residual_velocity"]
+    hole = b["plate"].get("hole", {})
+    return {"rung": "oblique-sphere-1001", "element": element, "h_mm": 1.4,
+            "elements": s["elements"], "steps": s["steps"], "wall_s": wall,
+            "residual_speed": float(np.linalg.norm(v)),
+            "angle_deg": math.degrees(math.atan2(math.hypot(v[0], v[1]), -v[2])),
+            "hole_diameter_mm": 1e3 * hole.get("diameter_equivalent", 0.0),
+            "energy_balance_error": s["energy_balance_error"], "stopped": s["stopped"]}
+
+
+def run_all() -> list[dict]:
+    OUT.mkdir(parents=True, exist_ok=True)
+    results = []
+    for element in ELEMENTS:
+        for args in TAYLORS:
+            results.append(run_taylor(*args, element))
+            print(json.dumps(results[-1]), flush=True)
+        results.append(run_plate(element))
+        print(json.dumps(results[-1]), flush=True)
+        results.append(run_perforation(element))
+        print(json.dumps(results[-1]), flush=True)
+    (OUT / "results.json").write_text(json.dumps(results, indent=1))
+    return results
+
+
+def _fmt(v, nd=3):
+    if v is None:
+        return "–"
+    if isinstance(v, float):
+        return f"{v:.{nd}g}" if abs(v) < 1e4 else f"{v:,.0f}"
+    return f"{v:,}" if isinstance(v, int) else str(v)
+
+
+def plots(results: list[dict]) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    FIG.mkdir(parents=True, exist_ok=True)
+    fig, ax = plt.subplots(figsize=(6, 3.5))
+    for element in ELEMENTS:
+        f = OUT / f"plate-{element}.npz"
+        if f.exists():
+            d = np.load(f)
+            ax.plot(1e6 * d["t"], d["u"], label=element)
+    ax.axhline(500.0, color="grey", lw=0.8, ls="--", label="impact speed = 2 u_p")
+    ax.set_xlabel("t [us]")
+    ax.set_ylabel("free-surface velocity [m/s]")
+    ax.set_title("6061-T6 symmetric plate impact, 500 m/s")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(FIG / "plate-free-surface.png", dpi=110)
+    plt.close(fig)
+    tay = [r for r in results if r["rung"].startswith("taylor")]
+    if tay:
+        fig, ax = plt.subplots(figsize=(6, 3.5))
+        names = sorted({r["rung"] for r in tay})
+        xs = np.arange(len(names))
+        for k, element in enumerate(ELEMENTS):
+            vals = [next((r["foot_diameter_mm"] for r in tay if r["rung"] == n
+                          and r["element"] == element), np.nan) for n in names]
+            ax.bar(xs + 0.35 * k, vals, 0.35, label=element)
+        ax.set_xticks(xs + 0.175, names, fontsize=8)
+        ax.set_ylabel("foot diameter [mm]")
+        ax.legend()
+        fig.tight_layout()
+        fig.savefig(FIG / "taylor-foot.png", dpi=110)
+        plt.close(fig)
+
+
+def report(results: list[dict]) -> str:
+    import numba
+    import numpy
+
+    lines = ["# Validation ladder", "",
+             "<!-- Generated by `make validate` (python benchmarks/validate.py); "
+             "`python benchmarks/validate.py --report-only` rewrites it from "
+             "out/validation/results.json. Do not edit by hand. -->", "",
+             f"Generated on {time.strftime('%Y-%m-%d')} (Python {platform.python_version()}, "
+             f"numpy {numpy.__version__}, numba {numba.__version__}); the two-core machine was "
+             "shared with other work, so wall times carry its load. Each rung runs with both tet "
+             "formulations (`run.element`: `tet4`, the constant-strain tet; `anp`, the "
+             "averaged-nodal-pressure tet, the default for plastic bodies without contact between "
+             "bodies: docs/physics.md).", "",
+             "**Resolution.** The copper bar runs at 0.8 mm, where the accuracy study "
+             "(docs/accuracy.md, taylor-mesh) has its length within 0.1 % and the anp foot "
+             "within 0.4 % of the 0.635 mm run; the 6061-T6 and 4340 bars at 1.0 mm and the "
+             "perforation at the test suite's coarse mesh are not shown converged (no study of "
+             "them here; machine time). Read their element-to-element differences, not their "
+             "last digits.", "",
+             "**What is measured against what.** Measured values are used only where one is on "
+             "record here with its source; the status of each is given. Where none is (6061-T6 "
+             "and 4340 Taylor bars, the perforation), the rung records the two formulations' "
+             "results and the physics checks that need no measurement (no fracture in a Taylor "
+             "bar; the free-surface plateau of a symmetric impact).", ""]
+    lines += ["## Taylor bars", "",
+              "7.62 mm x 25.4 mm rods onto a rigid wall. Length and foot diameter of the last "
+              "frame; `fractured` counts cells that spall damaged or loosened (docs/fracture.md: "
+              "none in a Taylor foot; the 6061-T6 bar at 373 m/s damages a few cells on its "
+              "axis near the impact face, where the lateral release converges, see 'Not "
+              "settled' there).", "",
+              "| rung | element | h [mm] | elements | steps | wall s | length [mm] | measured "
+              "[mm] | error | foot [mm] | fractured | energy balance |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in results:
+        if not r["rung"].startswith("taylor"):
+            continue
+        ref = REFERENCES.get(r["rung"], {}).get("length_mm")
+        err = f"{100 * (r['length_mm'] - ref) / ref:+.1f} %" if ref else "–"
+        lines.append(f"| {r['rung']} | {r['element']} | {r['h_mm']} | {r['elements']:,} | "
+                     f"{r['steps']:,} | {r['wall_s']:.1f} | {r['length_mm']:.3f} | "
+                     f"{_fmt(ref)} | {err} | {r['foot_diameter_mm']:.3f} | "
+                     f"{r['fractured_cells']} | {r['energy_balance_error']:+.1e} |")
+    cu = {r["element"]: r for r in results if r["rung"] == "taylor-cu-190"}
+    ref = REFERENCES["taylor-cu-190"]["length_mm"]
+    if len(cu) == 2:
+        d_el = abs(cu["tet4"]["length_mm"] - cu["anp"]["length_mm"]) / ref
+        err = (cu["anp"]["length_mm"] - ref) / ref
+        lines += ["", f"**Where the copper bar's length error comes from.** Both formulations end "
+                  f"{100 * err:+.1f} % (anp) from the length on record; they differ from each "
+                  f"other by {100 * d_el:.1f} %, and the length is converged in the mesh within "
+                  "0.2 % (docs/accuracy.md, taylor-mesh: 17.34 mm at 0.635 mm, anp). Neither "
+                  "the element nor the mesh is the source. What is left: the material constants "
+                  "(the 1983 Johnson-Cook fit of OFHC copper, from torsion and Hopkinson-bar "
+                  "tests to strains of about 1, drives a foot that reaches plastic strains of "
+                  "2-3), the frictionless wall, or the measured value, which we could not "
+                  "confirm against the original. No study here separates those three. The foot "
+                  "diameter is where the element matters: tet4's is "
+                  f"{100 * (cu['tet4']['foot_diameter_mm'] / cu['anp']['foot_diameter_mm'] - 1):+.0f} "
+                  "% from anp's (volumetric locking), see docs/physics.md."]
+    lines += ["", "References:", ""]
+    for k, v in REFERENCES.items():
+        lines.append(f"- {k}: {v['source']}.")
+    lines += ["", "![Taylor foot diameters](validation/taylor-foot.png)", ""]
+    lines += ["## Symmetric plate impact: free-surface velocity", "",
+              "6061-T6 onto 6061-T6 at 500 m/s in uniaxial strain (flyer 2 mm, target 4 mm, "
+              "h = 0.1 mm, spall strength 1.6 GPa and loosening 0.03 from the library). The "
+              "rear free surface of the target jumps by about the impact speed (u_p = V/2 "
+              "exactly by symmetry; the free-surface approximation u_fs = 2 u_p holds to a "
+              "few per cent in an elastic-plastic release), then the spall's pull-back: the "
+              "acoustic estimate rho0 c0 du / 2 of the tension at spall against the strength "
+              "given. The estimate is only an estimate (it assumes a gradual loss of strength "
+              "and an acoustic release; here a cell loses all tension at once when it spalls), "
+              "so it is reported, not required to match.", "",
+              "| element | elements | steps | wall s | plateau [m/s] | 2 u_p [m/s] | error | "
+              "pull-back [m/s] | spall estimate [GPa] | given [GPa] |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in results:
+        if r["rung"] != "plate-6061-500":
+            continue
+        err = 100 * (r["free_surface_plateau"] - r["impact_speed"]) / r["impact_speed"]
+        lines.append(f"| {r['element']} | {r['elements']:,} | {r['steps']:,} | "
+                     f"{r['wall_s']:.1f} | {r['free_surface_plateau']:.1f} | "
+                     f"{r['impact_speed']:.0f} | {err:+.1f} % | {r['pullback']:.1f} | "
+                     f"{r['spall_estimate_gpa']:.2f} | {r['spall_given_gpa']:.2f} |")
+    lines += ["", "![free-surface velocity](validation/plate-free-surface.png)", ""]
+    lines += ["## Perforation: oblique sphere [R20]", "",
+              "The bundled `cases/oblique-sphere.toml` (52100 sphere 12.7 mm at 1001 m/s, 60 "
+              "degrees from the normal, into a 4.9 mm D16T plate) at the coarse mesh of the "
+              "test suite (sphere 1.8 mm, plate 1.4 mm), 30 us. [R20] report hole and residual "
+              "velocity within about 1 % of their experiment; the measured values are not in "
+              "our sources, so the rung compares the formulations only.", "",
+              "| element | elements | steps | wall s | residual speed [m/s] | angle [deg] | "
+              "hole diameter [mm] | energy balance |", "|---|---|---|---|---|---|---|---|"]
+    for r in results:
+        if r["rung"] != "oblique-sphere-1001":
+            continue
+        lines.append(f"| {r['element']} | {r['elements']:,} | {r['steps']:,} | "
+                     f"{r['wall_s']:.1f} | {r['residual_speed']:.1f} | {r['angle_deg']:.1f} | "
+                     f"{r['hole_diameter_mm']:.1f} | {r['energy_balance_error']:+.1e} |")
+    per = {r["element"]: r for r in results if r["rung"] == "oblique-sphere-1001"}
+    if len(per) == 2:
+        d = (per["anp"]["residual_speed"] - per["tet4"]["residual_speed"]) \
+            / per["tet4"]["residual_speed"]
+        lines += ["", f"The two formulations differ by {100 * d:+.1f} % in the residual speed "
+                  "(not analysed further): at this mesh the element is a first-order source of uncertainty of a perforation, "
+                  "larger than the 1 % [R20] claim against their experiment. anp ran this "
+                  "contact scene to its end here, but collapsed the step in two others "
+                  "(docs/physics.md), so contact scenes keep tet4 by default."]
+    lines += ["", "## Not on the ladder", "",
+              "- The code-to-code 42CrMo4 Taylor bar at 287 m/s of issue 17: its geometry, "
+              "Johnson-Cook constants and the two codes' results are not in our sources; not "
+              "run.", "- Measured 6061-T6 and 4340 Taylor lengths and plate-impact VISAR records: "
+              "not on record here (none confirmed); the rungs above give the physics checks "
+              "only.", ""]
+    return "\n".join(lines) + "\n"
+
+
+def store(results: list[dict]) -> None:
+    """The cheap rung's reference: the copper bar's anp result at the ladder's resolution."""
+    ref = next(r for r in results if r["rung"] == "taylor-cu-190" and r["element"] == "anp")
+    STORED.write_text(json.dumps({"taylor-cu-190-anp": {
+        "h_mm": ref["h_mm"], "length_mm": ref["length_mm"],
+        "foot_diameter_mm": ref["foot_diameter_mm"]}}, indent=1) + "\n")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--report-only", action="store_true")
+    args = ap.parse_args(argv)
+    if args.report_only:
+        results = json.loads((OUT / "results.json").read_text())
+    else:
+        results = run_all()
+        store(results)
+    plots(results)
+    DOC.write_text(report(results))
+    print(f"wrote {DOC}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,33 @@
+"""The cheap rung of the validation ladder (docs/validation.md, `make validate`): the bundled
+OFHC copper Taylor bar (190 m/s) on a coarse mesh, with the default element (anp for this
+plastic material), against the ladder's stored result at its finer mesh
+(benchmarks/validation_reference.json). The coarse bar is within 0.2 % of the converged length
+and 2 % of the converged foot diameter (docs/accuracy.md, taylor-mesh); the tolerances leave
+room for the scatter of unstructured meshes but not for a change of the physics (the tet4 foot
+is 12-17 % narrow, a change of the rate or thermal law moves the length by per cents)."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from impactsim.case import load_case
+from impactsim.solver.run import run_case
+
+ROOT = Path(__file__).parents[2]
+
+
+def test_coarse_copper_taylor_bar_matches_the_ladder(tmp_path):
+    ref = json.loads((ROOT / "benchmarks" / "validation_reference.json").read_text())
+    ref = ref["taylor-cu-190-anp"]
+    case = load_case(ROOT / "cases" / "taylor-bar.toml",
+                     ['body.0.mesh_size="1.27 mm"', "output.frames=1"])
+    s = run_case(case, tmp_path, progress=False)
+    assert s["element"] == "anp" and s["stopped"] is None
+    import meshio
+
+    x = meshio.read(sorted(tmp_path.glob("frame_*.vtu"))[-1]).points
+    length = 1e3 * np.ptp(x[:, 2])
+    foot = 2e3 * np.hypot(x[:, 0], x[:, 1]).max()
+    assert abs(length - ref["length_mm"]) < 0.01 * ref["length_mm"], (length, ref)
+    assert abs(foot - ref["foot_diameter_mm"]) < 0.04 * ref["foot_diameter_mm"], (foot, ref)
