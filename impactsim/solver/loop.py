@@ -161,12 +161,15 @@ class Simulation:
         if self.use_anp:
             element_volumes(m.x, m.conn, m.status, self.vol_now)
             nodal_volume_ratio(self.vol_now, m.vol0, m.status, m.n2e_ptr, m.n2e, self.jnode)
-        E.element_update(m.x, m.v, m.conn, m.elem_mat, m.status, m.sdev, m.pressure, m.q, m.eps_p,
-                         m.eps_rate, m.temperature, self.hardening, self.thermal, m.energy, m.vol,
-                         self.vol_eos, m.vol0, m.elem_mass, m.mat_params, self.jnode,
-                         self.use_anp, dt, self.cq, self.cl, m.force, fr.rows, self.fext,
-                         fr.extra_ptr, fr.extra_rows, fr.part_size // E.CHUNK, self.chunk_out,
-                         numba.get_num_threads())
+        if m.n_elem == 0 and self.block_runners:
+            m.force[:] = 0.0  # hexes only: no tet kernel to run (nor to compile); blocks add
+        else:
+            E.element_update(
+                m.x, m.v, m.conn, m.elem_mat, m.status, m.sdev, m.pressure, m.q, m.eps_p,
+                m.eps_rate, m.temperature, self.hardening, self.thermal, m.energy, m.vol,
+                self.vol_eos, m.vol0, m.elem_mass, m.mat_params, self.jnode, self.use_anp, dt,
+                self.cq, self.cl, m.force, fr.rows, self.fext, fr.extra_ptr, fr.extra_rows,
+                fr.part_size // E.CHUNK, self.chunk_out, numba.get_num_threads())
         out = self.chunk_out
         k = int(np.argmin(out[:, E.OUT_DT]))
         self.dt_stable = float(out[k, E.OUT_DT])
