@@ -34,6 +34,7 @@ from impactsim.contact.broadphase import SpatialHash, grid_for
 from impactsim.contact.passes import PrescribedLock
 from impactsim.fracture import criteria as C
 from impactsim.fracture.boundary import Boundary
+from impactsim.fracture.distortion import Distortion
 from impactsim.fracture.measures import body_measures
 from impactsim.fracture.particles import (Particles, faces_near, move_particles, particle_boxes,
                                           particle_face_sweep, particle_particle_sweep,
@@ -57,6 +58,10 @@ class FractureState:
         self.particles = Particles()
         self.node_live = np.bincount(model.conn[model.status != ERODED].reshape(-1),
                                      minlength=model.n_node).astype(np.int32)
+        for blk in model.blocks:  # hex corners keep their nodes alive too
+            self.node_live += np.bincount(blk.conn[blk.status != ERODED].reshape(-1),
+                                          minlength=model.n_node).astype(np.int32)
+        self.distortion = Distortion(case, model)  # distortion erosion [Z] (None when off)
         self.action = np.zeros(model.n_elem, dtype=np.int8)
         self.ids = np.zeros(model.n_elem, dtype=np.int64)
         b = self.boundary
@@ -101,12 +106,19 @@ class FracturePass(Pass):
         s.counts["fractured"] += int(n_frac)
         if n_act:
             self._remove(model, s.ids[:C.action_ids(s.action, s.ids)])
+        if s.distortion is not None and s.distortion.due(model, dt):
+            tets, blocks = s.distortion.check(model)
+            if tets.shape[0]:
+                self._remove(model, tets, np.full(tets.shape[0], C.ERODE, np.int8))
+            for blk, ids in blocks:
+                model.energy_terms["eroded"] += s.distortion.erode_block(model, blk, ids,
+                                                                         s.node_live, self.sim)
         # the particles' energy at the end of the step (contacts, motion, new particles)
         s.update_particle_energy(model)
 
-    def _remove(self, model, ids):
+    def _remove(self, model, ids, kinds=None):
         s = self.s
-        kinds = s.action[ids]
+        kinds = s.action[ids] if kinds is None else kinds
         s.counts["guard"] += int(np.count_nonzero(kinds == C.GUARD))
         pa = s.particles
         pa.reserve(s.n_per * ids.shape[0])
@@ -154,7 +166,9 @@ class FracturePass(Pass):
                              "particle_momentum": pa.momentum().tolist(),
                              "particle_buffer_grows": pa.grows,
                              "free_faces": s.boundary.n,
-                             "free_face_grows": s.boundary.grows}}
+                             "free_face_grows": s.boundary.grows,
+                             **({"distortion": s.distortion.summary()}
+                                if s.distortion is not None else {})}}
 
 
 class ParticlePass(Pass):
@@ -245,9 +259,16 @@ class ParticlePass(Pass):
         return {"particles": (pa.x[:n], data)}
 
 
+def fracture_wanted(case) -> bool:
+    """A material with failure data, or distortion erosion: the fracture passes run."""
+    return (any(m.failure.active for m in case.materials.values())
+            or case.fracture.distortion_interval is not None)
+
+
 def make_fracture_passes(case, model) -> list[Pass]:
-    """[particle pass, fracture pass] for a case with failure data, else []."""
-    if not any(m.failure.active for m in case.materials.values()):
+    """[particle pass, fracture pass] for a case with failure data or distortion erosion,
+    else []."""
+    if not fracture_wanted(case):
         return []
     state = FractureState(case, model)
     return [ParticlePass(state), FracturePass(state)]
