@@ -51,16 +51,11 @@ class FractureState:
     """What the two fracture passes share: the free faces, the particles, counters."""
 
     def __init__(self, case, model):
-        self.boundary = Boundary.from_model(model)
+        self.rebuild_mesh(model)
         self.surface_only = case.fracture.erosion_region != "anywhere"
         self.n_per = int(case.fracture.particles_per_element)
         self.collisions = bool(case.fracture.particle_collisions)
         self.particles = Particles()
-        self.node_live = np.bincount(model.conn[model.status != ERODED].reshape(-1),
-                                     minlength=model.n_node).astype(np.int32)
-        for blk in model.blocks:  # hex corners keep their nodes alive too
-            self.node_live += np.bincount(blk.conn[blk.status != ERODED].reshape(-1),
-                                          minlength=model.n_node).astype(np.int32)
         self.distortion = Distortion(case, model)  # distortion erosion [Z] (None when off)
         self.action = np.zeros(model.n_elem, dtype=np.int8)
         self.ids = np.zeros(model.n_elem, dtype=np.int64)
@@ -73,6 +68,16 @@ class FractureState:
         self.counts = {"damaged": 0, "fractured": 0, "eroded": 0, "converted": 0, "guard": 0}
         model.energy_terms.setdefault("eroded", 0.0)
         model.energy_terms["particles"] = 0.0
+
+    def rebuild_mesh(self, model) -> None:
+        """The free faces and the live corners per node from model.conn afresh (at the start,
+        and after node separation repointed corners)."""
+        self.boundary = Boundary.from_model(model)
+        self.node_live = np.bincount(model.conn[model.status != ERODED].reshape(-1),
+                                     minlength=model.n_node).astype(np.int32)
+        for blk in model.blocks:  # hex corners keep their nodes alive too
+            self.node_live += np.bincount(blk.conn[blk.status != ERODED].reshape(-1),
+                                          minlength=model.n_node).astype(np.int32)
 
     def update_particle_energy(self, model) -> None:
         _, ke, ie, _ = self.particles.sums()
@@ -261,7 +266,8 @@ class ParticlePass(Pass):
 
 def fracture_wanted(case) -> bool:
     """A material with failure data, or distortion erosion: the fracture passes run."""
-    return (any(m.failure.active for m in case.materials.values())
+    return (any(m.failure.active or m.failure.fracture_strain is not None
+                for m in case.materials.values())
             or case.fracture.distortion_interval is not None)
 
 
@@ -271,5 +277,10 @@ def make_fracture_passes(case, model) -> list[Pass]:
     if not fracture_wanted(case):
         return []
     state = FractureState(case, model)
-    return [ParticlePass(state), FracturePass(state)]
+    passes = [ParticlePass(state), FracturePass(state)]
+    if any(model.separable_bodies):  # node separation [Z] (fracture/separation.py)
+        from impactsim.fracture.separation import Separation, SeparationPass
+
+        passes.append(SeparationPass(state, Separation(case, model)))
+    return passes
 
