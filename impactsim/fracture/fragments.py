@@ -127,3 +127,15 @@ def cloud_summary(model, axis, particles=None, bins: int = 12) -> dict:
         cosang = np.clip((vel[fwd] @ a) / np.maximum(speed[fwd], 1e-300), -1, 1)
         out["spread_angle_deg"] = float(np.degrees(np.arccos(cosang.min())))
     return out
+
+
+def cloud_axis(case) -> np.ndarray:
+    """The debris cloud's direction: the initial velocity of the fastest body (+z when every
+    body starts at rest)."""
+    best, axis = 0.0, np.array([0.0, 0.0, 1.0])
+    for b in case.bodies:
+        v = np.asarray(b.velocity, float)
+        sp = float(np.linalg.norm(v))
+        if sp > best:
+            best, axis = sp, v / sp
+    return axis

@@ -35,6 +35,7 @@ from impactsim.contact.passes import PrescribedLock
 from impactsim.fracture import criteria as C
 from impactsim.fracture.boundary import Boundary
 from impactsim.fracture.distortion import Distortion
+from impactsim.fracture.fragments import cloud_axis, cloud_summary, leading_edge
 from impactsim.fracture.measures import body_measures
 from impactsim.fracture.particles import (Particles, faces_near, move_particles, particle_boxes,
                                           particle_face_sweep, particle_particle_sweep,
@@ -57,6 +58,7 @@ class FractureState:
         self.collisions = bool(case.fracture.particle_collisions)
         self.particles = Particles()
         self.distortion = Distortion(case, model)  # distortion erosion [Z] (None when off)
+        self.axis = cloud_axis(case)  # the debris cloud's direction (fracture/fragments.py)
         self.action = np.zeros(model.n_elem, dtype=np.int8)
         self.ids = np.zeros(model.n_elem, dtype=np.int64)
         b = self.boundary
@@ -149,7 +151,8 @@ class FracturePass(Pass):
                 "particle_momentum_z": float(p[2]),
                 "damaged": float(np.count_nonzero(model.status == DAMAGED)),
                 "fractured": float(np.count_nonzero(model.status == FRACTURED)),
-                "eroded_elements": float(s.counts["eroded"] + s.counts["converted"])}
+                "eroded_elements": float(s.counts["eroded"] + s.counts["converted"]),
+                "leading_edge": leading_edge(model, s.axis, pa)[0]}
 
     def summary(self, model):
         s = self.s
@@ -161,6 +164,7 @@ class FracturePass(Pass):
                 "particles": int(pa.n), "eroded_elements": int(s.counts["eroded"]
                                                              + s.counts["converted"]),
                 "bodies": bodies,
+                "fragments": cloud_summary(model, s.axis, pa),
                 "fracture": {"damaged_total": s.counts["damaged"],
                              "fractured_total": s.counts["fractured"],
                              "eroded": s.counts["eroded"],
