@@ -399,6 +399,18 @@ class SeparationPass:
 
     def attach(self, sim) -> None:
         self.sim = sim
+        key = np.arange(sim.model.n_node, dtype=np.int64)
+        copy = self.sep.fam >= 0
+        key[copy] = sim.model.n_node + self.sep.fam[copy]  # the family, apart from any node
+        for ctx in self.contexts():
+            ctx.node_key = key
+
+    def contexts(self):
+        """The contact contexts of the run (one shared by the contact passes)."""
+        if self.sim is None:
+            return []
+        return list({id(p.ctx): p.ctx for p in self.sim.velocity_passes
+                     if hasattr(p, "ctx")}.values())
 
     def run(self, model, dt) -> None:
         if self.sep.release(model):
@@ -415,8 +427,7 @@ class SeparationPass:
             for r in sim.block_runners:
                 r.rows = force_rows(r.block.conn, model.n_node, r.rows.part_size)
                 r.fext = np.zeros((r.rows.n_rows, 3))
-            ctxs = {id(p.ctx): p.ctx for p in sim.velocity_passes if hasattr(p, "ctx")}
-            for ctx in ctxs.values():
+            for ctx in self.contexts():
                 ctx.rebuild_surface(model)
         model.n2e_ptr, model.n2e = node_to_element(model.conn, model.n_node)
         self.s.rebuild_mesh(model)
