@@ -20,6 +20,10 @@ COMMON = ["run.threads=1", "output.frames=1"]
 COLUMN = ['body.0.constraint=[{nodes = "all", velocity = [0, 0, "free"]}]']
 TWO_COLUMNS = [k.replace("body.0", f"body.{i}") for i in (0, 1) for k in COLUMN]
 TETS = {"tet4": ['run.element="tet4"'], "anp": ['run.element="anp"']}
+# the one-point hex (solver/hex8.py) beside the tets: the bar with the default viscous control,
+# the Taylor bar with the stiffness form (large plastic flow)
+HEX = {"hex8": ['body.0.element="hex8"']}
+HEX_TAYLOR = {"hex8": ['body.0.element="hex8"', 'body.0.hourglass="stiffness"']}
 PASSES = {"node-face": ['contact.passes=["node-face"]'],
           "node-face + edge-edge": ['contact.passes=["node-face", "edge-edge"]']}
 
@@ -85,7 +89,7 @@ def studies() -> list[Study]:
     # Below 1.27 mm (six elements across) the results scatter more than they converge.
     taylor_h = [1.6e-3 * 2.0 ** (-k / 3) for k in range(1, 6)]
     taylor_levels = mesh_levels(taylor_h, ["body.0.mesh_size"])
-    taylor_levels[-1].only = ("tet4",)
+    taylor_levels[-1].only = ("tet4", "hex8")
     taylor_cfl_h = taylor_h[0]
     cfls = [0.9, 0.6, 0.45, 0.3, 0.15]
     return [
@@ -99,7 +103,7 @@ def studies() -> list[Study]:
             "distance of the wall-force history from the analytic square pulse relative to its "
             "impulse. The stress plateau (median over the contact) is converged at every level: "
             "what is left is the linear theory's neglect of finite strain, of order v/c_L.",
-            TETS, mesh_levels(column_h, ["body.0.mesh_size"], column=0.1),
+            {**TETS, **HEX}, mesh_levels(column_h, ["body.0.mesh_size"], column=0.1),
             COMMON + COLUMN),
         Study(
             "bar-free", "Elastic bar on a rigid wall, free sides (3-D)", BAR, "bar_free",
@@ -108,7 +112,7 @@ def studies() -> list[Study]:
             "Chree dispersion) moves the converged stress plateau and duration about 1 % from "
             "rho c v and 2L/c (column '1-D theory' of the orders table: the finest run's "
             "deviation from it). The errors are therefore against the finest run.",
-            TETS, mesh_levels(bar_h, ["body.0.mesh_size"]), COMMON),
+            {**TETS, **HEX}, mesh_levels(bar_h, ["body.0.mesh_size"]), COMMON),
         Study(
             "bar-cfl", "Elastic column: Courant number", BAR, "bar_column",
             "The uniaxial-strain column of the first study at h = 0.3125 mm, tet4, with Courant "
@@ -135,8 +139,9 @@ def studies() -> list[Study]:
             "near-incompressible flow and keeps the foot narrow), so compare their values, not "
             "only their errors. Each level is a new unstructured mesh, which adds a scatter of "
             "a few tenths of a percent to the length. The measured final length of Johnson & "
-            "Cook (1983) is about 16.2 mm.",
-            TETS, taylor_levels,
+            "Cook (1983) is about 16.2 mm. `hex8` is the one-point hex (O-grid mesh, "
+            "stiffness hourglass control), which does not lock: compare it with anp.",
+            {**TETS, **HEX_TAYLOR}, taylor_levels,
             COMMON + ["output.history_every=100"]),
         Study(
             "taylor-cfl", "Taylor bar: Courant number", TAYLOR, "taylor_bar",

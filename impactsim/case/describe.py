@@ -198,7 +198,10 @@ def _element_line(case: Case) -> str:
     eos = sorted({m.eos.model for m in used})
     thermal = any(m.strength.model == "johnson-cook" and m.strength.melt_temperature < 1e8
                   for m in used)
-    return (f"{case.run.element}, strength {'/'.join(strength)}, eos {'/'.join(eos)}, "
+    kinds = [case.run.element] if any(b.element != "hex8" for b in case.bodies) else []
+    kinds += [f"hex8 ({b.name}: {b.hourglass} hourglass control {b.hourglass_coefficient:g})"
+              for b in case.bodies if b.element == "hex8"]
+    return (f"{' + '.join(kinds)}, strength {'/'.join(strength)}, eos {'/'.join(eos)}, "
             f"artificial viscosity C_q {case.run.q_quadratic:g} C_l {case.run.q_linear:g}"
             + (", adiabatic temperature" if thermal else ""))
 

@@ -131,6 +131,8 @@ def body_elements(body: Body) -> int | None:
         return 12
     if body.shape == "file":
         return None
+    if body.element == "hex8":  # hexes (mesh/hexes.py): meshed here, it takes milliseconds
+        return len(_hex_mesh(body)[1])
     h = body.mesh_size
     if body.mesher == "structured":
         nx, ny, nz = cells_per_axis(body.dimensions["size"], h)
@@ -140,6 +142,17 @@ def body_elements(body: Body) -> int | None:
     if t < h:
         return max(1, round(THIN_PER_H2 * (volume / t) / h**2))
     return max(1, round(GMSH_PER_H3 * volume / h**3 + GMSH_PER_H2 * body_area(body) / h**2))
+
+
+# a hex-step costs about this many tet-steps (docs/performance.md: 190 against 80 ns on one
+# thread, the Johnson-Cook bench of each, measured at the same time)
+HEX_COST = 2.4
+
+
+def _hex_mesh(body: Body):
+    from impactsim.mesh.hexes import raw_hex_mesh
+
+    return raw_hex_mesh(body)
 
 
 def kuhn_min_altitude(dx: float, dy: float, dz: float) -> float:
@@ -167,6 +180,10 @@ def body_min_length(body: Body) -> float | None:
     d = body.dimensions
     if body.shape == "file":
         return None
+    if body.element == "hex8":  # the hex kernel's V / largest face area
+        from impactsim.mesh.hexes import hex_report
+
+        return hex_report(*_hex_mesh(body), 1.0, 1.0)["length_min"]
     if body.shape == "cube12":
         from impactsim.mesh.quality import altitudes
         from impactsim.mesh.structured import cube12
@@ -336,6 +353,9 @@ def estimate_cost(case: Case, speed: dict | None = None) -> Estimate:
         l_min = min(l_min, body_min_length(body))
         c_max = max(c_max, wave_speed(case, body))
     elements = sum(n for n in per_body.values() if n)
+    # the cost in tet-steps: a hex costs HEX_COST of them
+    work = sum(n * (HEX_COST if b.element == "hex8" else 1.0)
+               for b, n in zip(case.bodies, per_body.values()) if n)
     if elements and c_max > 0.0:
         dt = case.run.cfl * l_min / c_max
         # the linear viscosity's share of the step in compression, L / (Q + sqrt(Q^2 + c^2))
@@ -348,7 +368,7 @@ def estimate_cost(case: Case, speed: dict | None = None) -> Estimate:
         dt, steps = math.nan, 0
     if speed is None:
         speed = machine_speed(_threads(case))
-    wall = steps * (speed["seconds_per_step"] + elements * 1e-9 * speed["ns_per_element_step"])
+    wall = steps * (speed["seconds_per_step"] + work * 1e-9 * speed["ns_per_element_step"])
     return Estimate(elements=elements, per_body=per_body, l_min=l_min, wave_speed=c_max, dt=dt,
                     steps=steps, wall_seconds=wall, speed=speed, unknown_bodies=unknown)
 

@@ -450,8 +450,14 @@ class ContactPass(Pass):
             return {}
         ctx = self.ctx
         ctx.surface.sync(model.status)
-        pen = ctx.meter.measure(model.x, model.conn, model.elem_body, model.status,
-                                ctx.surface)["max_penetration"]
+        x, conn, elem_body, status = model.x, model.conn, model.elem_body, model.status
+        if getattr(model, "blocks", None):  # hexes: against a tet cover (contact/hexes.py)
+            if getattr(ctx, "proxy", None) is None:
+                from impactsim.contact.hexes import ProxyTets
+
+                ctx.proxy = ProxyTets(model)
+            x, conn, elem_body, status = ctx.proxy.update(model)
+        pen = ctx.meter.measure(x, conn, elem_body, status, ctx.surface)["max_penetration"]
         self.max_penetration_seen = max(self.max_penetration_seen, pen)
         return {"max_penetration": pen,
                 "contact_pairs": float(sum(s["pairs"] for s in ctx.last.values())),

@@ -118,6 +118,10 @@ class Surface:
 
     @classmethod
     def from_model(cls, model) -> "Surface":
+        if getattr(model, "blocks", None):  # hexahedra too: their quads as triangles
+            from impactsim.contact.hexes import HexSurface
+
+            return HexSurface(model)
         return cls(model.conn, model.elem_body, model.status, model.node_body, model.n_node)
 
     # --- full and incremental updates -----------------------------------------------------

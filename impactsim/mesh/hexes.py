@@ -279,3 +279,48 @@ def hex_quality_summary(points: np.ndarray, hexes: np.ndarray) -> dict:
             "max_aspect_ratio": float(q["aspect_ratio"].max()),
             "max_warping_deg": float(q["warping"].max()),
             "poor_jacobian": int(np.count_nonzero(q["scaled_jacobian"] <= 0.2))}
+
+
+HEX_JACOBIAN_WARN = 0.2  # scaled corner Jacobian below which the report warns
+HEX_WARP_WARN = 30.0  # [deg]
+
+
+def hex_report(points: np.ndarray, hexes: np.ndarray, wave_speed: float, cfl: float) -> dict:
+    """The `impactsim mesh` numbers of a hex body: counts, volume, edge lengths, the quality
+    measures of `hex_quality` and the expected stable step cfl * min(V / largest face area) / c
+    (the hex kernel's length, solver/hex8.py)."""
+    from impactsim.solver.hex8 import EDGES
+
+    q = hex_quality(points, hexes)
+    x = points[hexes]
+    edges = np.linalg.norm(x[:, EDGES[:, 1]] - x[:, EDGES[:, 0]], axis=-1)
+    f = x[:, _FACES]
+    area = 0.5 * np.linalg.norm(np.cross(f[:, :, 2] - f[:, :, 0], f[:, :, 3] - f[:, :, 1]),
+                                axis=-1).max(axis=1)
+    length = q["volume"] / area
+    return {"nodes": int(len(np.unique(hexes))), "elements": int(len(hexes)),
+            "volume": float(q["volume"].sum()), "edge_min": float(edges.min()),
+            "edge_mean": float(edges.mean()), "edge_max": float(edges.max()),
+            "jacobian_min": float(q["scaled_jacobian"].min()),
+            "jacobian_mean": float(q["scaled_jacobian"].mean()),
+            "aspect_max": float(q["aspect_ratio"].max()),
+            "warping_max": float(q["warping"].max()),
+            "length_min": float(length.min()),
+            "stable_dt": float(cfl * length.min() / wave_speed), "wave_speed": wave_speed}
+
+
+def hex_report_lines(q: dict, si) -> list[str]:
+    """The report lines of `hex_report` after the body's first two lines."""
+    lines = [
+        f"  hexahedra: edge length min/mean/max {si(q['edge_min'], 'm')} / "
+        f"{si(q['edge_mean'], 'm')} / {si(q['edge_max'], 'm')}",
+        f"  scaled corner Jacobian min {q['jacobian_min']:.3g} (mean {q['jacobian_mean']:.3g}), "
+        f"aspect ratio worst {q['aspect_max']:.3g}, warping worst {q['warping_max']:.1f} deg, "
+        f"smallest V/A {si(q['length_min'], 'm')}",
+        f"  expected stable dt {si(q['stable_dt'], 's')} (c = {q['wave_speed']:.0f} m/s)",
+    ]
+    if q["jacobian_min"] < HEX_JACOBIAN_WARN or q["warping_max"] > HEX_WARP_WARN:
+        lines.append(f"  warning: poorly shaped hexahedra (scaled Jacobian {q['jacobian_min']:.3g}"
+                     f" < {HEX_JACOBIAN_WARN:g} or warping {q['warping_max']:.1f} deg > "
+                     f"{HEX_WARP_WARN:g} deg): inaccurate, and a small time step")
+    return lines

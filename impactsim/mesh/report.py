@@ -50,15 +50,25 @@ def default_out_dir(case: Case) -> Path:
     return Path("out") / case.run.name
 
 
+_HEX_MESHER = {"box": "structured", "plate": "structured", "cylinder": "O-grid",
+               "sphere": "cube-sphere"}
+
+
 def write_vtu(path: Path, meshes: list[tuple[np.ndarray, np.ndarray]]) -> None:
     """Write all bodies' tets into one VTU at `path` (cell data "body"), atomically."""
     import meshio
 
     offsets = np.cumsum([0] + [len(p) for p, _ in meshes])
     points = np.vstack([p for p, _ in meshes])
-    tets = np.vstack([t.astype(np.int64) + off for (_, t), off in zip(meshes, offsets)])
-    body = np.concatenate([np.full(len(t), i, dtype=np.int32) for i, (_, t) in enumerate(meshes)])
-    mesh = meshio.Mesh(points, [("tetra", tets)], cell_data={"body": [body]})
+    blocks, bodies = [], []
+    for width, kind in ((4, "tetra"), (8, "hexahedron")):  # one cell block per element type
+        parts = [(i, t, off) for i, ((_, t), off) in enumerate(zip(meshes, offsets))
+                 if t.shape[1] == width]
+        if parts:
+            blocks.append((kind, np.vstack([t.astype(np.int64) + off for _, t, off in parts])))
+            bodies.append(np.concatenate([np.full(len(t), i, dtype=np.int32)
+                                          for i, t, _ in parts]))
+    mesh = meshio.Mesh(points, blocks, cell_data={"body": bodies})
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     os.close(fd)
@@ -70,10 +80,21 @@ def write_vtu(path: Path, meshes: list[tuple[np.ndarray, np.ndarray]]) -> None:
         raise
 
 
-def _body_lines(i: int, body, q: dict, mass: float, seconds: float, cfl: float) -> list[str]:
+def _body_lines(i: int, body, q: dict | None, mass: float, seconds: float, cfl: float,
+                counts: dict | None = None) -> list[str]:
+    """The report lines of a tet body (quality dict q); with q None and `counts` given, only
+    its first two lines (a hex body: mesh/hexes.py adds its own)."""
     dims = ", ".join(f"{k}={_dim(k, v)}" for k, v in body.dimensions.items())
     how = {"cube12": "the 12-tet cube of [D19]", "file": "imported"}.get(
         body.shape, f"mesher {body.mesher}, mesh size {si(body.mesh_size, 'm')}")
+    if body.element == "hex8":
+        how = ("imported hexahedra" if body.shape == "file" else
+               f"hexahedra ({_HEX_MESHER.get(body.shape, 'structured')}), mesh size "
+               f"{si(body.mesh_size, 'm')}")
+    if q is None:
+        return [f"body[{i}] {body.name}: {body.shape} ({dims}), {how}",
+                f"  nodes {counts['nodes']}, elements {counts['elements']}, volume "
+                f"{counts['volume']:.6g} m^3, mass {_mass(mass)}, meshed in {seconds:.2f} s"]
     lines = [
         f"body[{i}] {body.name}: {body.shape} ({dims}), {how}",
         f"  nodes {q['nodes']}, elements {q['elements']}, volume {q['volume']:.6g} m^3, "
@@ -130,10 +151,18 @@ def mesh_case(case: Case, out_dir: Path | None = None) -> str:
         seconds = time.perf_counter() - start
         material = case.materials[body.material]
         c = sound_speed(material.density, material.bulk_modulus, material.shear_modulus)
-        q = quality(points, tets, wave_speed=c, cfl=cfl)
-        q["wave_speed"] = c
-        mass = material.density * q["volume"]
-        lines += _body_lines(i, body, q, mass, seconds, cfl)
+        if tets.shape[1] == 8:  # hexahedra (mesh/hexes.py)
+            from impactsim.mesh.hexes import hex_report, hex_report_lines
+
+            q = hex_report(points, tets, c, cfl)
+            mass = material.density * q["volume"]
+            lines += _body_lines(i, body, None, mass, seconds, cfl, q)[:2]
+            lines += hex_report_lines(q, si)
+        else:
+            q = quality(points, tets, wave_speed=c, cfl=cfl)
+            q["wave_speed"] = c
+            mass = material.density * q["volume"]
+            lines += _body_lines(i, body, q, mass, seconds, cfl)
         meshes.append((points, tets))
         total_nodes += q["nodes"]
         total_elements += q["elements"]

@@ -1,26 +1,31 @@
 """The one-point 8-node hexahedron with Flanagan-Belytschko hourglass control.
 
 Flanagan, D.P. & Belytschko, T. (1981), "A uniform strain hexahedron and quadrilateral with
-orthogonal hourglass control", IJNME 17:679-706 [FB81]; ALGORITHMS.md 7.1.
+orthogonal hourglass control", IJNME 17:679-706 [FB81]; ALGORITHMS.md 7.1. The formulas below
+are FB81's in its notation (uniform strain B = (1/V) dV/dx with the exact volume, the
+hourglass base and shape vectors, the viscous and stiffness resultants); the paper was not at
+hand to check its equation numbers, so they are named by content, each tested
+(tests/unit/test_hex8.py).
 
 Nodes in the VTK / standard order: 0-3 the face zeta = -1 counter-clockwise seen from zeta > 0,
 4-7 the face zeta = +1 above them.
 
 Per element (`_hex_element`), with x^{n+1} and the step's velocity U^{n+1/2}:
 - b_iI = dV/dx_iI, the gradient of the exact volume V = sum_I x_I b_xI (V is linear in the
-  x-coordinates alone, FB81 eqs. 15-16 with the closed form of eq. 79; `_volume_gradient`);
-  the uniform (mean) strain gradient is B_iI = b_iI / V (FB81 eq. 13);
+  x-coordinates alone; FB81's closed form of dV/dx, grouped as in LULESH's `VoluDer`;
+  `_volume_gradient`, tested against central differences of the Gauss-integrated volume);
+  the uniform (mean) strain gradient is B_iI = b_iI / V;
 - the velocity gradient L_ij = sum_I v_iI B_jI on the mid-step geometry x^{n+1} - dt/2 U
   (as the tet, ALGORITHMS.md 1), the Jaumann trial deviator, the radial return, the EOS with the
   energy integrated implicitly and the bulk viscosity: the same pointwise laws as the tets
   (materials/laws.py; `element._jaumann_trial`, `element._return_map`);
-- nodal forces f_iI = -sigma_ij b_jI (FB81 eq. 17 with B = b/V), at x^{n+1};
-- hourglass control (FB81 section 4): base vectors Gamma_alpha (eq. 20), shape vectors
-  gamma_alpha = (1/8) [Gamma_alpha - (1/V) (Gamma_alpha . x_i) b_i] (eq. 51; the 1/8 of FB81),
-  orthogonal to every linear field (sum_I gamma_aI = 0, sum_I gamma_aI x_jI = 0: eqs. 52-53);
-  hourglass rates qdot_ia = sum_I v_iI gamma_aI (eq. 54) and generalized forces Q_ia with nodal
-  forces f_iI = -sum_a Q_ia gamma_aI (eq. 55). Viscous form (eq. 57 with kappa in front):
-  Q_ia = c_v rho c V^{2/3} qdot_ia; stiffness form (eq. 60-61): Q accumulated,
+- nodal forces f_iI = -sigma_ij b_jI, at x^{n+1};
+- hourglass control (FB81 section 4): base vectors Gamma_alpha, shape vectors
+  gamma_alpha = (1/8) [Gamma_alpha - (1/V) (Gamma_alpha . x_i) b_i] (FB81's
+  1/8 in front), orthogonal to every linear field (sum_I gamma_aI = 0, sum_I gamma_aI x_jI = 0);
+  hourglass rates qdot_ia = sum_I v_iI gamma_aI and generalized forces Q_ia with nodal
+  forces f_iI = -sum_a Q_ia gamma_aI. Viscous form:
+  Q_ia = c_v rho c V^{2/3} qdot_ia; stiffness form: Q accumulated,
   dQ_ia = c_s dt (K + 4G/3) / (3 V) (sum_jI b_jI b_jI) qdot_ia. Both coefficients may be given
   (per element; from the body's `hourglass` / `hourglass_coefficient`). The hourglass power
   Q . qdot is integrated with the mid-step value of the stiffness part (trapezoid, as the
@@ -35,7 +40,7 @@ Per element (`_hex_element`), with x^{n+1} and the step's velocity U^{n+1/2}:
 Determinism: the elements run in parts of `part_size` consecutive hexes, one thread per part,
 each corner adding to its (node, part) row of an fext of the block's own
 (`scatter.force_rows` with 8 corners); each node's rows are added to `force` in part order
-after the tets' sum (`gather_add`). The result is the same on any number of threads.
+after the tets' sum (at the end of `hex_update`). The result is the same on any number of threads.
 """
 
 from __future__ import annotations
@@ -48,15 +53,20 @@ import numpy as np
 from impactsim.materials import params as P
 from impactsim.materials.laws import eos_linear_part
 from impactsim.model import DAMAGED, ERODED, FRACTURED
+from impactsim.solver import element as E
+from impactsim.solver import hex8_block as HB
+from impactsim.solver import vecmath as VM
 from impactsim.solver.element import FAST, _jaumann_trial, _return_map
+from impactsim.solver.hex8_block import _vol_der
 
-CHUNK = 256  # hexes per reduction chunk
+B = E.B  # lanes of a block of the vector path (hex8_block.py)
+CHUNK = 256  # hexes per reduction chunk (a multiple of B)
 PART = 4 * CHUNK  # hexes per part (the unit of work of a thread)
 OUT_DT, OUT_QWORK, OUT_INVERTED, OUT_WORST, OUT_HGWORK = 0, 1, 2, 3, 4
 N_OUT = 5
 SCRATCH = 8 * 3 * 4 + 8  # per-thread work space of `_hex_element`
 
-# FB81 eq. 20: the hourglass base vectors, rows alpha = 0..3, columns the 8 nodes
+#: the hourglass base vectors, rows alpha = 0..3, columns the 8 nodes
 GAMMA = np.array([[1.0, 1.0, -1.0, -1.0, -1.0, -1.0, 1.0, 1.0],
                   [1.0, -1.0, -1.0, 1.0, -1.0, 1.0, 1.0, -1.0],
                   [1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -1.0],
@@ -73,20 +83,6 @@ def n_chunks(n_elem: int) -> int:
     return max(1, (n_elem + CHUNK - 1) // CHUNK)
 
 
-@numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
-def _vol_der(x0, x1, x2, x3, x4, x5, y0, y1, y2, y3, y4, y5, z0, z1, z2, z3, z4, z5):
-    """One node's dV/dx, dV/dy, dV/dz from the six other nodes that enter it (FB81 eq. 79,
-    written as the sums of pairs of LULESH's `VoluDer`)."""
-    dx = ((y1 + y2) * (z0 + z1) - (y0 + y1) * (z1 + z2) + (y0 + y4) * (z3 + z4)
-          - (y3 + y4) * (z0 + z4) - (y2 + y5) * (z3 + z5) + (y3 + y5) * (z2 + z5))
-    dy = (-(x1 + x2) * (z0 + z1) + (x0 + x1) * (z1 + z2) - (x0 + x4) * (z3 + z4)
-          + (x3 + x4) * (z0 + z4) + (x2 + x5) * (z3 + z5) - (x3 + x5) * (z2 + z5))
-    dz = (-(y1 + y2) * (x0 + x1) + (y0 + y1) * (x1 + x2) - (y0 + y4) * (x3 + x4)
-          + (y3 + y4) * (x0 + x4) + (y2 + y5) * (x3 + x5) - (y3 + y5) * (x2 + x5))
-    t = 1.0 / 12.0
-    return dx * t, dy * t, dz * t
-
-
 # for node I: the six nodes whose coordinates enter dV/dx_I, in `_vol_der`'s order
 _VD = ((1, 2, 3, 4, 5, 7), (2, 3, 0, 5, 6, 4), (3, 0, 1, 6, 7, 5), (0, 1, 2, 7, 4, 6),
        (7, 6, 5, 0, 3, 1), (4, 7, 6, 1, 0, 2), (5, 4, 7, 2, 1, 3), (6, 5, 4, 3, 2, 0))
@@ -95,8 +91,8 @@ VD = np.array(_VD, dtype=np.int64)
 
 @numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
 def _volume_gradient(p, b):
-    """b[3 I + i] = dV/dx_iI of the hex with corners p[3 I + i] (FB81 eq. 79); returns the exact
-    volume V = sum_I x_I b_xI (FB81 eq. 16)."""
+    """b[3 I + i] = dV/dx_iI of the hex with corners p[3 I + i]; returns the exact
+    volume V = sum_I x_I b_xI."""
     for n in range(8):
         a0, a1, a2, a3, a4, a5 = VD[n, 0], VD[n, 1], VD[n, 2], VD[n, 3], VD[n, 4], VD[n, 5]
         bx, by, bz = _vol_der(p[3 * a0], p[3 * a1], p[3 * a2], p[3 * a3], p[3 * a4], p[3 * a5],
@@ -256,7 +252,7 @@ def _hex_element(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_
     qq = cl * c + cq * cq * length * (-trd) if trd < 0.0 else 0.0
     limits = st != FRACTURED and (c2 > 0.0 or qq > 0.0)
     dte = length / (qq + math.sqrt(qq * qq + c2)) if limits else math.inf
-    # --- stress forces f_I = -sigma b_I (FB81 eq. 17)
+    # --- stress forces f_I = -sigma b_I
     ptot = pn + qn
     txx, tyy, tzz = nxx - ptot, nyy - ptot, nzz - ptot
     for n in range(8):
@@ -275,7 +271,7 @@ def _hex_element(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_
         # sound speed of the hourglass forms: the EOS one with 4G/3rho, also for damaged
         # elements (the mesh still needs its control there)
         chg = math.sqrt(max(c2a + c2b * max(pn, 0.0), 0.0) + 4.0 * shear / (3.0 * rho))
-        kv = cv * rho * chg * math.pow(vnew, 2.0 / 3.0)
+        kv = cv * rho * chg * VM.power(vnew, 2.0 / 3.0)
         ks = cs * dt * (bulk + 4.0 * shear / 3.0) * bb * vinv / 3.0
         for a in range(4):
             hx = hy = hz = 0.0  # Gamma_a . x_i
@@ -295,9 +291,12 @@ def _hex_element(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_
                 rx += vv[3 * n] * gam
                 ry += vv[3 * n + 1] * gam
                 rz += vv[3 * n + 2] * gam
-            s0x, s0y, s0z = hg[e, 3 * a], hg[e, 3 * a + 1], hg[e, 3 * a + 2]
+            s0x = s0y = s0z = 0.0  # the stiffness resultants exist with the stiffness form
+            if cs > 0.0:
+                s0x, s0y, s0z = hg[e, 3 * a], hg[e, 3 * a + 1], hg[e, 3 * a + 2]
             s1x, s1y, s1z = s0x + ks * rx, s0y + ks * ry, s0z + ks * rz
-            hg[e, 3 * a], hg[e, 3 * a + 1], hg[e, 3 * a + 2] = s1x, s1y, s1z
+            if cs > 0.0:
+                hg[e, 3 * a], hg[e, 3 * a + 1], hg[e, 3 * a + 2] = s1x, s1y, s1z
             qx, qy, qz = s1x + kv * rx, s1y + kv * ry, s1z + kv * rz
             hgwork += dt * ((0.5 * (s0x + s1x) + kv * rx) * rx + (0.5 * (s0y + s1y) + kv * ry) * ry
                             + (0.5 * (s0z + s1z) + kv * rz) * rz)
@@ -314,6 +313,55 @@ def _hex_element(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_
     return dte, -qn * dv, 0, hgwork
 
 
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _vector_block(elem_mat, status, e0):
+    """The block's material row if it can take the vector path (all intact, one material)."""
+    mat = elem_mat[e0:e0 + B]
+    st = status[e0:e0 + B]
+    mk = mat[0]
+    for i in range(B):
+        if st[i] != 0 or mat[i] != mk:
+            return -1
+    return mk
+
+
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def _block(e0, mk, x, v, conn, sdev, pressure, q, eps_p, eps_rate, temperature, hard, thermal,
+           energy, vol, elem_mass, hg, hg_visc, hg_stiff, mat_params, half, dt, cq, cl, rows,
+           fext, buf):
+    """The vector path of a full block of B intact hexes of material mk (hex8_block.py);
+    returns (min dt, its element, viscous work, hourglass work), or an infinite dt and
+    nothing written when a hex of the block inverted (the scalar path then counts it)."""
+    hourglass = False
+    stiff = False
+    for i in range(B):
+        if hg_visc[e0 + i] > 0.0:
+            hourglass = True
+        if hg_stiff[e0 + i] > 0.0:
+            stiff = True
+    HB.load_block(x, v, conn, sdev, pressure, energy, vol, elem_mass, hg, hg_visc, hg_stiff,
+                  e0, buf, stiff)
+    shear = mat_params[mk, P.G]
+    HB.kinematics_block(buf, half, dt, shear)
+    for i in range(B):
+        if not buf[E.R_DET * B + i] > 0.0:
+            return math.inf, -1, 0.0, 0.0
+    code = int(mat_params[mk, P.STRENGTH])
+    if code == P.JOHNSON_COOK and mat_params[mk, P.JC_C] >= 0.0:
+        E._jc_return_block(buf, mat_params, mk, shear, eps_p, temperature, hard, thermal, e0)
+    elif code != P.ELASTIC:
+        E._return_block(buf, code, mat_params, mk, shear, eps_p, temperature, hard, thermal,
+                        e0)
+    bulk = mat_params[mk, P.K]
+    HB.pressure_block(buf, dt, int(mat_params[mk, P.EOS]), mat_params[mk, P.RHO0], bulk,
+                      mat_params[mk, P.C0], mat_params[mk, P.S], mat_params[mk, P.GAMMA0],
+                      shear, cq, cl)
+    if hourglass or stiff:
+        HB.hourglass_block(buf, dt, bulk, shear)
+    return HB.store_block(rows, sdev, pressure, q, eps_rate, energy, vol, hg, fext, e0, buf,
+                          hourglass or stiff, stiff)
+
+
 # nogil: the frame writer's thread runs while the kernel does (as element.element_update)
 @numba.njit(cache=True, parallel=True, nogil=True, error_model="numpy", fastmath=FAST)
 def hex_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
@@ -323,8 +371,9 @@ def hex_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
     the tets' element update has written it). Per chunk of CHUNK hexes, chunk_out holds
     [min stable dt, viscous work, inverted count, element of min dt, hourglass work].
     Parts of `part_chunks` chunks run one per thread (part t, t + T, ... on thread t of
-    T = `threads`), every corner adds to its row of `fext` (`scatter.force_rows(conn, n, 8 *
-    ...)`), and each node's rows are added to force in part order: the same bits on any
+    T = `threads`), every corner adds to its row of `fext` (`scatter.force_rows(conn, n_node,
+    part_chunks * CHUNK)` for the (n, 8) conn), and each node's rows are added to force in part
+    order: the same bits on any
     number of threads."""
     n_elem = conn.shape[0]
     half = 0.5 * dt
@@ -336,6 +385,7 @@ def hex_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
     n_parts = (n_ch + part_chunks - 1) // part_chunks
     for t in numba.prange(threads):
         w = np.empty(SCRATCH)
+        buf = np.empty(HB.HROWS * B)  # the block buffer of the vector path
         for part in range(t, n_parts, threads):
             for ch in range(part * part_chunks, min(n_ch, (part + 1) * part_chunks)):
                 dt_min = math.inf
@@ -343,17 +393,32 @@ def hex_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                 qwork = 0.0
                 hgwork = 0.0
                 inverted = 0
-                for e in range(ch * CHUNK, min(n_elem, (ch + 1) * CHUNK)):
-                    dte, qw, inv, hw = _hex_element(
-                        e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
-                        temperature, hard, thermal, energy, vol, elem_mass, hg, hg_visc,
-                        hg_stiff, mat_params, half, dt, cq, cl, rows, fext, w)
-                    qwork += qw
-                    hgwork += hw
-                    inverted += inv
-                    if dte < dt_min:
-                        dt_min = dte
-                        worst = e
+                e_end = min(n_elem, (ch + 1) * CHUNK)
+                for e0 in range(ch * CHUNK, e_end, B):
+                    mk = _vector_block(elem_mat, status, e0) if e0 + B <= e_end else -1
+                    if mk >= 0:
+                        bdt, bworst, bq, bhg = _block(
+                            e0, mk, x, v, conn, sdev, pressure, q, eps_p, eps_rate, temperature,
+                            hard, thermal, energy, vol, elem_mass, hg, hg_visc, hg_stiff,
+                            mat_params, half, dt, cq, cl, rows, fext, buf)
+                        if bdt < math.inf:
+                            qwork += bq
+                            hgwork += bhg
+                            if bdt < dt_min:
+                                dt_min = bdt
+                                worst = bworst
+                            continue
+                    for e in range(e0, min(e0 + B, e_end)):
+                        dte, qw, inv, hw = _hex_element(
+                            e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
+                            eps_rate, temperature, hard, thermal, energy, vol, elem_mass, hg,
+                            hg_visc, hg_stiff, mat_params, half, dt, cq, cl, rows, fext, w)
+                        qwork += qw
+                        hgwork += hw
+                        inverted += inv
+                        if dte < dt_min:
+                            dt_min = dte
+                            worst = e
                 chunk_out[ch, OUT_DT] = dt_min
                 chunk_out[ch, OUT_QWORK] = qwork
                 chunk_out[ch, OUT_INVERTED] = inverted

@@ -60,7 +60,7 @@ class Simulation:
         E.yield_cache(model.elem_mat, model.mat_params, model.eps_p, model.temperature,
                       self.hardening, self.thermal)
         self.block_runners = []  # further element blocks (hexahedra: solver/blocks.py)
-        if model.blocks:
+        if getattr(model, "blocks", None):
             from impactsim.solver.blocks import BlockRunner
 
             self.block_runners = [BlockRunner(model, b) for b in model.blocks]
@@ -146,7 +146,7 @@ class Simulation:
     def _worst_name(self) -> str:
         """The element with the smallest stable step, with its body (a hex is -(1 + index))."""
         m, k = self.model, self.worst_element
-        if k < 0 and m.blocks:
+        if k < 0 and getattr(m, "blocks", None):
             b = m.blocks[0]
             return f"hex {-1 - k} (body {m.body_names[b.elem_body[-1 - k]]!r})"
         return f"element {k} (body {m.body_names[m.elem_body[k]]!r})"
@@ -199,7 +199,7 @@ class Simulation:
         m = self.model
         ke = kinetic_energy(m.v, m.mass)
         ie = internal_energy(m.energy, m.elem_mass, m.status)
-        if m.blocks:
+        if getattr(m, "blocks", None):
             from impactsim.solver.blocks import block_internal_energy
 
             ie += block_internal_energy(m)

@@ -133,17 +133,45 @@ def test_case_keys(tmp_path):
         load_case(p)
 
 
-def test_contact_with_hex_bodies_is_refused_clearly(tmp_path):
-    """Until hexes take part in contact, a scene asking for it stops with a message instead of
-    letting the bodies pass through each other."""
+def test_what_hexes_cannot_do_yet_is_refused_clearly(tmp_path):
+    """Self-contact and fracture of hex bodies are not available: a scene asking for them stops
+    with a message instead of silently ignoring them."""
     from impactsim.case import load_case
     from impactsim.solver.run import SimulationError, run_case
 
     case = load_case(Path(__file__).parents[2] / "cases" / "elastic-bar-wall-hex.toml")
-    import copy
-    other = copy.deepcopy(case.bodies[0])
-    other.name = "other"
-    other.position = (0.0, 0.0, 0.2)
-    case.bodies.append(other)
-    with pytest.raises(SimulationError, match="contact"):
+    case.contact.self_contact = True
+    case.contact.passes = ["node-face"]
+    with pytest.raises(SimulationError, match="self-contact"):
         run_case(case, tmp_path, progress=False)
+
+
+def test_mesh_report_of_a_hex_body(tmp_path):
+    """`impactsim mesh` covers hexes: corner Jacobians, aspect ratio, warping, the stable step
+    from V / largest face area, and mesh.vtu with a hexahedron block."""
+    from impactsim.case import load_case
+    from impactsim.mesh.report import mesh_case
+
+    case = load_case(Path(__file__).parents[2] / "cases" / "taylor-bar-hex.toml")
+    text = mesh_case(case, tmp_path)
+    assert "scaled corner Jacobian min 0.707" in text and "warping worst" in text
+    assert "O-grid" in text and "warning" not in text
+    mesh = meshio.read(tmp_path / "mesh.vtu")
+    assert [b.type for b in mesh.cells] == ["hexahedron"]
+
+
+def test_cost_estimate_counts_hexes():
+    """`impactsim check`'s estimate meshes a hex body to count it (exact), takes its smallest
+    V / face area for the step, and weighs a hex-step as HEX_COST tet-steps."""
+    from impactsim.case import load_case
+    from impactsim.case.estimate import HEX_COST, estimate_cost
+
+    case = load_case(Path(__file__).parents[2] / "cases" / "taylor-bar-hex.toml")
+    pts, hexes = mesh_body(case.bodies[0])
+    speed = {"seconds_per_step": 0.0, "ns_per_element_step": 100.0}
+    e = estimate_cost(case, speed=speed)
+    assert e.elements == len(hexes)
+    from impactsim.mesh.hexes import hex_report
+
+    assert e.l_min == pytest.approx(hex_report(pts, hexes, 1.0, 1.0)["length_min"], rel=1e-9)
+    assert e.wall_seconds == pytest.approx(e.steps * len(hexes) * HEX_COST * 1e-7)
