@@ -181,6 +181,7 @@ def _output(r: Reader, run: Run) -> Output:
         history_every=int(positive(r.get("history_every"), r.at("history_every"))),
         fields=fields,
         compression=r.get("compression"),
+        fragment_histogram=r.get("fragment_histogram"),
     )
 
 

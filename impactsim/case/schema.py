@@ -148,6 +148,7 @@ class Output:
     history_every: int = 1  # write a history row every N steps
     fields: list[str] | None = None  # None = all fields
     compression: str = "zlib"  # VTU data blocks: "zlib" or "none"
+    fragment_histogram: bool = False  # fragments.png: the fragment-size histogram at the end
 
 
 @dataclass

@@ -326,6 +326,9 @@ OUTPUT = Table("output", "What is written, and where.", (
     Key("compression", "choice", "Compression of the frames' data: zlib (measured on a "
         "sphere-plate frame of 164k tets: 19 MB, 1.1 s to write) or none (34 MB, 0.2 s).",
         _d(schema.Output, "compression"), choices=("zlib", "none")),
+    Key("fragment_histogram", "bool", "Write fragments.png, the fragment-size histogram "
+        "(number and mass of the fragments per mass bin) at the end of a run with fracture "
+        "passes (summary.json fragments).", _d(schema.Output, "fragment_histogram")),
 ))
 
 CONTACT = Table("contact", "Contact between bodies. Contact passes run only with two or more "

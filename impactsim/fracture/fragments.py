@@ -118,6 +118,10 @@ def cloud_summary(model, axis, particles=None, bins: int = 12) -> dict:
             np.array([pos.max()])
         cum = [float(mass[mass <= e].sum()) for e in edges]
         out["mass_by_size"] = {"fragment_mass": edges.tolist(), "cumulative_mass": cum}
+        counts, bin_edges = np.histogram(pos, bins=edges_for(pos, bins))
+        msum, _ = np.histogram(pos, bins=bin_edges, weights=pos)
+        out["size_histogram"] = {"mass_edges": bin_edges.tolist(), "count": counts.tolist(),
+                                 "mass": msum.tolist()}
     x, v = leading_edge(model, a, particles)
     out["leading_edge"] = x
     out["leading_edge_speed"] = v
@@ -127,6 +131,14 @@ def cloud_summary(model, axis, particles=None, bins: int = 12) -> dict:
         cosang = np.clip((vel[fwd] @ a) / np.maximum(speed[fwd], 1e-300), -1, 1)
         out["spread_angle_deg"] = float(np.degrees(np.arccos(cosang.min())))
     return out
+
+
+def edges_for(masses: np.ndarray, bins: int) -> np.ndarray:
+    """Logarithmic bin edges over the fragment masses (one bin when they are all equal)."""
+    lo, hi = float(masses.min()), float(masses.max())
+    if hi <= lo:
+        return np.array([lo * 0.9, hi * 1.1])
+    return np.geomspace(lo, hi * (1.0 + 1e-12), bins + 1)
 
 
 def cloud_axis(case) -> np.ndarray:

@@ -267,6 +267,10 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
             else:
                 summary[key] = val
     write_summary(out / "summary.json", summary)
+    if case.output.fragment_histogram and "fragments" in summary:
+        from impactsim.output.fragments import write_fragment_histogram
+
+        write_fragment_histogram(out / "fragments.png", summary["fragments"], case.run.name)
     if progress:
         bar.log(_timing_table(timings, wall))
     return summary

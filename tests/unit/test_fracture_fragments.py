@@ -42,3 +42,16 @@ def test_eroded_element_splits_a_piece():
     m = _model(status=(0, ERODED, 0))
     n, lab = node_components(m)
     assert n == 2 and lab[4] == -1  # node 4 belongs to no live element
+
+
+def test_size_histogram_and_png(tmp_path):
+    from impactsim.output.fragments import write_fragment_histogram
+
+    m = _model()
+    pa = SimpleNamespace(n=1, m=np.array([0.5]), x=np.array([[0.0, 0.0, 9.0]]),
+                         v=np.array([[0.0, 10.0, 300.0]]))
+    s = cloud_summary(m, [0, 0, 1], pa)
+    h = s["size_histogram"]
+    assert sum(h["count"]) == 3 and sum(h["mass"]) == pytest.approx(13.5)
+    assert write_fragment_histogram(tmp_path / "fragments.png", s, "t")
+    assert (tmp_path / "fragments.png").read_bytes()[:4] == b"\x89PNG"
