@@ -100,6 +100,9 @@ class Model:
     energy_terms: dict = field(default_factory=dict)
     # --- further element blocks (hexahedra); the tets above are the first block -----------------
     blocks: list = field(default_factory=list)  # ElementBlock
+    # --- node separation [Z]: per body, True when its nodes are split into element copies
+    # (fracture/separation.py: conn points at each tied family's rep, the others are dormant)
+    separable_bodies: tuple = ()
     time: float = 0.0  # [s]
     dtv: float = 0.0  # [s] velocity step of the current predictor U* = U + dtv F/m
     step: int = 0

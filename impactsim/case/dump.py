@@ -24,7 +24,7 @@ def case_to_dict(case: Case) -> dict:
     output = _fields(case.output)
     out["output"] = _plain({k: v for k, v in output.items() if v is not None})
     out["contact"] = _plain(_fields(case.contact))
-    out["fracture"] = _plain(_fields(case.fracture))
+    out["fracture"] = _plain({k: v for k, v in _fields(case.fracture).items() if v is not None})
     out["checks"] = _plain(_fields(case.checks))
     return out
 

@@ -6,6 +6,7 @@ Every error is a ``CaseError`` whose message starts with ``<file>: <key path>: `
 
 from __future__ import annotations
 
+import math
 import re
 import tomllib
 from collections.abc import Sequence
@@ -204,6 +205,7 @@ def _output(r: Reader, run: Run) -> Output:
         fields=fields,
         compression=r.get("compression"),
         checkpoint_every=r.get("checkpoint_every"),
+        fragment_histogram=r.get("fragment_histogram"),
     )
 
 
@@ -227,6 +229,14 @@ def _fracture(r: Reader) -> Fracture:
                                            r.at("particles_per_element"))),
         particle_collisions=r.get("particle_collisions"),
         erosion_region=r.get("erosion_region"),
+        distortion_interval=(positive(r.get("distortion_interval"), r.at("distortion_interval"))
+                             if r.has("distortion_interval") else None),
+        distortion_extent=in_range(r.get("distortion_extent"), r.at("distortion_extent"), 1.0,
+                                   math.inf),
+        distortion_volume=in_range(r.get("distortion_volume"), r.at("distortion_volume"), 1.0,
+                                   math.inf),
+        separation_measure=r.get("separation_measure"),
+        separation_release=r.get("separation_release"),
     )
 
 

@@ -225,8 +225,7 @@ def _failure(mat: Reader) -> Failure:
     elif r.has("erosion_value"):
         raise r.error("erosion_value", "erosion_value needs an erosion criterion (erosion = ...)")
     if r.has("fracture_strain"):
-        raise r.error("fracture_strain", "node separation ([Z], ALGORITHMS.md 4.3) is not "
-                                         "available yet; this key would have no effect")
+        f.fracture_strain = positive(r.get("fracture_strain"), r.at("fracture_strain"))
     return f
 
 

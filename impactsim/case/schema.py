@@ -151,6 +151,7 @@ class Output:
     fields: list[str] | None = None  # None = all fields
     compression: str = "zlib"  # VTU data blocks: "zlib" or "none"
     checkpoint_every: int | float = 0  # int: every N steps; float: every so much time [s]; 0: off
+    fragment_histogram: bool = False  # fragments.png: the fragment-size histogram at the end
 
 
 @dataclass
@@ -165,6 +166,13 @@ class Fracture:
     particles_per_element: int = 1
     particle_collisions: bool = False
     erosion_region: str = "surface"  # "surface" | "anywhere"
+    # distortion erosion [Z] (fracture/distortion.py): checked every interval [s]; None = off
+    distortion_interval: float | None = None
+    distortion_extent: float = 3.0  # r1: axis extent > r1 * L_ch deletes
+    distortion_volume: float = 8.0  # r2: product of the axis extents > r2 * initial deletes
+    # node separation [Z] (fracture/separation.py), for materials with failure.fracture_strain
+    separation_measure: str = "mean"  # "mean" | "max" of the adjoining elements' plastic strain
+    separation_release: str = "faces"  # "faces" (partial, along failed faces) | "nodes" (whole)
 
 
 @dataclass

@@ -98,6 +98,8 @@ BODY_ELEMENTS = ("tet", "hex8")
 HOURGLASS_FORMS = ("viscous", "stiffness")
 CONTACT_PASSES = ("node-face", "edge-edge")
 EROSION_REGIONS = ("surface", "anywhere")
+SEPARATION_MEASURES = ("mean", "max")
+SEPARATION_RELEASES = ("faces", "nodes")
 ELASTIC_CONSTANTS = ("youngs_modulus", "poisson_ratio", "shear_modulus", "bulk_modulus")
 
 # which shape keys a shape takes; the body's other keys apply to every shape
@@ -195,8 +197,10 @@ FAILURE = Table("failure", "Fracture and erosion data; a mechanism is off when i
         default_doc="1.0 for jc-damage, none for fractured, else required"),
     Key("jc_damage", "number-list", "Johnson-Cook fracture constants D1..D5; needed by "
         "erosion = \"jc-damage\".", None, length=5),
-    Key("fracture_strain", "number", "Node separation [Z]: plastic strain at which coincident "
-        "node copies come apart. Not available yet: the key is rejected.", None),
+    Key("fracture_strain", "number", "Node separation [Z] (> 0): the bodies of this material are "
+        "split into tied node copies that come apart where the plastic strain of the adjoining "
+        "elements reaches this value ([fracture] separation_measure, separation_release).",
+        None),
 ), shorthands=("none",), default="no failure")
 
 MATERIAL = Table("material", "A material. Start from a library entry with `library` and "
@@ -341,6 +345,9 @@ OUTPUT = Table("output", "What is written, and where.", (
         "checkpoints/ of the output folder) every N steps (an integer) or every so much "
         "simulated time (\"0.5 us\"); `impactsim run CASE --resume DIR` continues from the last "
         "one. 0: none.", 0),
+    Key("fragment_histogram", "bool", "Write fragments.png, the fragment-size histogram "
+        "(number and mass of the fragments per mass bin) at the end of a run with fracture "
+        "passes (summary.json fragments).", _d(schema.Output, "fragment_histogram")),
 ))
 
 CONTACT = Table("contact", "Contact between bodies. Contact passes run only with two or more "
@@ -361,6 +368,25 @@ FRACTURE = Table("fracture", "How fractured material is represented.", (
     Key("erosion_region", "choice", "Where erosion may delete elements: only at the contact "
         "surface [R20], or anywhere.", _d(schema.Fracture, "erosion_region"),
         choices=EROSION_REGIONS),
+    Key("distortion_interval", "quantity", "Distortion erosion [Z]: every this long (longer "
+        "than the step) an element is deleted when an axis extent exceeds distortion_extent "
+        "times its initial largest extent, the product of its axis extents exceeds "
+        "distortion_volume times the initial one, or a corner's edge Jacobian changes sign "
+        "(> 0; any body, any fracture method).", None, dim="time",
+        default_doc="off"),
+    Key("distortion_extent", "number", "r1 of distortion erosion (> 1).",
+        _d(schema.Fracture, "distortion_extent")),
+    Key("distortion_volume", "number", "r2 of distortion erosion (> 1).",
+        _d(schema.Fracture, "distortion_volume")),
+    Key("separation_measure", "choice", "Node separation: the plastic strain compared with "
+        "failure.fracture_strain, the mean or the max of the elements adjoining a face (or, "
+        "with separation_release = \"nodes\", a node).", _d(schema.Fracture,
+                                                             "separation_measure"),
+        choices=SEPARATION_MEASURES),
+    Key("separation_release", "choice", "Node separation: \"faces\" splits a node family "
+        "only along the faces that failed (partial release), \"nodes\" releases every copy of "
+        "a node at once.", _d(schema.Fracture, "separation_release"),
+        choices=SEPARATION_RELEASES),
 ))
 
 CHECK_ACTIONS = ("error", "warn", "ignore")

@@ -117,6 +117,10 @@ class ContactContext:
         self.projections = PROJECTIONS
         self.slack = SLACK
         self._locks = PrescribedLock()
+        # node -> the key the self-contact exclusion compares (None: the node itself). Node
+        # separation sets the mesh node each copy came from, so that the faces a release opens
+        # (coincident, sharing the copies of one node) are not taken for contacting ones.
+        self.node_key = None
 
     def lock(self, model) -> np.ndarray:
         """``prescribed_lock(model)``, cached (`PrescribedLock`)."""
@@ -423,7 +427,10 @@ class ContactPass(Pass):
             return _NO_PAIRS
         origin, cell = ctx.grid(blo, bhi, h)
         self.hash.build(elo, ehi, origin, cell)
-        pairs = self.hash.query(qlo, qhi, qent[qsel], qbody[qsel], ent[esel], body[esel],
+        qk, ek = qent[qsel], ent[esel]
+        if ctx.node_key is not None:  # self-contact exclusion by node family (separation)
+            qk, ek = ctx.node_key[qk], ctx.node_key[ek]
+        pairs = self.hash.query(qlo, qhi, qk, qbody[qsel], ek, body[esel],
                                 queries is None, ctx.self_contact)
         return _lift(pairs, qsel, esel)
 

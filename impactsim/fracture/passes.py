@@ -34,6 +34,8 @@ from impactsim.contact.broadphase import SpatialHash, grid_for
 from impactsim.contact.passes import PrescribedLock
 from impactsim.fracture import criteria as C
 from impactsim.fracture.boundary import Boundary
+from impactsim.fracture.distortion import Distortion
+from impactsim.fracture.fragments import cloud_axis, cloud_summary, leading_edge
 from impactsim.fracture.measures import body_measures
 from impactsim.fracture.particles import (Particles, faces_near, move_particles, particle_boxes,
                                           particle_face_sweep, particle_particle_sweep,
@@ -50,13 +52,13 @@ class FractureState:
     """What the two fracture passes share: the free faces, the particles, counters."""
 
     def __init__(self, case, model):
-        self.boundary = Boundary.from_model(model)
+        self.rebuild_mesh(model)
         self.surface_only = case.fracture.erosion_region != "anywhere"
         self.n_per = int(case.fracture.particles_per_element)
         self.collisions = bool(case.fracture.particle_collisions)
         self.particles = Particles()
-        self.node_live = np.bincount(model.conn[model.status != ERODED].reshape(-1),
-                                     minlength=model.n_node).astype(np.int32)
+        self.distortion = Distortion(case, model)  # distortion erosion [Z] (None when off)
+        self.axis = cloud_axis(case)  # the debris cloud's direction (fracture/fragments.py)
         self.action = np.zeros(model.n_elem, dtype=np.int8)
         self.ids = np.zeros(model.n_elem, dtype=np.int64)
         b = self.boundary
@@ -72,6 +74,16 @@ class FractureState:
         self.jnode = np.ones(model.n_node)
         model.energy_terms.setdefault("eroded", 0.0)
         model.energy_terms["particles"] = 0.0
+
+    def rebuild_mesh(self, model) -> None:
+        """The free faces and the live corners per node from model.conn afresh (at the start,
+        and after node separation repointed corners)."""
+        self.boundary = Boundary.from_model(model)
+        self.node_live = np.bincount(model.conn[model.status != ERODED].reshape(-1),
+                                     minlength=model.n_node).astype(np.int32)
+        for blk in model.blocks:  # hex corners keep their nodes alive too
+            self.node_live += np.bincount(blk.conn[blk.status != ERODED].reshape(-1),
+                                          minlength=model.n_node).astype(np.int32)
 
     def update_particle_energy(self, model) -> None:
         _, ke, ie, _ = self.particles.sums()
@@ -107,12 +119,19 @@ class FracturePass(Pass):
         s.counts["fractured"] += int(n_frac)
         if n_act:
             self._remove(model, s.ids[:C.action_ids(s.action, s.ids)])
+        if s.distortion is not None and s.distortion.due(model, dt):
+            tets, blocks = s.distortion.check(model)
+            if tets.shape[0]:
+                self._remove(model, tets, np.full(tets.shape[0], C.ERODE, np.int8))
+            for blk, ids in blocks:
+                model.energy_terms["eroded"] += s.distortion.erode_block(model, blk, ids,
+                                                                         s.node_live, self.sim)
         # the particles' energy at the end of the step (contacts, motion, new particles)
         s.update_particle_energy(model)
 
-    def _remove(self, model, ids):
+    def _remove(self, model, ids, kinds=None):
         s = self.s
-        kinds = s.action[ids]
+        kinds = s.action[ids] if kinds is None else kinds
         s.counts["guard"] += int(np.count_nonzero(kinds == C.GUARD))
         s.counts["melt"] += int(np.count_nonzero(kinds == C.MELT))
         pa = s.particles
@@ -139,7 +158,8 @@ class FracturePass(Pass):
                 "particle_momentum_z": float(p[2]),
                 "damaged": float(np.count_nonzero(model.status == DAMAGED)),
                 "fractured": float(np.count_nonzero(model.status == FRACTURED)),
-                "eroded_elements": float(s.counts["eroded"] + s.counts["converted"])}
+                "eroded_elements": float(s.counts["eroded"] + s.counts["converted"]),
+                "leading_edge": leading_edge(model, s.axis, pa)[0]}
 
     def summary(self, model):
         s = self.s
@@ -151,6 +171,7 @@ class FracturePass(Pass):
                 "particles": int(pa.n), "eroded_elements": int(s.counts["eroded"]
                                                              + s.counts["converted"]),
                 "bodies": bodies,
+                "fragments": cloud_summary(model, s.axis, pa),
                 "fracture": {"damaged_total": s.counts["damaged"],
                              "fractured_total": s.counts["fractured"],
                              "eroded": s.counts["eroded"],
@@ -162,7 +183,9 @@ class FracturePass(Pass):
                              "particle_momentum": pa.momentum().tolist(),
                              "particle_buffer_grows": pa.grows,
                              "free_faces": s.boundary.n,
-                             "free_face_grows": s.boundary.grows}}
+                             "free_face_grows": s.boundary.grows,
+                             **({"distortion": s.distortion.summary()}
+                                if s.distortion is not None else {})}}
 
 
 class ParticlePass(Pass):
@@ -253,10 +276,23 @@ class ParticlePass(Pass):
         return {"particles": (pa.x[:n], data)}
 
 
+def fracture_wanted(case) -> bool:
+    """A material with failure data, or distortion erosion: the fracture passes run."""
+    return (any(m.failure.active or m.failure.fracture_strain is not None
+                for m in case.materials.values())
+            or case.fracture.distortion_interval is not None)
+
+
 def make_fracture_passes(case, model) -> list[Pass]:
-    """[particle pass, fracture pass] for a case with failure data, else []."""
-    if not any(m.failure.active for m in case.materials.values()):
+    """[particle pass, fracture pass] for a case with failure data or distortion erosion,
+    else []."""
+    if not fracture_wanted(case):
         return []
     state = FractureState(case, model)
-    return [ParticlePass(state), FracturePass(state)]
+    passes = [ParticlePass(state), FracturePass(state)]
+    if any(model.separable_bodies):  # node separation [Z] (fracture/separation.py)
+        from impactsim.fracture.separation import Separation, SeparationPass
+
+        passes.append(SeparationPass(state, Separation(case, model)))
+    return passes
 

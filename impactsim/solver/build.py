@@ -62,9 +62,15 @@ def build_model(case: Case, meshes: list[tuple[np.ndarray, np.ndarray]] | None =
     node_start, elem_start = [0], [0]
     bc_nodes, bc_mask, bc_vel = [], [], []
     hexes = HexCollector()
+    separable = []
     for b, (body, (pts, tets)) in enumerate(zip(case.bodies, meshes)):
         pts = np.asarray(pts, dtype=np.float64)
         tets = np.asarray(tets, dtype=np.int64)
+        separable.append(case.materials[body.material].failure.fracture_strain is not None)
+        if separable[-1]:  # node separation: one node copy per element corner
+            from impactsim.mesh.split import split_points
+
+            pts, tets = split_points(pts, tets)
         off = node_start[-1]
         xs.append(pts)
         hexes.body(b, body, tets if tets.shape[1] == 8 else None, off, mat_index[body.material])
@@ -128,7 +134,7 @@ def build_model(case: Case, meshes: list[tuple[np.ndarray, np.ndarray]] | None =
         bc_nodes=nodes.astype(np.int32), bc_mask=masks, bc_velocity=vels, walls=walls,
         energy_terms={"contact_dissipated": 0.0, "external_work": 0.0, "viscous": 0.0,
                       "eroded": 0.0, **({"hourglass": 0.0} if blocks else {})},
-        blocks=blocks,
+        blocks=blocks, separable_bodies=tuple(separable),
     )
 
 

@@ -23,7 +23,9 @@ def build_passes(case: Case, model: Model) -> list[Pass]:
         from impactsim.contact import make_contact_passes
 
         passes.extend(make_contact_passes(case, model))
-    if any(m.failure.active for m in case.materials.values()):
+    from impactsim.fracture.passes import fracture_wanted
+
+    if fracture_wanted(case):
         from impactsim.fracture import make_fracture_passes
 
         passes.extend(make_fracture_passes(case, model))

@@ -464,6 +464,16 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
         except OSError as err:
             output_error = output_error or (f"{_label(case)}output.directory: cannot write "
                                             f"summary.json in {out}: {err.strerror or err}")
+    if case.output.fragment_histogram and "fragments" in summary:
+        from impactsim.output.fragments import write_fragment_histogram
+
+        with stops.finishing():
+            try:
+                write_fragment_histogram(out / "fragments.png", summary["fragments"],
+                                         case.run.name)
+            except OSError as err:
+                output_error = output_error or (f"{_label(case)}output.directory: cannot write "
+                                                f"fragments.png in {out}: {err.strerror or err}")
     if output_error:
         raise SimulationError(output_error)
     if progress:

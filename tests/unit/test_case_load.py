@@ -538,10 +538,9 @@ def test_case_built_in_python_dumps_and_reloads():
     assert again == case
 
 
-def test_node_separation_key_is_rejected_not_ignored(tmp_path):
-    """failure.fracture_strain belongs to node separation, which is not available yet: a case
-    that sets it must hear so instead of running without it."""
+def test_node_separation_key_is_validated(tmp_path):
+    """failure.fracture_strain switches node separation on; it must be positive."""
     text = BASE.replace('poisson_ratio = 0.25\n',
-                        'poisson_ratio = 0.25\nfailure = { fracture_strain = 0.8 }\n')
+                        'poisson_ratio = 0.25\nfailure = { fracture_strain = -0.8 }\n')
     msg = error(tmp_path, text)
-    assert "material[0].failure.fracture_strain" in msg and "not available" in msg
+    assert "material[0].failure.fracture_strain" in msg and "> 0" in msg

@@ -1,0 +1,439 @@
+"""Node separation [Z] (ALGORITHMS.md 4.3 and 7.2): a body comes apart along element faces,
+without deleting anything.
+
+Design: node copies preallocated, families split on demand (the on-demand recipe of 7.2, after
+Akantu's cohesive inserter, with the copies made at build time so that no node array ever grows).
+
+- Build (solver/build.py, ``split_points``): every element of a body whose material has
+  ``failure.fracture_strain`` gets its own copy of each of its nodes (node count x 8 for hexes,
+  about x 20 for tets). The copies of one mesh node form a family. A tied (sub-)family is
+  represented by one of its copies, its *rep* (the smallest copy index of the family part it
+  stands for); the element connectivity points at the reps, so ``Model.conn`` is always the
+  merged mesh as it currently is, and everything that reads it (element kernel, force rows,
+  contact surface, free faces) sees a mesh whose nodes are shared exactly where the material
+  still holds together. The rep carries the lumped mass of its part (sum of m_e / k over its
+  corners, the same sum as the unsplit mesh); the other copies are dormant (zero mass: the
+  predictor, energies, momentum and contact skip them).
+- Release (``SeparationPass``, fracture stage, every step after the element update): an inner
+  face fails when the effective plastic strain of its two elements (``[fracture]
+  separation_measure`` = "mean" (default) or "max") reaches the fracture strain. Each node
+  family touched by a newly failed face is split into the connected components of its star of
+  live elements joined through the faces that have not failed (union-find, in copy order:
+  deterministic). This is the partial release of the issue; ``separation_release = "nodes"``
+  instead releases every copy of a family at once when the mean / max plastic strain of its
+  star reaches the fracture strain. A part that leaves its rep gets a new rep (its smallest
+  copy) with the parent's position and velocity and the parent's mass times the part's share of
+  the lumped corner masses: mass and momentum are conserved to round-off through every release,
+  and no force passes between the parts afterwards (they share no node).
+- After a step with releases, what depends on the connectivity is refreshed: the force rows of
+  the element kernels (``Simulation.set_parts`` and the block runners), the node-to-element
+  index, the fracture passes' free faces and live-node counts, and the contact surface
+  (``ContactContext.rebuild_surface``): the faces exposed by a release are free faces of
+  their bodies (contact with the other bodies, and self-contact of the fragments when
+  ``contact.self_contact``) at the next velocity stage. These refreshes rebuild whole
+  structures (O(N log N)); they run only on steps with releases (docs/fracture.md: cost).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from impactsim.materials.params import FRACTURE_STRAIN
+from impactsim.mesh.topology import LOCAL_FACES as TET_FACES
+from impactsim.mesh.split import split_points  # noqa: F401 (build time, here for readers)
+from impactsim.model import ERODED
+
+# the quad faces of a hex in VTK order, outward
+HEX_FACES = np.array([[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6],
+                      [3, 0, 4, 7]], dtype=np.int64)
+
+
+def local_faces(corners: int) -> np.ndarray:
+    return TET_FACES if corners == 4 else HEX_FACES
+
+
+def face_adjacency_k(conn: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(n, f) int64 neighbour across each local face (faces (f, w) local corner lists), -1 on
+    the boundary: faces matched by their sorted node tuples (lexsort, O(N log N))."""
+    n, f = conn.shape[0], faces.shape[0]
+    adj = np.full((n, f), -1, np.int64)
+    if n == 0:
+        return adj
+    keys = np.sort(conn[:, faces].reshape(n * f, faces.shape[1]).astype(np.int64), axis=1)
+    order = np.lexsort(keys.T[::-1])
+    ks = keys[order]
+    same = np.all(ks[1:] == ks[:-1], axis=1)
+    a, b = order[:-1][same], order[1:][same]
+    adj.reshape(-1)[a] = b // f
+    adj.reshape(-1)[b] = a // f
+    return adj
+
+
+@numba.njit(cache=True)
+def _find(parent, i):
+    while parent[i] != i:
+        parent[i] = parent[parent[i]]
+        i = parent[i]
+    return i
+
+
+@numba.njit(cache=True)
+def _fail_faces(conn, status, elem_mat, eps_p, mat_params, adj, faces, failed, sep, use_max,
+                ecopy, fam, touched):
+    """Mark the inner faces of separable elements whose plastic-strain measure reached the
+    fracture strain (both sides) and flag the families of their nodes in ``touched``.
+    Returns the number of newly failed faces."""
+    n_new = 0
+    nf, w = faces.shape[0], faces.shape[1]
+    for e in range(conn.shape[0]):
+        if not sep[e] or status[e] == ERODED:
+            continue
+        for i in range(nf):
+            nb = adj[e, i]
+            if nb < e or failed[e, i] or status[nb] == ERODED:
+                continue  # each inner face once (from its lower element)
+            a, b = eps_p[e], eps_p[nb]
+            m = max(a, b) if use_max else 0.5 * (a + b)
+            fs = min(mat_params[elem_mat[e], FRACTURE_STRAIN],
+                     mat_params[elem_mat[nb], FRACTURE_STRAIN])
+            if m < fs:
+                continue
+            failed[e, i] = True
+            for jn in range(nf):
+                if adj[nb, jn] == e:
+                    failed[nb, jn] = True
+            for q in range(w):
+                touched[fam[ecopy[e, faces[i, q]]]] = True
+            n_new += 1
+    return n_new
+
+
+@numba.njit(cache=True)
+def _release_nodes(conn, status, elem_mat, eps_p, mat_params, use_max, fam_ptr, fam_mem,
+                   copy_elem, copy_corner, released, touched):
+    """``separation_release = "nodes"``: a family whose star (live elements) has a plastic
+    strain mean / max at or above the fracture strain is released whole (all its copies apart).
+    Returns the number of families released."""
+    n = 0
+    for f in range(fam_ptr.shape[0] - 1):
+        if released[f]:
+            continue
+        s, cnt, mx, fs = 0.0, 0, 0.0, np.inf
+        for k in range(fam_ptr[f], fam_ptr[f + 1]):
+            e = copy_elem[fam_mem[k]]
+            if status[e] == ERODED:
+                continue
+            s += eps_p[e]
+            mx = max(mx, eps_p[e])
+            cnt += 1
+            fs = min(fs, mat_params[elem_mat[e], FRACTURE_STRAIN])
+        if cnt == 0:
+            continue
+        m = mx if use_max else s / cnt
+        if m >= fs:
+            released[f] = True
+            touched[f] = True
+            n += 1
+    return n
+
+
+@numba.njit(cache=True)
+def _split_families(conn, status, elem_mass, adj, faces, failed, corner_in_face, released,
+                    fam_ptr, fam_mem, copy_elem, copy_corner, ecopy, fam, touched, x, x0, v,
+                    mass, parent):
+    """Split every touched family into the components of its live star joined through unfailed
+    faces (module docstring). ``parent`` (n_copies,) scratch. Returns the new reps made."""
+    k = conn.shape[1]
+    nf = faces.shape[0]
+    made = 0
+    for f in range(fam_ptr.shape[0] - 1):
+        if not touched[f]:
+            continue
+        touched[f] = False
+        lo, hi = fam_ptr[f], fam_ptr[f + 1]
+        for q in range(lo, hi):
+            parent[fam_mem[q]] = fam_mem[q]
+        if not released[f]:
+            for q in range(lo, hi):
+                c = fam_mem[q]
+                e = copy_elem[c]
+                if status[e] == ERODED:
+                    continue
+                j = copy_corner[c]
+                for i in range(nf):
+                    if not corner_in_face[j, i] or failed[e, i]:
+                        continue
+                    nb = adj[e, i]
+                    if nb < 0 or status[nb] == ERODED:
+                        continue
+                    for jj in range(k):
+                        c2 = ecopy[nb, jj]
+                        if fam[c2] == f:
+                            ra, rb = _find(parent, c), _find(parent, c2)
+                            if ra != rb:  # the smaller index becomes the root
+                                if ra < rb:
+                                    parent[rb] = ra
+                                else:
+                                    parent[ra] = rb
+                            break
+        made += _apply_split(conn, status, elem_mass, fam_mem, lo, hi, copy_elem, copy_corner,
+                             parent, x, x0, v, mass, k)
+    return made
+
+
+@numba.njit(cache=True)
+def _apply_split(conn, status, elem_mass, fam_mem, lo, hi, copy_elem, copy_corner, parent, x,
+                 x0, v, mass, k):
+    """Move the components of the family members lo:hi that leave their group's rep to new
+    reps (their roots), sharing the rep's mass by corner-mass weight. Returns reps made."""
+    made = 0
+    n = hi - lo
+    # distinct groups (reps) and, per group, its kept root (smallest root among live members)
+    reps = np.empty(n, np.int64)
+    keep = np.empty(n, np.int64)
+    wsum = np.zeros(n)
+    ng = 0
+    for q in range(lo, hi):
+        c = fam_mem[q]
+        e = copy_elem[c]
+        if status[e] == ERODED:
+            continue
+        r = conn[e, copy_corner[c]]
+        root = _find(parent, c)
+        g = -1
+        for t in range(ng):
+            if reps[t] == r:
+                g = t
+                break
+        if g < 0:
+            g = ng
+            reps[g] = r
+            keep[g] = root
+            ng += 1
+        elif root < keep[g]:
+            keep[g] = root
+        wsum[g] += elem_mass[e] / k
+    # per (group, leaving root): weights, then the new reps
+    roots = np.empty(n, np.int64)
+    rgrp = np.empty(n, np.int64)
+    rw = np.zeros(n)
+    nr = 0
+    for q in range(lo, hi):
+        c = fam_mem[q]
+        e = copy_elem[c]
+        if status[e] == ERODED:
+            continue
+        r = conn[e, copy_corner[c]]
+        root = _find(parent, c)
+        g = 0
+        while reps[g] != r:
+            g += 1
+        if root == keep[g]:
+            continue
+        t = -1
+        for u in range(nr):
+            if roots[u] == root:
+                t = u
+                break
+        if t < 0:
+            t = nr
+            roots[t] = root
+            rgrp[t] = g
+            nr += 1
+        rw[t] += elem_mass[e] / k
+    if nr == 0:
+        return 0
+    # masses: every leaving part takes its share of its group's current rep mass
+    for t in range(nr):
+        g = rgrp[t]
+        r = reps[g]
+        q_new = roots[t]
+        share = mass[r] * (rw[t] / wsum[g])
+        for d in range(3):
+            x[q_new, d] = x[r, d]
+            x0[q_new, d] = x0[r, d]
+            v[q_new, d] = v[r, d]
+        mass[q_new] = share
+        made += 1
+    for t in range(nr):  # the parents' remaining mass, after all shares were taken
+        g = rgrp[t]
+        mass[reps[g]] -= mass[roots[t]]
+    # repoint the corners of the leaving parts
+    for q in range(lo, hi):
+        c = fam_mem[q]
+        e = copy_elem[c]
+        if status[e] == ERODED:
+            continue
+        r = conn[e, copy_corner[c]]
+        root = _find(parent, c)
+        g = 0
+        while reps[g] != r:
+            g += 1
+        if root != keep[g]:
+            conn[e, copy_corner[c]] = root
+    return made
+
+
+class SeparableSet:
+    """The separable elements of one element set (the tets, or a hex block) and their state."""
+
+    def __init__(self, model, holder, sep_bodies, elem_start):
+        self.holder = holder  # the Model (tets) or the ElementBlock
+        conn = holder.conn
+        n, k = conn.shape
+        self.k = k
+        self.faces = local_faces(k)
+        nf = self.faces.shape[0]
+        self.corner_in_face = np.zeros((k, nf), bool)
+        for i in range(nf):
+            self.corner_in_face[self.faces[i], i] = True
+        self.sep = np.isin(holder.elem_body, sep_bodies)
+        self.ecopy = np.full((n, k), -1, np.int64)
+        nn = model.n_node
+        self.copy_elem = np.full(nn, -1, np.int64)
+        self.copy_corner = np.full(nn, -1, np.int64)
+        for b in sep_bodies:
+            e0, e1 = int(elem_start[b]), int(elem_start[b + 1])
+            if e1 == e0:
+                continue
+            c0 = int(model.node_start[b])
+            copies = c0 + np.arange((e1 - e0) * k, dtype=np.int64)
+            self.ecopy[e0:e1] = copies.reshape(-1, k)
+            self.copy_elem[copies] = np.repeat(np.arange(e0, e1), k)
+            self.copy_corner[copies] = np.tile(np.arange(k), e1 - e0)
+        self.adj = face_adjacency_k(conn, self.faces)
+        self.failed = np.zeros((n, nf), bool)
+
+    @property
+    def n_sep(self) -> int:
+        return int(np.count_nonzero(self.sep))
+
+
+class Separation:
+    """Node separation of a run: the separable sets, the families and the release (module
+    docstring). ``model`` must come from build_model with separable bodies split."""
+
+    def __init__(self, case, model):
+        f = case.fracture
+        self.use_max = f.separation_measure == "max"
+        self.whole = f.separation_release == "nodes"
+        self.bodies = np.flatnonzero(np.asarray(model.separable_bodies, bool)).astype(np.int64)
+        self.sets = []
+        if model.n_elem:
+            self.sets.append(SeparableSet(model, model, self.bodies, model.elem_start))
+        for blk in model.blocks:
+            self.sets.append(SeparableSet(model, blk, self.bodies, blk.body_start))
+        self.sets = [s for s in self.sets if s.n_sep]
+        nn = model.n_node
+        # families: the copies pointing at one rep at t = 0, numbered by that rep
+        rep = np.full(nn, -1, np.int64)
+        for s in self.sets:
+            m = s.ecopy >= 0
+            rep[s.ecopy[m]] = s.holder.conn[m]
+        is_copy = rep >= 0
+        reps = np.unique(rep[is_copy])
+        self.fam = np.full(nn, -1, np.int64)
+        self.fam[is_copy] = np.searchsorted(reps, rep[is_copy])
+        members = np.flatnonzero(is_copy)
+        order = np.argsort(self.fam[members], kind="stable")  # members ascending per family
+        self.fam_mem = members[order].astype(np.int64)
+        self.fam_ptr = np.zeros(reps.shape[0] + 1, np.int64)
+        np.cumsum(np.bincount(self.fam[members], minlength=reps.shape[0]), out=self.fam_ptr[1:])
+        self.released = np.zeros(reps.shape[0], bool)
+        self.touched = np.zeros(reps.shape[0], bool)
+        self.parent = np.zeros(nn, np.int64)
+        dormant = is_copy & (model.mass == 0.0)
+        model.v[dormant] = 0.0  # dormant copies stay where they are
+        self.counts = {"failed_faces": 0, "released_families": 0, "new_nodes": 0,
+                       "release_steps": 0}
+        self.n_families = int(reps.shape[0])
+        self.n_copies = int(members.shape[0])
+
+    def release(self, model) -> bool:
+        """Fail faces and split families (module docstring); True when the mesh changed."""
+        changed = False
+        for s in self.sets:
+            h = s.holder
+            if self.whole:
+                n = _release_nodes(h.conn, h.status, h.elem_mat, h.eps_p, model.mat_params,
+                                   self.use_max, self.fam_ptr, self.fam_mem, s.copy_elem,
+                                   s.copy_corner, self.released, self.touched)
+                self.counts["released_families"] += int(n)
+            else:
+                n = _fail_faces(h.conn, h.status, h.elem_mat, h.eps_p, model.mat_params, s.adj,
+                                s.faces, s.failed, s.sep, self.use_max, s.ecopy, self.fam,
+                                self.touched)
+                self.counts["failed_faces"] += int(n)
+            if not n:
+                continue
+            made = _split_families(h.conn, h.status, h.elem_mass, s.adj, s.faces, s.failed,
+                                   s.corner_in_face, self.released, self.fam_ptr, self.fam_mem,
+                                   s.copy_elem, s.copy_corner, s.ecopy, self.fam, self.touched,
+                                   model.x, model.x0, model.v, model.mass, self.parent)
+            if made:
+                self.counts["new_nodes"] += int(made)
+                h.conn = h.conn.copy()  # a new array: caches keyed on conn see the change
+                changed = True
+        if changed:
+            self.counts["release_steps"] += 1
+        return changed
+
+    def summary(self, model) -> dict:
+        return {"families": self.n_families, "copies": self.n_copies,
+                "measure": "max" if self.use_max else "mean",
+                "release": "nodes" if self.whole else "faces", **self.counts}
+
+
+class SeparationPass:
+    """Node separation after the element update (fracture stage, after the fracture pass):
+    release, then the refresh of what depends on the connectivity (module docstring)."""
+
+    name = "fracture.separation"
+    stage = "fracture"
+
+    def __init__(self, state, sep: Separation):
+        self.s = state
+        self.sep = sep
+        self.sim = None
+
+    def attach(self, sim) -> None:
+        self.sim = sim
+        key = np.arange(sim.model.n_node, dtype=np.int64)
+        copy = self.sep.fam >= 0
+        key[copy] = sim.model.n_node + self.sep.fam[copy]  # the family, apart from any node
+        for ctx in self.contexts():
+            ctx.node_key = key
+
+    def contexts(self):
+        """The contact contexts of the run (one shared by the contact passes)."""
+        if self.sim is None:
+            return []
+        return list({id(p.ctx): p.ctx for p in self.sim.velocity_passes
+                     if hasattr(p, "ctx")}.values())
+
+    def run(self, model, dt) -> None:
+        if self.sep.release(model):
+            self.refresh(model)
+
+    def refresh(self, model) -> None:
+        from impactsim.solver.build import node_to_element
+        from impactsim.solver.scatter import force_rows
+
+        sim = self.sim
+        if sim is not None:
+            if model.n_elem:
+                sim.set_parts(sim.force_rows.part_size)
+            for r in sim.block_runners:
+                r.rows = force_rows(r.block.conn, model.n_node, r.rows.part_size)
+                r.fext = np.zeros((r.rows.n_rows, 3))
+            for ctx in self.contexts():
+                ctx.rebuild_surface(model)
+        model.n2e_ptr, model.n2e = node_to_element(model.conn, model.n_node)
+        self.s.rebuild_mesh(model)
+
+    def history(self, model) -> dict:
+        return {"separated_nodes": float(self.sep.counts["new_nodes"])}
+
+    def summary(self, model) -> dict:
+        return {"fracture": {"separation": self.sep.summary(model)}}

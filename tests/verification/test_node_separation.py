@@ -1,0 +1,207 @@
+"""Node separation [Z] (ALGORITHMS.md 4.3, 7.2; fracture/separation.py)."""
+
+import numba
+import numpy as np
+import pytest
+
+from impactsim.case import load_case_text
+from impactsim.fracture.fragments import node_components
+from impactsim.fracture.separation import SeparationPass
+from impactsim.solver.build import build_model
+from impactsim.solver.loop import Simulation
+from impactsim.solver.pipeline import build_passes
+
+WALL = """
+[run]
+name = "tied"
+end_time = "1 ms"
+[[material]]
+name = "al"
+library = "al-ideal-plastic"
+{failure}
+[[body]]
+name = "block"
+material = "al"
+shape = "box"
+size = ["4 mm", "4 mm", "6 mm"]
+position = ["0 mm", "0 mm", "3.001 mm"]
+mesh_size = "1 mm"
+mesher = "structured"
+element = "{element}"
+velocity = ["30 m/s", "-20 m/s", "-400 m/s"]
+angular_velocity = ["0 rad/s", "20000 rad/s", "0 rad/s"]
+[[wall]]
+point = [0, 0, 0]
+normal = [0, 0, 1]
+"""
+
+BAR = """
+[run]
+name = "pull"
+end_time = "1 ms"
+[[material]]
+name = "al"
+library = "al-ideal-plastic"
+failure = {{ fracture_strain = {fs} }}
+[[body]]
+name = "bar"
+material = "al"
+shape = "box"
+size = ["2 mm", "2 mm", "10 mm"]
+mesh_size = "1 mm"
+mesher = "structured"
+element = "{element}"
+[[body.constraint]]
+nodes = {{ plane = {{ point = ["0 mm", "0 mm", "-5 mm"], normal = [0, 0, 1] }} }}
+fixed = true
+[[body.constraint]]
+nodes = {{ plane = {{ point = ["0 mm", "0 mm", "5 mm"], normal = [0, 0, 1] }} }}
+velocity = ["0 m/s", "0 m/s", "{speed} m/s"]
+[fracture]
+separation_measure = "{measure}"
+"""
+
+
+def _sim(text, threads=1):
+    """A Simulation of the case text (one thread by default: small meshes, busy machine)."""
+    numba.set_num_threads(threads)
+    case = load_case_text(text)
+    model = build_model(case)
+    passes = build_passes(case, model)
+    return Simulation(model, passes, cfl=case.run.cfl, cq=case.run.q_quadratic,
+                      cl=case.run.q_linear), model
+
+
+def _cells(model):
+    return model.blocks[0].conn if model.blocks else model.conn
+
+
+@pytest.mark.parametrize("element", ["tet", "hex8"])
+def test_tied_mesh_moves_as_the_plain_mesh(element):
+    """Never released (fracture strain 100), the split body follows the plain one to 1e-10."""
+    plain, mp = _sim(WALL.format(failure="", element=element))
+    tied, mt = _sim(WALL.format(failure="failure = { fracture_strain = 100.0 }",
+                                element=element))
+    assert mt.n_node > 4 * mp.n_node  # the copies exist
+    for _ in range(150):
+        plain.step()
+        dt = tied.step()
+        assert dt == pytest.approx(plain.dt, rel=1e-10)
+    cp, ct = _cells(mp), _cells(mt)
+    scale = np.abs(mp.x).max()
+    assert np.abs(mt.x[ct] - mp.x[cp]).max() <= 1e-10 * scale
+    vs = np.abs(mp.v).max()
+    assert np.abs(mt.v[ct] - mp.v[cp]).max() <= 1e-10 * vs
+    assert mt.mass.sum() == pytest.approx(mp.mass.sum(), rel=1e-14)
+    assert np.max(mt.eps_p if not mt.blocks else mt.blocks[0].eps_p) > 0.01  # plastic flow
+
+
+def _face_measures(s, h, use_max):
+    """Plastic-strain measure of every inner face (pairs e < nb) of a separable set."""
+    e, i = np.nonzero(s.adj >= 0)
+    nb = s.adj[e, i]
+    keep = e < nb
+    a, b = h.eps_p[e[keep]], h.eps_p[nb[keep]]
+    return (np.maximum(a, b) if use_max else 0.5 * (a + b)), e[keep], i[keep]
+
+
+@pytest.mark.parametrize("element,measure", [("tet", "mean"), ("hex8", "max")])
+def test_pulled_bar_separates_where_and_when_the_strain_is_reached(element, measure):
+    fs = 0.25
+    sim, model = _sim(BAR.format(fs=fs, element=element, speed=300, measure=measure))
+    sp = next(p for p in sim.fracture_passes if isinstance(p, SeparationPass))
+    sep = sp.sep
+    s = sep.sets[0]
+    h = s.holder
+    m0 = model.mass.sum()
+    first = None
+    for step in range(4000):
+        before, _, _ = _face_measures(s, h, measure == "max")
+        n_failed = int(s.failed.sum())
+        p_pre = model.mass @ model.v
+        m_pre = model.mass.sum()
+        sp_run = sp.run
+        record = {}
+
+        def run(model_, dt, _run=sp_run):
+            meas, e, i = _face_measures(s, h, measure == "max")
+            record["meas"], record["e"], record["i"] = meas, e, i
+            record["p"] = model_.mass @ model_.v
+            _run(model_, dt)
+            record["p_after"] = model_.mass @ model_.v
+            record["m_after"] = model_.mass.sum()
+
+        sp.run = run
+        sim.step()
+        sp.run = sp_run
+        meas, e, i = record["meas"], record["e"], record["i"]
+        if int(s.failed.sum()) > n_failed:
+            # where: every failed face reached the fracture strain, every face above it failed
+            assert np.all(meas[s.failed[e, i]] >= fs - 1e-12) or first is not None
+            assert np.all(s.failed[e, i][meas >= fs])
+            if first is None:
+                first = step
+                assert before.max() < fs  # not before: no face was at fs a step earlier
+            # mass and momentum through the release
+            assert record["m_after"] == pytest.approx(m0, rel=1e-14)
+            np.testing.assert_allclose(record["p_after"], record["p"], rtol=0,
+                                       atol=1e-14 * m0 * 300)
+        else:
+            assert meas.max() < fs or first is not None
+        if first is not None and step > first + 200:
+            break
+    assert first is not None, "the bar never separated"
+    assert sep.counts["new_nodes"] > 0
+    # the bar has come apart: its live elements form at least two connected pieces
+    assert node_components(model)[0] >= 2
+
+
+def test_one_and_two_threads_same_bits():
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("one thread only")
+    out = []
+    for threads in (1, 2):
+        sim, model = _sim(BAR.format(fs=0.25, element="tet", speed=300, measure="mean"),
+                          threads)
+        for _ in range(150):  # separation from step 30 on
+            sim.step()
+        sp = next(p for p in sim.fracture_passes if isinstance(p, SeparationPass))
+        out.append((model.x.copy(), model.v.copy(), model.conn.copy(),
+                    sp.sep.counts["new_nodes"]))
+    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    assert np.array_equal(out[0][2], out[1][2]) and out[0][3] > 0
+    assert np.array_equal(out[0][0], out[1][0]) and np.array_equal(out[0][1], out[1][1])
+
+
+def test_fragments_pushed_back_together_stay_apart():
+    """The bar is pulled apart, then its upper end driven back down into the lower piece: the
+    faces opened by the release are in the body's contact surface (self-contact), and the two
+    fragments do not pass through each other (max_penetration under 1 um)."""
+    text = BAR.format(fs=0.25, element="tet", speed=300, measure="mean") + """
+[contact]
+self_contact = true
+"""
+    sim, model = _sim(text)
+    sp = next(p for p in sim.fracture_passes if isinstance(p, SeparationPass))
+    ctx = next(p.ctx for p in sim.velocity_passes if hasattr(p, "ctx"))
+    while True:
+        sim.step()
+        if node_components(model)[0] >= 2:
+            break
+        assert model.step < 1500, "never separated"
+    faces_before = ctx.surface.n_faces
+    sim.step()
+    assert ctx.surface.n_faces > 0 and sp.sep.counts["new_nodes"] > 0
+    top = model.bc_velocity[:, 2] > 0
+    model.bc_velocity[top, 2] = -300.0  # drive the upper fragment back
+    worst, touched = 0.0, 0
+    for i in range(200):
+        sim.step()
+        touched += ctx.last["contact.node-face"]["pairs"]
+        if i % 4 == 0:
+            d = ctx.meter.measure(model.x, model.conn, model.elem_body, model.status,
+                                  ctx.surface)
+            worst = max(worst, d["max_penetration"])
+    assert touched > 0  # the fragments met
+    assert ctx.surface.n_faces >= faces_before
+    assert worst < 1e-6, worst
