@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from impactsim.mesh import MeshError
-from impactsim.mesh.primitives import _generate, _session
+from impactsim.mesh.primitives import _algorithm, _generate, _session
 
 
 @dataclass
@@ -37,7 +37,13 @@ def primitive(shape: str, dims: dict, mesh_size: float, refine: Refine | None = 
         n = np.maximum(1, np.round(size / mesh_size).astype(int))
         m = fem.MeshTet.init_tensor(*(np.linspace(-s / 2, s / 2, k + 1) for s, k in zip(size, n)))
         return m.p.T.copy(), m.t.T.copy()
-    with _session(shape) as gmsh:
+    # thin shapes (a cladding wall thinner than half the mesh size) go to the Delaunay mesher:
+    # HXT's optimiser spends minutes on their flat tets (impactsim.mesh.primitives)
+    thin = {"box": lambda d: min(d["size"]), "cylinder": lambda d: min(2 * d["radius"],
+                                                                      d["height"]),
+            "tube": lambda d: d["radius"] - d["inner_radius"],
+            "sphere": lambda d: 2 * d["radius"]}.get(shape, lambda d: mesh_size)(dims)
+    with _session(shape, _algorithm(thin, mesh_size)) as gmsh:
         occ = gmsh.model.occ
         if shape == "box":
             lx, ly, lz = dims["size"]
