@@ -73,15 +73,19 @@ def run_all(cases: list[str]) -> dict:
 
 def table(data: dict) -> str:
     rows = ["| case | elements | steps est. / real | wall est. / real [s] | ratio | "
-            "checks triggered |", "|---|---:|---:|---:|---:|---|"]
+            "per step est. / real [ms] | ratio | checks triggered |",
+            "|---|---:|---:|---:|---:|---:|---:|---|"]
     for name in CASES:
         if name not in data:
             continue
         real = data[name]
         est = _estimate(name)
         ratio = est["wall_seconds"] / real["wall_seconds"]
+        per_est = 1e3 * est["wall_seconds"] / max(est["steps"], 1)
+        per_real = 1e3 * real["wall_seconds"] / max(real["steps"], 1)
         rows.append(f"| {name} | {real['elements']:,} | {est['steps']:,} / {real['steps']:,} | "
                     f"{est['wall_seconds']:.1f} / {real['wall_seconds']:.1f} | {ratio:.2f} | "
+                    f"{per_est:.2f} / {per_real:.2f} | {per_est / per_real:.2f} | "
                     f"{', '.join(real['checks'] or {}) or 'none'} |")
     return "\n".join(rows)
 
