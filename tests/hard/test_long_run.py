@@ -49,10 +49,9 @@ def test_1e5_steps_of_a_spinning_elastic_cube_keep_the_energy(tmp_path):
     drift = (e - e[0]) / e[0]
     report = ", ".join(f"{int(s)}: {d:+.2e}" for s, d in zip(hist["step"], drift))
     print("energy drift per 10^4 steps:", report)
-    assert len(e) == 11
-    assert np.abs(drift).max() < 1e-3, report
-    # bounded, not growing: the last half drifts no more than the first half allows
-    assert abs(drift[-1]) < 2 * np.abs(drift[: len(drift) // 2 + 1]).max() + 1e-6, report
+    assert len(e) >= 11  # every 10^4 steps (and the row of the max_steps stop)
+    # measured: within 1e-6 up to 9e4 steps, 2.9e-6 at 1e5
+    assert np.abs(drift).max() < 1e-5, report
 
 
 TIMING_KEYS = {"wall_seconds", "seconds_to_first_step", "seconds_per_pass",
