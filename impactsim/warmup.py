@@ -10,7 +10,8 @@ It runs a few tiny scenes (a few hundred tets each, a handful of steps) that bet
 every path of the pipeline: elastic and Johnson-Cook + Mie-Grueneisen elements, the tet4 and
 ANP formulations, rigid walls, prescribed velocities, node-face and edge-edge contact with the
 penetration measure, spall, loosening, erosion, particles with face, wall and particle-particle
-impacts, and the history and frame outputs. A kernel reached with the types of a real run is
+impacts, hexahedra with stiffness hourglass control in contact with tets, node separation and
+distortion erosion, and the history and frame outputs. A kernel reached with the types of a real run is
 compiled with exactly those types, so the cache serves the real runs
 (tests/unit/test_warmup.py checks that a second process compiles nothing).
 
@@ -90,6 +91,33 @@ failure = { erosion = "jc-damage", erosion_value = 1.0, jc_damage = [0.0, 0.01, 
     # the same with the parallel versions of the kernels that run on one thread for small
     # meshes (PARALLEL_SCENES)
     out.append(("fracture-threads", frac, 20))
+    # hexahedra (solver/hex8.py): a Johnson-Cook rod of hexes with stiffness hourglass control
+    # on a wall, struck by an elastic tet block through contact (hex quads against tets)
+    hex_rod = copper.replace('mesher = "structured"',
+                             'mesher = "structured"\nelement = "hex8"\nhourglass = "stiffness"')
+    striker = _block("striker", "steel-elastic", (1e-3, 1e-3, 1e-3), (0, 0, 6.6001e-3), 0.5e-3,
+                     (0, -300.0))
+    out.append(("hex", "[run]\nname = 'h'\nend_time = 1e-6\n" + hex_rod + striker + _WALL
+                + "[contact]\npasses = ['node-face', 'edge-edge']\n", 8))
+    # node separation and distortion erosion [Z] (fracture/separation.py, distortion.py): a
+    # separable block dragged apart fast enough to release families and delete cells
+    sep_mat = """
+[[material]]
+name = "sep"
+library = "al-ideal-plastic"
+failure = { fracture_strain = 0.05 }
+"""
+    sep = ("[run]\nname = 's'\nend_time = 2e-6\n" + sep_mat
+           + _block("block", "sep", (3e-3, 3e-3, 3e-3), (0, 0, 0), 1e-3)
+           + """[[body.constraint]]
+nodes = { box = { lo = ["1.4 mm", "-2 mm", "-2 mm"], hi = ["2 mm", "2 mm", "2 mm"] } }
+velocity = ["2000 m/s", "0 m/s", "0 m/s"]
+[fracture]
+distortion_interval = "20 ns"
+[checks]
+energy_balance_action = "warn"
+""")
+    out.append(("separation", sep, 40))
     return out
 
 
