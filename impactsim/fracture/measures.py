@@ -4,8 +4,9 @@ mass-weighted mean velocity of its largest remaining fragment) and, for a plate,
 Fragments: connected components of a body's live elements through shared faces
 (impactsim.mesh.topology.face_adjacency). Plates: a body whose initial nodes have a thickness
 (extent along the smallest principal axis of their spread) below a quarter of the next extent.
-Hole: the live elements of the plate's largest connected piece (its most elements; detached
-plugs, petals and spall fragments still flying below the plate are not the plate), at their
+Hole: the live elements of the plate's largest connected piece (its most elements, joined
+through shared nodes, so that a torn plate whose cells still touch at edges stays one piece;
+detached plugs, petals and spall fragments flying below the plate are not the plate), at their
 current positions, are projected onto its initial mid-plane and rasterised on a grid of cell
 size h/2 (h the mean initial edge length); uncovered cells not connected to the grid border are
 holes. The largest hole is reported by its area, the diameter of the circle of that area, and
@@ -28,7 +29,28 @@ from impactsim.model import ERODED
 
 MAX_CELLS = 1200  # raster cells per axis at most
 HOLE_DEFINITION = ("largest uncovered region, enclosed by the plate, of the projection onto "
-                   "the initial mid-plane of the plate's largest connected piece")
+                   "the initial mid-plane of the plate's largest piece (live elements joined "
+                   "through shared nodes)")
+
+
+def node_pieces(conn, active):
+    """Label per element (-1 where inactive) of the pieces of live elements joined through
+    shared nodes, and the number of pieces. Coarser than `fragments` (faces): cells of a torn
+    plate that still touch at an edge or a node are one piece."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    ne, nn = conn.shape[0], int(conn.max()) + 1 if conn.size else 0
+    e = np.repeat(np.nonzero(active)[0], 4)
+    n = conn[active].ravel()
+    g = coo_matrix((np.ones(e.size), (e, ne + n)), shape=(ne + nn, ne + nn))
+    _, lab = connected_components(g, directed=False)
+    lab = lab[:ne]
+    lab = np.where(active, lab, -1)
+    used = np.unique(lab[lab >= 0])
+    remap = np.full(lab.max() + 1 if used.size else 1, -1)
+    remap[used] = np.arange(used.size)
+    return np.where(lab >= 0, remap[np.maximum(lab, 0)], -1), int(used.size)
 
 
 def fragments(conn, active):
@@ -153,11 +175,12 @@ def body_measures(model, node_live=None, particles=None) -> dict:
         info = {"remaining_elements": int(live.sum())}
         piece = live
         if live.any():
+            plab, _ = node_pieces(conn, live)
+            piece = plab == int(np.argmax(np.bincount(plab[plab >= 0])))
             lab, nfrag = fragments(conn, live)
             counts = np.bincount(lab[lab >= 0], minlength=nfrag)
             big = int(np.argmax(counts))
-            piece = lab == big
-            nodes = np.unique(conn[piece])
+            nodes = np.unique(conn[lab == big])
             mm = m[nodes]
             vel = (mm @ v[nodes]) / mm.sum() if mm.sum() > 0 else np.zeros(3)
             info.update(fragments=nfrag, residual_velocity=vel.tolist(),
