@@ -166,6 +166,8 @@ class Fracture:
     particles_per_element: int = 1
     particle_collisions: bool = False
     erosion_region: str = "surface"  # "surface" | "anywhere"
+    # the pressure spall reads: the element's own ("cell", [D19]) or its patch mean ("patch")
+    spall_pressure: str = "cell"
     # distortion erosion [Z] (fracture/distortion.py): checked every interval [s]; None = off
     distortion_interval: float | None = None
     distortion_extent: float = 3.0  # r1: axis extent > r1 * L_ch deletes

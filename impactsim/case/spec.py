@@ -368,6 +368,12 @@ FRACTURE = Table("fracture", "How fractured material is represented.", (
     Key("erosion_region", "choice", "Where erosion may delete elements: only at the contact "
         "surface [R20], or anywhere.", _d(schema.Fracture, "erosion_region"),
         choices=EROSION_REGIONS),
+    Key("spall_pressure", "choice", "The pressure the spall criterion reads: the element's own "
+        "(cell, as [D19]; resolves a thin plate's spall layer) or the mean over the patch of "
+        "elements around its nodes (patch: removes the tet4 pressure checkerboard that spalls "
+        "cells inside the compressed foot of a Taylor bar, but smears a spall layer a few cells "
+        "thick: the full sphere-plate plate domes instead of perforating; docs/fracture.md).",
+        _d(schema.Fracture, "spall_pressure"), choices=("cell", "patch")),
     Key("distortion_interval", "quantity", "Distortion erosion [Z]: every this long (longer "
         "than the step) an element is deleted when an axis extent exceeds distortion_extent "
         "times its initial largest extent, the product of its axis extents exceeds "

@@ -3,17 +3,19 @@
 Per live element e, after the element update of the step:
 
 1. Spall [D19 after Fomin et al.]: an intact element whose largest principal stress of
-   sigma = s - p_patch I exceeds the material's spall strength becomes DAMAGED (the element
-   kernel then keeps only bulk compression: zero deviator, p >= 0). p_patch is the pressure
-   averaged over the patch of live elements around the element's four nodes (`patch_fields`:
-   volume-weighted nodal means, then the mean of the element's nodes), not the element's own.
+   sigma = s - p I exceeds the material's spall strength becomes DAMAGED (the element kernel
+   then keeps only bulk compression: zero deviator, p >= 0). p is the element's own pressure
+   ([fracture] spall_pressure = "cell", the default, as [D19]) or p_patch, the pressure
+   averaged over the patch of live elements around the element's four nodes ("patch";
+   `patch_fields`: volume-weighted nodal means, then the mean of the element's nodes).
    The linear tet's own pressure carries the checkerboard mode of volumetric locking: in a
    Taylor bar's foot single tets sat at -1.5 to -1.9 GPa (V/V0 = 1.02) inside a compressed
    foot, so spall damaged cells of a compressive flow and loosening then fractured them (a
    6061-T6 bar at 262 m/s: 431 damaged, 331 particles). The patch mean removes that mode (the
-   averaging the ANP tet applies to its EOS, Bonet & Burton 1998) and keeps a tensile field
-   resolved over a few cells, such as a plate impact's spall layer (docs/fracture.md, with
-   what it costs at coarse meshes).
+   averaging the ANP tet applies to its EOS, Bonet & Burton 1998), but it also smears a spall
+   layer a few cells thick: with it the full-resolution sphere-plate plate domes instead of
+   perforating by 4 us. Hence the choice per case, the [D19] cell pressure by default
+   (docs/fracture.md).
 2. Loosening: a damaged element with chi = 1 - V0/V > chi* becomes FRACTURED (zero pressure):
    the cell's own opening, as in [D19] (a crack opens one cell, not a patch).
 3. Johnson-Cook damage (materials with erosion = "jc-damage"): D += d eps_p / eps_f with
@@ -126,11 +128,12 @@ def patch_fields(vol, vol0, pressure, status, n2e_ptr, n2e, pnode, jnode):
 @numba.njit(cache=True, parallel=True)
 def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p,
                       eps_p_prev, damage, eps_rate, temperature, mat_params, face_flag, adj,
-                      surface_only, dt, action, pnode, jnode):
+                      surface_only, dt, action, patch_spall, pnode, jnode):
     """Apply spall and loosening to ``status`` and decide ``action (e,) int8`` (module docstring).
 
     face_flag (4e,) bool free faces and adj (e,4) face neighbours at t = 0 (-1: none)
-    (impactsim.fracture.boundary.Boundary). pnode, jnode the nodal means of `patch_fields`.
+    (impactsim.fracture.boundary.Boundary). patch_spall: spall reads p_patch from pnode, the
+    nodal means of `patch_fields` (else the element's own pressure; jnode is not read).
     eps_p_prev (e,) plastic strain at the previous call (updated here). Returns
     (newly damaged, newly fractured, elements with an action).
     """
@@ -145,7 +148,10 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
             continue
         mk = elem_mat[e]
         i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
-        p = 0.25 * (pnode[i0] + pnode[i1] + pnode[i2] + pnode[i3])  # p_patch
+        if patch_spall:
+            p = 0.25 * (pnode[i0] + pnode[i1] + pnode[i2] + pnode[i3])  # p_patch
+        else:
+            p = pressure[e]
         sxx, syy, szz = sdev[e, 0], sdev[e, 1], sdev[e, 2]
         sxy, syz, szx = sdev[e, 3], sdev[e, 4], sdev[e, 5]
         spall = mat_params[mk, P.SPALL]

@@ -70,6 +70,7 @@ class FractureState:
         self.counts = {"damaged": 0, "fractured": 0, "eroded": 0, "converted": 0, "guard": 0,
                        "melt": 0}
         # nodal means of pressure and volume ratio over the live elements (criteria.patch_fields)
+        self.patch_spall = case.fracture.spall_pressure == "patch"
         self.pnode = np.zeros(model.n_node)
         self.jnode = np.ones(model.n_node)
         model.energy_terms.setdefault("eroded", 0.0)
@@ -108,13 +109,14 @@ class FracturePass(Pass):
     def run(self, model, dt):
         s = self.s
         b = s.boundary
-        C.patch_fields(model.vol, model.vol0, model.pressure, model.status, model.n2e_ptr,
-                       model.n2e, s.pnode, s.jnode)
+        if s.patch_spall:
+            C.patch_fields(model.vol, model.vol0, model.pressure, model.status, model.n2e_ptr,
+                           model.n2e, s.pnode, s.jnode)
         n_dam, n_frac, n_act = C.fracture_criteria(
             model.x, model.v, model.x0, model.conn, model.elem_mat, model.status, model.sdev,
             model.pressure, model.vol, model.vol0, model.eps_p, s.eps_p_prev, model.damage,
             model.eps_rate, model.temperature, model.mat_params, b.face_flag, b.adj,
-            s.surface_only, dt, s.action, s.pnode, s.jnode)
+            s.surface_only, dt, s.action, s.patch_spall, s.pnode, s.jnode)
         s.counts["damaged"] += int(n_dam)
         s.counts["fractured"] += int(n_frac)
         if n_act:

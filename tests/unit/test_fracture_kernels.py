@@ -78,6 +78,7 @@ def test_spall_then_loosening_thresholds():
     chi = 1 - V0/V > chi* FRACTURED."""
     model, passes = _fracture_model(Failure(spall_strength=1e9, loosening=0.03))
     frac = passes[-1]
+    frac.s.patch_spall = True  # [fracture] spall_pressure = "patch"
     n = model.n_elem
     model.pressure[:] = 0.0
     model.sdev[:] = 0.0
@@ -102,6 +103,20 @@ def test_spall_then_loosening_thresholds():
     frac.run(model, 1e-9)
     assert model.status[0] == DAMAGED and model.status[2] in (FRACTURED, ERODED)
     assert n == model.n_elem
+
+
+def test_cell_spall_reads_the_element_s_own_pressure():
+    """spall_pressure = "cell" (the default, [D19]): one cell in tension 1.2 GPa among
+    unloaded neighbours spalls, its neighbours do not."""
+    model, passes = _fracture_model(Failure(spall_strength=1e9, loosening=0.03))
+    frac = passes[-1]
+    assert not frac.s.patch_spall
+    model.pressure[:] = 0.0
+    model.sdev[:] = 0.0
+    model.pressure[2] = -1.2e9
+    frac.run(model, 1e-9)
+    assert model.status[2] == DAMAGED
+    assert np.count_nonzero(model.status == DAMAGED) == 1
 
 
 def test_molten_surface_cell_becomes_particles():

@@ -48,6 +48,9 @@ velocity = ["0 m/s", "0 m/s", "-{speed} m/s"]
 point = [0, 0, 0]
 normal = [0, 0, 1]
 
+[fracture]
+spall_pressure = "patch"
+
 [output]
 frames = 1
 """
@@ -76,8 +79,9 @@ def test_taylor_bar_fractures_no_cell(tmp_path, material, speed, element):
     assert abs(s["energy_balance_error"]) < 0.01
 
 
+@pytest.mark.parametrize("spall_pressure", ["cell", "patch"])
 @pytest.mark.parametrize("element", ["tet4", "anp"])
-def test_symmetric_flyer_plate_spalls_at_the_analytic_depth(element):
+def test_symmetric_flyer_plate_spalls_at_the_analytic_depth(element, spall_pressure):
     """6061-T6 (Mie-Grueneisen, Johnson-Cook, spall 1.6 GPa) flyer F = 2 mm onto a target
     T = 4 mm at 500 m/s closing speed (shock pressure rho0 (c0 + s u_p) u_p = 3.8 GPa at
     u_p = 250 m/s), flyer and target one column one cell wide held in x and y: the first
@@ -86,6 +90,7 @@ def test_symmetric_flyer_plate_spalls_at_the_analytic_depth(element):
     mat = library_material("al-6061-t6")
     case = box_case(mat, size=(h, h, F + T), h=h)
     case.bodies[0].constraints = [Constraint(NodeSelector("all"), (0.0, 0.0, None))]
+    case.fracture.spall_pressure = spall_pressure
     pts, tets = structured_box((h, h, F + T), h)
     model = build_model(case, [(pts, tets)])
     z_if = -(F + T) / 2 + F  # the flyer is below the interface and moves up
