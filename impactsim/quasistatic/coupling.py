@@ -46,6 +46,7 @@ class Interface:
     M_a: sp.csr_matrix
     G_b: sp.csr_matrix
     tied: bool = False
+    anchor: bool = False  # A is anchored on B (interfaces.setup): the coarse correction
     heat_a: tuple | None = None  # (H_a, L_a, P_b): A's exchange matrix, load from values at
     heat_b: tuple | None = None  # A's quadrature points, B's interpolation there (and conversely)
     facets_a: np.ndarray | None = None

@@ -135,6 +135,7 @@ def setup(problem: Problem):
             a, b, fa, fb = j, i, fj, fi
         interfaces.append(coupling.build(a, b, spaces[a], spaces[b], fa, fb, rule.friction,
                                          rule.conductance, rule.tied))
+        interfaces[-1].anchor = k in anchored
     thermal_bodies = any(c.kind in ("temperature", "flux", "exchange", "source")
                          for b in bodies for c in b.conditions)
     thermal = thermal_bodies or any(itf.conductance > 0 for itf in interfaces)

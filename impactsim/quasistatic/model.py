@@ -108,6 +108,7 @@ class Settings:
     detect_tolerance: float = 1e-4  # [m] surfaces closer than this are in contact
     regularization: float = 1e-6  # weak springs, relative to diag(K) (floating bodies)
     detect: bool = True
+    coarse: bool = True  # rigid shifts passed down the anchor tree in one iteration
 
 
 @dataclass

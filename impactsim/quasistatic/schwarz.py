@@ -71,6 +71,33 @@ def update_active(itf: Interface, act: np.ndarray, p: np.ndarray, penetration: n
     return (act & ~release) | enter
 
 
+def _coarse_shifts(interfaces, residuals, active, omega) -> dict:
+    """Rigid shift of each anchored body predicted for the next iteration: the relaxed mean
+    residual of its anchor interface (along the mean normal) plus its support's shift, so a
+    column of bodies moves with its support in one iteration instead of one body per
+    iteration. Bodies not anchored (held, or on open contacts only) do not move."""
+    parent = {}
+    for c, itf in enumerate(interfaces):
+        if itf.anchor and active[c].any():
+            r = residuals[c][active[c]].mean()
+            n = itf.normals[active[c]].mean(axis=0)
+            parent[itf.a] = (itf.b, omega * r * n)
+    shift: dict = {}
+
+    def get(body, depth=0):
+        if body in shift:
+            return shift[body]
+        if body not in parent or depth > len(parent):
+            return np.zeros(3)
+        b, d = parent[body]
+        shift[body] = get(b, depth + 1) + d
+        return shift[body]
+
+    for body in parent:
+        get(body)
+    return shift
+
+
 def initial_state(interfaces: list[Interface]) -> ContactState:
     act = []
     for itf in interfaces:
@@ -176,8 +203,12 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
                     "gap_residual": gap_res, "pressure_residual": p_change,
                     "relaxation": omega, "active": int(sum(a.sum() for a in new_active)),
                     "active_changed": changed})
+        shift = _coarse_shifts(interfaces, residuals, new_active, omega) \
+            if settings.coarse else {}
         for c in range(n_b):
-            state.g[c] = np.where(new_active[c], state.g[c] + omega * residuals[c],
+            itf = interfaces[c]
+            pred = itf.normals @ shift[itf.b] if itf.b in shift else 0.0
+            state.g[c] = np.where(new_active[c], state.g[c] + omega * residuals[c] + pred,
                                   ub_all[c] + interfaces[c].gap)
             state.p[c] = np.where(new_active[c], pa_all[c], 0.0)
         if changed:
