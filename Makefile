@@ -54,11 +54,11 @@ sweep: setup
 # run the bundled scenes (outputs in out/<case>/)
 cases: setup
 	@for c in $(CASES); do \
-	  if [ -f cases/$$c.toml ]; then $(BIN)/impactsim run cases/$$c.toml || exit $$?; fi; \
+	  if [ -f cases/$$c.toml ]; then $(BIN)/impactsim run cases/$$c.toml --overwrite || exit $$?; fi; \
 	done
 
 demo: setup
-	$(BIN)/impactsim run cases/elastic-bar-wall.toml
+	$(BIN)/impactsim run cases/elastic-bar-wall.toml --overwrite
 
 clean:
 	rm -rf out build *.egg-info .pytest_cache
