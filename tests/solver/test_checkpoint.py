@@ -184,8 +184,8 @@ def test_killed_runs_leave_whole_files_and_resume_to_the_same_bits(tmp_path):
         size0 = (out / "history.csv").stat().st_size if (out / "history.csv").exists() else 0
         proc = subprocess.Popen(args, env=env, stdout=subprocess.DEVNULL,
                                 stderr=subprocess.PIPE)
-        if attempt == 0:  # anywhere in the start: imports, meshing, first steps
-            time.sleep(rng.uniform(0.5, 3.0))
+        if attempt == 0:  # in the start: imports, case, meshing (a warm run starts in ~1 s)
+            time.sleep(rng.uniform(0.2, 0.8))
         else:  # once the run goes on, after its history has grown by a random amount (by
             # progress, not by the clock: on a quiet machine the run outpaces any sleep)
             target = size0 + rng.uniform(2e3, 4e5)
