@@ -211,3 +211,36 @@ def test_killed_runs_leave_whole_files_and_resume_to_the_same_bits(tmp_path):
     assert r.returncode == 0, r.stderr
     assert not [f for f in out.rglob(".*") if f.is_file()]  # no temporary file left over
     _same_outputs(tmp_path / "whole", out)
+
+
+def test_sigterm_stop_writes_a_checkpoint_the_run_resumes_from(tmp_path):
+    """A run stopped by SIGTERM (exit 3) with checkpoints on writes a checkpoint of the state it
+    stopped in (solver/stop.checkpoint_on_stop); --resume continues from it to the end, to the
+    same final state as an uninterrupted run."""
+    text = BAR.replace('end_time = "20 us"', 'end_time = "3 ms"').replace(
+        "frames = 4", "frames = 4\ncheckpoint_every = 5000\nhistory_every = 5")
+    case_file = tmp_path / "case.toml"
+    case_file.write_text(text)
+    whole = run_case(load_case(case_file), tmp_path / "whole", progress=False)
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    out = tmp_path / "stopped"
+    cmd = [sys.executable, "-m", "impactsim.cli", "run", str(case_file), "-q"]
+    proc = subprocess.Popen(cmd + ["-o", str(out)], env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE)
+    t0 = time.monotonic()  # stop well before the first scheduled checkpoint (step 5000)
+    while proc.poll() is None and time.monotonic() - t0 < 60 and (
+            not (out / "history.csv").exists() or (out / "history.csv").stat().st_size < 6e4):
+        time.sleep(0.005)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 3, err
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["stop"]["kind"] == "signal" and summary["time"] < 3e-3
+    saved = ckpt.list_checkpoints(out)
+    assert saved, "no checkpoint written on the stop"
+    assert saved[-1].name == f"checkpoint_{summary['steps']:09d}.npz"
+    r = subprocess.run(cmd + ["--resume", str(out)], env=env, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    done = json.loads((out / "summary.json").read_text())
+    assert done["stopped"] is None and done["steps"] == whole["steps"]
+    assert done["energy"] == whole["energy"]  # the same bits of the final state
