@@ -227,6 +227,37 @@ def _return_map(code, mat_params, mk, shear, seq, rate, eps_p, temperature, hard
     return deps, sy
 
 
+@numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
+def _deviator(st, code, mat_params, mk, shear, nxx, nyy, nzz, nxy, nyz, nzx, rate, eps_p,
+              temperature, hard, thermal, e, rho):
+    """The deviator at n+1 of one element from its Jaumann trial n..: zero for a damaged or
+    fractured element (ALGORITHMS.md 4.1), the radial return of `_return_map` (which updates
+    eps_p, temperature and the yield caches) for a plastic one. Shared by the tet's scalar
+    path and the hex (solver/hex8.py)."""
+    if st != 0:
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    if code != P.ELASTIC:
+        j2 = 0.5 * (nxx * nxx + nyy * nyy + nzz * nzz) + nxy * nxy + nyz * nyz + nzx * nzx
+        seq = math.sqrt(3.0 * j2)
+        deps, sy = _return_map(code, mat_params, mk, shear, seq, rate, eps_p, temperature,
+                               hard, thermal, e, rho)
+        if deps > 0.0:
+            scale = sy / seq if seq > 0.0 else 0.0
+            return (nxx * scale, nyy * scale, nzz * scale, nxy * scale, nyz * scale,
+                    nzx * scale)
+    return nxx, nyy, nzz, nxy, nyz, nzx
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
+def _deviatoric_work(dt, vold, vnew, sxx, syy, szz, sxy, syz, szx, nxx, nyy, nzz, nxy, nyz, nzx,
+                     exx, eyy, ezz, dxy, dyz, dzx):
+    """Deviatoric work [J] over the step with the mid-step stress (s^n + s^{n+1}) / 2 and the
+    mid-step volume."""
+    return 0.5 * dt * (vold + vnew) * 0.5 * (
+        (sxx + nxx) * exx + (syy + nyy) * eyy + (szz + nzz) * ezz
+        + 2.0 * ((sxy + nxy) * dxy + (syz + nyz) * dyz + (szx + nzx) * dzx))
+
+
 @numba.njit(cache=True, parallel=True)
 def yield_cache(elem_mat, mat_params, eps_p, temperature, hard, thermal):
     """Fill the element kernel's caches: hardening term and thermal factor of every element at
@@ -287,27 +318,11 @@ def _element_scalar(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, e
                                     + 2.0 * (dxy * dxy + dyz * dyz + dzx * dzx)))
     eps_rate[e] = rate
     code = int(mat_params[mk, P.STRENGTH])
-    deps = 0.0
-    sy = 0.0
-    if st != 0:  # damaged or fractured: no deviatoric stress (ALGORITHMS.md 4.1)
-        nxx = nyy = nzz = nxy = nyz = nzx = 0.0
-    elif code != P.ELASTIC:
-        j2 = 0.5 * (nxx * nxx + nyy * nyy + nzz * nzz) + nxy * nxy + nyz * nyz + nzx * nzx
-        seq = math.sqrt(3.0 * j2)
-        deps, sy = _return_map(code, mat_params, mk, shear, seq, rate, eps_p, temperature,
-                               hard, thermal, e, rho)
-        if deps > 0.0:
-            scale = sy / seq if seq > 0.0 else 0.0
-            nxx *= scale
-            nyy *= scale
-            nzz *= scale
-            nxy *= scale
-            nyz *= scale
-            nzx *= scale
-    # deviatoric work over the step with the mid-step stress and volume
-    wdev = 0.5 * dt * (vold + vnew) * 0.5 * (
-        (sxx + nxx) * exx + (syy + nyy) * eyy + (szz + nzz) * ezz
-        + 2.0 * ((sxy + nxy) * dxy + (syz + nyz) * dyz + (szx + nzx) * dzx))
+    nxx, nyy, nzz, nxy, nyz, nzx = _deviator(st, code, mat_params, mk, shear, nxx, nyy, nzz,
+                                             nxy, nyz, nzx, rate, eps_p, temperature, hard,
+                                             thermal, e, rho)
+    wdev = _deviatoric_work(dt, vold, vnew, sxx, syy, szz, sxy, syz, szx, nxx, nyy, nzz, nxy,
+                            nyz, nzx, exx, eyy, ezz, dxy, dyz, dzx)
     sdev[e, 0], sdev[e, 1], sdev[e, 2] = nxx, nyy, nzz
     sdev[e, 3], sdev[e, 4], sdev[e, 5] = nxy, nyz, nzx
     length = _char_length(det1, b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z)

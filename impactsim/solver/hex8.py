@@ -18,7 +18,8 @@ Per element (`_hex_element`), with x^{n+1} and the step's velocity U^{n+1/2}:
 - the velocity gradient L_ij = sum_I v_iI B_jI on the mid-step geometry x^{n+1} - dt/2 U
   (as the tet, ALGORITHMS.md 1), the Jaumann trial deviator, the radial return, the EOS with the
   energy integrated implicitly and the bulk viscosity: the same pointwise laws as the tets
-  (materials/laws.py; `element._jaumann_trial`, `element._return_map`);
+  (materials/laws.py; `element._jaumann_trial`, `element._deviator`, the radial return of
+  `element._return_map`, and `element._deviatoric_work`, shared with the tet's scalar path);
 - nodal forces f_iI = -sigma_ij b_jI, at x^{n+1};
 - hourglass control (FB81 section 4): base vectors Gamma_alpha, shape vectors
   gamma_alpha = (1/8) [Gamma_alpha - (1/V) (Gamma_alpha . x_i) b_i] (FB81's
@@ -56,7 +57,7 @@ from impactsim.model import DAMAGED, ERODED, FRACTURED
 from impactsim.solver import element as E
 from impactsim.solver import hex8_block as HB
 from impactsim.solver import vecmath as VM
-from impactsim.solver.element import FAST, _jaumann_trial, _return_map
+from impactsim.solver.element import FAST, _deviator, _deviatoric_work, _jaumann_trial
 from impactsim.solver.hex8_block import _vol_der
 
 B = E.B  # lanes of a block of the vector path (hex8_block.py)
@@ -199,24 +200,11 @@ def _hex_element(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_
                                         + 2.0 * (dxy * dxy + dyz * dyz + dzx * dzx)), 0.0))
     eps_rate[e] = rate
     code = int(mat_params[mk, P.STRENGTH])
-    if st != 0:  # damaged or fractured: no deviatoric stress (ALGORITHMS.md 4.1)
-        nxx = nyy = nzz = nxy = nyz = nzx = 0.0
-    elif code != P.ELASTIC:
-        j2 = 0.5 * (nxx * nxx + nyy * nyy + nzz * nzz) + nxy * nxy + nyz * nyz + nzx * nzx
-        seq = math.sqrt(max(3.0 * j2, 0.0))
-        deps, sy = _return_map(code, mat_params, mk, shear, seq, rate, eps_p, temperature,
-                               hard, thermal, e, rho)
-        if deps > 0.0:
-            scale = sy / seq if seq > 0.0 else 0.0
-            nxx *= scale
-            nyy *= scale
-            nzz *= scale
-            nxy *= scale
-            nyz *= scale
-            nzx *= scale
-    wdev = 0.5 * dt * (vold + vnew) * 0.5 * (
-        (sxx + nxx) * exx + (syy + nyy) * eyy + (szz + nzz) * ezz
-        + 2.0 * ((sxy + nxy) * dxy + (syz + nyz) * dyz + (szx + nzx) * dzx))
+    nxx, nyy, nzz, nxy, nyz, nzx = _deviator(st, code, mat_params, mk, shear, nxx, nyy, nzz,
+                                             nxy, nyz, nzx, rate, eps_p, temperature, hard,
+                                             thermal, e, rho)
+    wdev = _deviatoric_work(dt, vold, vnew, sxx, syy, szz, sxy, syz, szx, nxx, nyy, nzz, nxy,
+                            nyz, nzx, exx, eyy, ezz, dxy, dyz, dzx)
     sdev[e, 0], sdev[e, 1], sdev[e, 2] = nxx, nyy, nzz
     sdev[e, 3], sdev[e, 4], sdev[e, 5] = nxy, nyz, nzx
     # --- pressure: EOS with the energy integrated implicitly (p = a + b e), bulk viscosity
