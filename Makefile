@@ -7,7 +7,7 @@ CASES := elastic-bar-wall taylor-bar two-cubes two-cylinders elastic-bars hertz-
 SWEEP ?= cases/sweeps/mesh-size.toml
 REV ?= HEAD
 
-.PHONY: setup test hard bench bench-quasistatic compare accuracy validate sweep cases demo clean
+.PHONY: setup test hard bench bench-quasistatic bench-peers compare accuracy validate sweep cases demo clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -33,6 +33,16 @@ bench: setup
 # the quasistatic pellet stack: 10, 50 and 350 bodies with 1 and 2 Dask workers (minutes)
 bench-quasistatic: setup
 	QS_SIZES=10,50,350 QS_WORKERS=1,2 $(BIN)/python benchmarks/bench_quasistatic.py
+
+# impactsim beside PySPH, each refined until its Taylor bar's length converges to 1 % (about an
+# hour; PySPH is built from source into its own environment, $(PEERS_VENV), the first time)
+PEERS_VENV ?= .venv-peers
+$(PEERS_VENV)/bin/pysph:
+	$(PYTHON) -m venv $(PEERS_VENV)
+	$(PEERS_VENV)/bin/pip install pysph
+
+bench-peers: setup $(PEERS_VENV)/bin/pysph
+	$(BIN)/python benchmarks/peers.py --peer-python $(PEERS_VENV)/bin/python --write
 
 # whole-step time of the working tree against a revision, in one process: make compare REV=HEAD~3
 compare: setup
