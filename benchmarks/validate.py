@@ -16,7 +16,10 @@ Rungs (each with tet4 and anp; modest resolutions, for a shared two-core machine
   spall, its acoustic spall-strength estimate rho0 c0 du / 2 against the 1.6 GPa the material
   was given;
 - a perforation: the bundled oblique-sphere case [R20] at the coarse test mesh, the sphere's
-  residual velocity and the hole.
+  residual velocity and the hole;
+- the code-to-code 42CrMo4 Taylor bar (cases/taylor-bar-42crmo4.toml, 287 m/s) against DynELA
+  and Abaqus/Explicit, as a refinement series with tet4, anp and hex8: final length, foot
+  diameter, peak plastic strain and temperature, CPU seconds.
 """
 
 from __future__ import annotations
@@ -46,6 +49,26 @@ REFERENCES = {
                       "test, 7.62 x 25.4 mm at 190 m/s, as quoted in cases/taylor-bar.toml; "
                       "not confirmed against the original paper in this session (unsure)"},
 }
+
+# results of other codes for the same problem (code-to-code), with their source
+CODE_REFERENCES = {
+    "taylor-42crmo4-287": {
+        "codes": {
+            "DynELA": {"length_mm": 26.52, "foot_diameter_mm": 11.18,
+                       "peak_plastic_strain": 1.84, "peak_temperature_c": 597.10},
+            "Abaqus/Explicit": {"length_mm": 26.55, "foot_diameter_mm": 11.22,
+                                "peak_plastic_strain": 1.84, "peak_temperature_c": 597.01},
+        },
+        "source": "O. Pantale, DynELA v4 documentation (github.com/pantale/DynELA-v.-4.0, "
+                  "Documentation/Samples-Impacts.tex, Table 'Comparison of numerical results "
+                  "for the 3D Taylor impact test'; input Samples/Taylor/Taylor-3D/Taylor.py): "
+                  "42CrMo4, 6.4 x 32.4 mm, 287 m/s onto a rigid frictionless wall, 80 us, "
+                  "DynELA's mesh 4,455 elements",
+    },
+}
+CRMO_SIZES = (1.0, 0.8, 0.6, 0.45)  # mm
+CRMO_FORMULATIONS = ("tet4", "anp", "hex8")
+CRMO_MEASURES = ("length_mm", "foot_diameter_mm", "peak_plastic_strain", "peak_temperature_c")
 
 TAYLOR = """
 [run]
@@ -86,6 +109,7 @@ def taylor_measures(out: Path) -> dict:
     x = np.asarray(meshio.read(frame).points)
     return {"length_mm": 1e3 * float(np.ptp(x[:, 2])),
             "foot_diameter_mm": 2e3 * float(np.hypot(x[:, 0], x[:, 1]).max())}
+TAYLOR_RUNGS = {t[0] for t in TAYLORS}
 
 
 def run_taylor(name, material, speed, h, end, element) -> dict:
@@ -104,6 +128,34 @@ def run_taylor(name, material, speed, h, end, element) -> dict:
     res.update(taylor_measures(out))
     f = s.get("fracture")
     res["fractured_cells"] = (f["fractured_total"] + f["damaged_total"]) if f else 0
+    return res
+
+
+def run_crmo(h: float, formulation: str) -> dict:
+    """The code-to-code 42CrMo4 bar at mesh size h [mm] with a tet formulation or hex8."""
+    import meshio
+
+    from impactsim.case import load_case
+    from impactsim.solver.run import run_case
+
+    over = [f'body.0.mesh_size="{h} mm"', "output.frames=1", "run.threads=1"]
+    if formulation == "hex8":
+        over.append('body.0.element="hex8"')
+    else:
+        over += ['body.0.element="tet"', f'run.element="{formulation}"']
+    case = load_case(ROOT / "cases" / "taylor-bar-42crmo4.toml", over)
+    out = OUT / f"taylor-42crmo4-{formulation}-{h}"
+    cpu = time.process_time()
+    s = run_case(case, out, progress=False)
+    cpu = time.process_time() - cpu
+    res = {"rung": "taylor-42crmo4-287", "element": formulation, "h_mm": h,
+           "elements": s["elements"], "steps": s["steps"], "cpu_s": cpu,
+           "wall_s": s["wall_seconds"], "energy_balance_error": s["energy_balance_error"],
+           "stopped": s["stopped"]}
+    res.update(taylor_measures(out))
+    cells = meshio.read(sorted(out.glob("frame_*.vtu"))[-1]).cell_data
+    res["peak_plastic_strain"] = float(max(np.max(a) for a in cells["plastic_strain"]))
+    res["peak_temperature_c"] = float(max(np.max(a) for a in cells["temperature"])) - 273.15
     return res
 
 
@@ -188,6 +240,10 @@ def run_all() -> list[dict]:
         print(json.dumps(results[-1]), flush=True)
         results.append(run_perforation(element))
         print(json.dumps(results[-1]), flush=True)
+    for formulation in CRMO_FORMULATIONS:
+        for h in CRMO_SIZES:
+            results.append(run_crmo(h, formulation))
+            print(json.dumps(results[-1]), flush=True)
     (OUT / "results.json").write_text(json.dumps(results, indent=1))
     return results
 
@@ -221,7 +277,8 @@ def plots(results: list[dict]) -> None:
     fig.tight_layout()
     fig.savefig(FIG / "plate-free-surface.png", dpi=110)
     plt.close(fig)
-    tay = [r for r in results if r["rung"].startswith("taylor")]
+    crmo_plot(results)
+    tay = [r for r in results if r["rung"] in TAYLOR_RUNGS]
     if tay:
         fig, ax = plt.subplots(figsize=(6, 3.5))
         names = sorted({r["rung"] for r in tay})
@@ -236,6 +293,100 @@ def plots(results: list[dict]) -> None:
         fig.tight_layout()
         fig.savefig(FIG / "taylor-foot.png", dpi=110)
         plt.close(fig)
+
+
+def crmo_plot(results: list[dict]) -> None:
+    """Foot diameter and length of the 42CrMo4 bar against the mesh size, per formulation,
+    with the two codes' values."""
+    import matplotlib.pyplot as plt
+
+    rows = [r for r in results if r["rung"] == "taylor-42crmo4-287"]
+    if not rows:
+        return
+    codes = CODE_REFERENCES["taylor-42crmo4-287"]["codes"]
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.5))
+    for ax, key, label in ((axes[0], "foot_diameter_mm", "foot diameter [mm]"),
+                           (axes[1], "length_mm", "final length [mm]")):
+        for formulation in CRMO_FORMULATIONS:
+            rs = sorted((r for r in rows if r["element"] == formulation), key=lambda r: r["h_mm"])
+            ax.plot([r["h_mm"] for r in rs], [r[key] for r in rs], "o-", label=formulation)
+        for (name, ref), ls in zip(codes.items(), ("--", ":")):
+            ax.axhline(ref[key], color="grey", ls=ls, lw=1, label=name)
+        ax.set_xlabel("mesh size h [mm]")
+        ax.set_ylabel(label)
+        ax.invert_xaxis()
+    axes[0].legend(fontsize=8)
+    fig.suptitle("42CrMo4 Taylor bar, 287 m/s: impactsim against DynELA and Abaqus/Explicit")
+    fig.tight_layout()
+    fig.savefig(FIG / "taylor-42crmo4.png", dpi=110)
+    plt.close(fig)
+
+
+def crmo_report(results: list[dict]) -> list[str]:
+    rows = [r for r in results if r["rung"] == "taylor-42crmo4-287"]
+    if not rows:
+        return []
+    ref = CODE_REFERENCES["taylor-42crmo4-287"]
+    codes = ref["codes"]
+    mean = {k: sum(c[k] for c in codes.values()) / len(codes) for k in CRMO_MEASURES}
+    lines = ["## Code to code: the 42CrMo4 Taylor bar", "",
+             "`cases/taylor-bar-42crmo4.toml`: a 6.4 mm x 32.4 mm 42CrMo4 rod (Johnson-Cook "
+             "with adiabatic heating, elastic volume response; library entry `steel-42crmo4`) "
+             "onto a rigid frictionless wall at 287 m/s, 80 us, refined with each "
+             "formulation. The references are two codes' 3-D results for the same problem "
+             "(DynELA's mesh: 4,455 elements); they agree with each other within 0.4 %. "
+             "The error columns are against the mean of the two. CPU seconds, one thread.", "",
+             "| element | h [mm] | elements | steps | CPU s | length [mm] | error | foot [mm] "
+             "| error | peak plastic strain | error | peak T [C] | energy balance |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for name, c in codes.items():
+        n = "4,455" if name == "DynELA" else ""
+        lines.append(f"| {name} | | {n} | | | {c['length_mm']:.2f} | | "
+                     f"{c['foot_diameter_mm']:.2f} | | {c['peak_plastic_strain']:.2f} | | "
+                     f"{c['peak_temperature_c']:.1f} | |")
+
+    def err(r, k):
+        return f"{100 * (r[k] - mean[k]) / mean[k]:+.1f} %"
+
+    for formulation in CRMO_FORMULATIONS:
+        for r in sorted((r for r in rows if r["element"] == formulation),
+                        key=lambda r: -r["h_mm"]):
+            lines.append(f"| {formulation} | {r['h_mm']} | {r['elements']:,} | {r['steps']:,} | "
+                         f"{r['cpu_s']:.1f} | {r['length_mm']:.2f} | {err(r, 'length_mm')} | "
+                         f"{r['foot_diameter_mm']:.2f} | {err(r, 'foot_diameter_mm')} | "
+                         f"{r['peak_plastic_strain']:.2f} | {err(r, 'peak_plastic_strain')} | "
+                         f"{r['peak_temperature_c']:.0f} | {r['energy_balance_error']:+.1e} |")
+    lines += ["", "**Convergence.** Change between the two finest levels of each series:", ""]
+    for formulation in CRMO_FORMULATIONS:
+        rs = sorted((r for r in rows if r["element"] == formulation), key=lambda r: r["h_mm"])
+        if len(rs) < 2:
+            continue
+        a, b = rs[0], rs[1]
+        d = {k: 100 * abs(a[k] - b[k]) / abs(a[k]) for k in CRMO_MEASURES[:3]}
+        lines.append(f"- {formulation}, {b['h_mm']} -> {a['h_mm']} mm: length {d['length_mm']:.2f} %, "
+                     f"foot {d['foot_diameter_mm']:.2f} %, peak plastic strain "
+                     f"{d['peak_plastic_strain']:.1f} %.")
+    lines += ["", "**Reading.** The length hardly depends on the element (all three series within "
+              "0.5 % of the codes): it is set by the momentum and the flow stress. The foot and "
+              "the peak strain are where the element matters. tet4 locks in the nearly "
+              "incompressible plastic flow of the foot: its foot is 14 % narrow at the case's "
+              "0.8 mm and still 9 % narrow with 46,000 elements, its peak strain and heating far "
+              "too low; refining cures it only slowly. anp (the averaged nodal pressure removes "
+              "the locking) and hex8 (one point, no locking) converge in the foot (0.1 % between "
+              "their two finest levels) to within 0.7 % (anp) and 1.4 % (hex8) of the codes; "
+              "their values at the codes' own resolution (DynELA's 4,455 elements are about "
+              "0.4 mm along the axis and 0.8 mm across) are within 1.1 % (anp) and 0.8 % (hex8 "
+              "at 0.8 mm, which also matches the peak strain and temperature within 0.2 %). "
+              "The peak plastic strain is one cell's value at the centre of the impact face: "
+              "it grows with refinement in every series and is not a converged quantity, so "
+              "compare it at equal cell size. hex8 reaches the codes' answer with the fewest "
+              "elements and the least CPU time, which is why the bundled case uses it. This is "
+              "the evidence behind the defaults (docs/physics.md): plastic tet bodies without "
+              "contact get anp, and `impactsim check` hints at locking when tet4 meets "
+              "plasticity.", "",
+              f"Source: {ref['source']}.", "",
+              "![42CrMo4 Taylor bar](validation/taylor-42crmo4.png)", ""]
+    return lines
 
 
 def report(results: list[dict]) -> str:
@@ -264,16 +415,21 @@ def report(results: list[dict]) -> str:
              "results and the physics checks that need no measurement (no fracture in a Taylor "
              "bar; the free-surface plateau of a symmetric impact).", ""]
     lines += ["## Taylor bars", "",
-              "7.62 mm x 25.4 mm rods onto a rigid wall. Length and foot diameter of the last "
-              "frame; `fractured` counts cells that spall damaged or loosened (docs/fracture.md: "
-              "none in a Taylor foot; the 6061-T6 bar at 373 m/s damages a few cells on its "
-              "axis near the impact face, where the lateral release converges, see 'Not "
-              "settled' there).", "",
+              "7.62 mm x 25.4 mm rods onto a rigid wall, with the library's failure data and the "
+              "default spall pressure (`[fracture] spall_pressure = \"cell\"`, [D19]). Length "
+              "and foot diameter of the last frame; `fractured` counts cells that spall damaged "
+              "or loosened. Experiments show no fracture in these bars, so every fractured cell "
+              "is a departure: with the cell pressure, the 6061-T6 bar at 373 m/s and the tet4 "
+              "4340 bar spall cells where the lateral release meets the compressed foot "
+              "(tet4's pressure checkerboard makes single cells read a tension the patch around "
+              "them does not carry). With `spall_pressure = \"patch\"` these bars fracture no "
+              "cell (tests/verification/test_fracture_where_it_belongs.py); it is not the "
+              "default because it smears a thin plate's spall layer (docs/fracture.md).", "",
               "| rung | element | h [mm] | elements | steps | wall s | length [mm] | measured "
               "[mm] | error | foot [mm] | fractured | energy balance |",
               "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in results:
-        if not r["rung"].startswith("taylor"):
+        if r["rung"] not in TAYLOR_RUNGS:
             continue
         ref = REFERENCES.get(r["rung"], {}).get("length_mm")
         err = f"{100 * (r['length_mm'] - ref) / ref:+.1f} %" if ref else "–"
@@ -347,10 +503,9 @@ def report(results: list[dict]) -> str:
                   "larger than the 1 % [R20] claim against their experiment. anp ran this "
                   "contact scene to its end here, but collapsed the step in two others "
                   "(docs/physics.md), so contact scenes keep tet4 by default."]
+    lines += [""] + crmo_report(results)
     lines += ["", "## Not on the ladder", "",
-              "- The code-to-code 42CrMo4 Taylor bar at 287 m/s of issue 17: its geometry, "
-              "Johnson-Cook constants and the two codes' results are not in our sources; not "
-              "run.", "- Measured 6061-T6 and 4340 Taylor lengths and plate-impact VISAR records: "
+              "- Measured 6061-T6 and 4340 Taylor lengths and plate-impact VISAR records: "
               "not on record here (none confirmed); the rungs above give the physics checks "
               "only.", ""]
     return "\n".join(lines) + "\n"

@@ -236,7 +236,7 @@ def test_johnson_cook_simple_shear(rate, isothermal):
     _compare(COPPER, simple_shear(rate), 2.0 / rate, 600, isothermal=isothermal)
 
 
-JC_METALS = ["ofhc-copper", "al-2024-t3", "al-6061-t6", "steel-4340"]
+JC_METALS = ["ofhc-copper", "al-2024-t3", "al-6061-t6", "steel-4340", "steel-42crmo4"]
 
 
 @pytest.mark.parametrize("name", JC_METALS)

@@ -31,3 +31,33 @@ def test_coarse_copper_taylor_bar_matches_the_ladder(tmp_path):
     foot = 2e3 * np.hypot(x[:, 0], x[:, 1]).max()
     assert abs(length - ref["length_mm"]) < 0.01 * ref["length_mm"], (length, ref)
     assert abs(foot - ref["foot_diameter_mm"]) < 0.04 * ref["foot_diameter_mm"], (foot, ref)
+
+
+def test_coarse_42crmo4_hex_bar_matches_two_other_codes(tmp_path):
+    """The code-to-code 42CrMo4 bar (cases/taylor-bar-42crmo4.toml) on hexahedra at 1 mm
+    against DynELA's and Abaqus/Explicit's 3-D results (benchmarks/validate.py,
+    CODE_REFERENCES): the length within 1 %, the foot within 3 %, the peak plastic strain within
+    10 % of each. The constant-strain tet on the same bar ends 14 % narrow with half the peak
+    strain (docs/validation.md), so a change of the element, the flow law or its heating fails
+    here."""
+    import sys
+
+    import meshio
+
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from validate import CODE_REFERENCES
+
+    case = load_case(ROOT / "cases" / "taylor-bar-42crmo4.toml",
+                     ['body.0.mesh_size="1.0 mm"', "output.frames=1"])
+    s = run_case(case, tmp_path, progress=False)
+    assert s["stopped"] is None and abs(s["energy_balance_error"]) < 2e-3
+    frame = meshio.read(sorted(tmp_path.glob("frame_*.vtu"))[-1])
+    x = frame.points
+    length = 1e3 * np.ptp(x[:, 2])
+    foot = 2e3 * np.hypot(x[:, 0], x[:, 1]).max()
+    strain = max(np.max(a) for a in frame.cell_data["plastic_strain"])
+    for code, ref in CODE_REFERENCES["taylor-42crmo4-287"]["codes"].items():
+        assert abs(length - ref["length_mm"]) < 0.01 * ref["length_mm"], (code, length, ref)
+        assert abs(foot - ref["foot_diameter_mm"]) < 0.03 * ref["foot_diameter_mm"], (code, foot)
+        assert abs(strain - ref["peak_plastic_strain"]) < 0.10 * ref["peak_plastic_strain"], \
+            (code, strain)
