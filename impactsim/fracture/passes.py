@@ -143,14 +143,15 @@ class FracturePass(Pass):
             s.counts["damaged"] += n_dam
             s.counts["fractured"] += n_frac
             if ids.shape[0]:
-                self._remove_hexes(model, hf, ids, hf.action[ids])
+                self._remove_hexes(model, hf, ids, hf.action[ids], dt)
         if s.distortion is not None and s.distortion.due(model, dt):
             tets, blocks = s.distortion.check(model)
             if tets.shape[0]:
                 self._remove(model, tets, np.full(tets.shape[0], C.ERODE, np.int8))
             for blk, ids in blocks:
                 model.energy_terms["eroded"] += s.distortion.erode_block(model, blk, ids,
-                                                                         s.node_live, self.sim)
+                                                                         s.node_live, self.sim,
+                                                                         dt)
                 for hf in s.hexes:
                     if hf.blk is blk:
                         hf.boundary.remove(ids)
@@ -176,7 +177,7 @@ class FracturePass(Pass):
             self.sim.refresh_forces(ids)
         s.boundary.remove(ids)
 
-    def _remove_hexes(self, model, hf, ids, kinds):
+    def _remove_hexes(self, model, hf, ids, kinds, dt):
         """Hexes ``ids`` of block hf.blk leave the mesh (fracture/hexes.py): their forces of the
         last element update are taken off their nodes, then ``remove_elements`` erodes them or
         turns them into particles, and the block's free quads follow."""
@@ -186,7 +187,7 @@ class FracturePass(Pass):
         s.counts["melt"] += int(np.count_nonzero(kinds == C.MELT))
         if self.sim is not None:
             runner = self.sim.block_runners[[b is blk for b in model.blocks].index(True)]
-            f = hex_corner_forces(model, blk, runner, ids, self.sim.cq, self.sim.cl)
+            f = hex_corner_forces(model, blk, runner, ids, self.sim.cq, self.sim.cl, dt)
             np.subtract.at(model.force, blk.conn[ids].reshape(-1), f.reshape(-1, 3))
         pa = s.particles
         pa.reserve(s.n_per * ids.shape[0])
