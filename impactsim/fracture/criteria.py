@@ -108,7 +108,7 @@ def jc_fracture_strain(mat_params, mk, pressure, seq, rate, temperature):
 
 
 @numba.njit(cache=True, parallel=True)
-def patch_fields(vol, vol0, pressure, status, n2e_ptr, n2e, pnode, jnode, corners=4):
+def patch_fields(vol, vol0, pressure, status, n2e_ptr, n2e, pnode, jnode, corners):
     """Nodal means over the live elements around each node: pressure pnode_i = sum V_e p_e /
     sum V_e and volume ratio jnode_i = sum V_e / sum V0_e (1 and 0 at a node without any).
     n2e: entries e * corners + local corner (4 for tets, 8 for a hex block)."""

@@ -2,7 +2,8 @@
 
 ``make_fracture_passes(case, model)`` returns, when a material has failure data:
 
-- ``fracture.particles`` (velocity stage, after the contact passes): particle-face and, with
+- ``fracture.particles`` (velocity stage, before the contact passes, solver/pipeline.py, so that
+  contact corrects what the particles' impulses did to face nodes): particle-face and, with
   ``[fracture] particle_collisions``, particle-particle contact on the predictor velocities, then
   the particles move over the step (``impactsim.fracture.particles``); idle while there are
   no particles;
@@ -128,7 +129,7 @@ class FracturePass(Pass):
         b = s.boundary
         if s.patch_spall:
             C.patch_fields(model.vol, model.vol0, model.pressure, model.status, model.n2e_ptr,
-                           model.n2e, s.pnode, s.jnode)
+                           model.n2e, s.pnode, s.jnode, 4)
         n_dam, n_frac, n_act = C.fracture_criteria(
             model.x, model.v, model.x0, model.conn, model.elem_mat, model.status, model.sdev,
             model.pressure, model.vol, model.vol0, model.eps_p, s.eps_p_prev, model.damage,
