@@ -269,8 +269,8 @@ def _hex_forces(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate
                      mat_params, half, 0.0, cq, cl, rows, fext, w)
 
 
-def hex_corner_forces(model, blk, runner, ids, cq: float, cl: float, dt: float = 0.0
-                      ) -> np.ndarray:
+def hex_corner_forces(model, blk, runner, ids, cq: float, cl: float, dt: float = 0.0,
+                      status=None) -> np.ndarray:
     """(len(ids), 8, 3) the corner forces hexes ``ids`` added to model.force at the last element
     update of step ``dt``: the kernel re-run with no increment on copies of their state (the
     same stress, bulk viscosity and hourglass resultants at the same positions and velocities,
@@ -280,7 +280,9 @@ def hex_corner_forces(model, blk, runner, ids, cq: float, cl: float, dt: float =
     n = ids.shape[0]
     rows = np.arange(8 * n, dtype=np.int32).reshape(n, 8)
     fext = np.zeros((8 * n, 3))
-    st = blk.status[ids].copy()  # still live: called before the deletion
+    # still live: called before the deletion; ``status`` the hexes' status at that update
+    # (the fracture criteria may have damaged them since)
+    st = (blk.status if status is None else status)[ids].copy()
     _hex_forces(model.x, model.v, np.ascontiguousarray(blk.conn[ids]), blk.elem_mat[ids], st,
                 blk.sdev[ids], blk.pressure[ids], blk.q[ids], blk.eps_p[ids],
                 blk.eps_rate[ids], blk.temperature[ids], runner.hard[ids], runner.thermal[ids],

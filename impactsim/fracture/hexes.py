@@ -160,6 +160,40 @@ def hex_fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol,
     return n_dam, n_frac, n_act
 
 
+@numba.njit(cache=True)
+def pass_orphan_forces(ids, conn, node_live, force):
+    """After removing hexes ``ids``: the force left on each orphaned corner (the difference
+    between what the hexes added at the last update and what ``hex_corner_forces`` took off,
+    round-off and the yield caches' update) goes, shared equally, to the remaining corners of
+    the first removed hex that has any, as its mass did (removal.py): a massless node's force
+    would be lost and the momentum with it. Returns how many orphans passed a force."""
+    k = conn.shape[1]
+    n = 0
+    for q in range(ids.shape[0]):
+        e = ids[q]
+        n_rem = 0
+        for j in range(k):
+            if node_live[conn[e, j]] > 0:
+                n_rem += 1
+        if n_rem == 0:
+            continue
+        for j in range(k):
+            o = conn[e, j]
+            if node_live[o] > 0 or (force[o, 0] == 0.0 and force[o, 1] == 0.0
+                                    and force[o, 2] == 0.0):
+                continue
+            for jj in range(k):
+                r = conn[e, jj]
+                if node_live[r] > 0:
+                    for d in range(3):
+                        force[r, d] += force[o, d] / n_rem
+            force[o, 0] = 0.0
+            force[o, 1] = 0.0
+            force[o, 2] = 0.0
+            n += 1
+    return n
+
+
 # --- the free quads of a block, as triangles ------------------------------------------------
 @numba.njit(cache=True)
 def _append_quad(s, conn, elem_body, quads, faces, face_slot, face_body, pos, n):
@@ -298,6 +332,7 @@ class HexFracture:
         self.action = np.zeros(blk.n_elem, dtype=np.int8)
         self.ids = np.zeros(blk.n_elem, dtype=np.int64)
         self.eps_p_prev = blk.eps_p.copy()
+        self.status_before = blk.status.copy()  # before the criteria of the step
         self.pnode = np.zeros(model.n_node)
         self.jnode = np.ones(model.n_node)
         self._n2e = None
@@ -312,6 +347,7 @@ class HexFracture:
         """Run the criteria on the block; returns (newly damaged, newly fractured, ascending ids
         of the hexes with an action)."""
         b, blk = self.boundary, self.blk
+        np.copyto(self.status_before, blk.status)  # what the element update saw
         if patch_spall:
             if self._n2e is None or self._n2e[2] is not blk.conn:
                 from impactsim.solver.build import node_to_element

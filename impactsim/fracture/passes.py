@@ -38,7 +38,7 @@ from impactsim.fracture.boundary import Boundary
 from impactsim.fracture.distortion import Distortion
 from impactsim.fracture.fragments import cloud_axis, cloud_summary, leading_edge
 from impactsim.fracture.distortion import hex_corner_forces
-from impactsim.fracture.hexes import HexFracture
+from impactsim.fracture.hexes import HexFracture, pass_orphan_forces
 from impactsim.fracture.measures import body_measures
 from impactsim.fracture.particles import (Particles, faces_near, move_particles, particle_boxes,
                                           particle_face_sweep, particle_particle_sweep,
@@ -188,7 +188,8 @@ class FracturePass(Pass):
         s.counts["melt"] += int(np.count_nonzero(kinds == C.MELT))
         if self.sim is not None:
             runner = self.sim.block_runners[[b is blk for b in model.blocks].index(True)]
-            f = hex_corner_forces(model, blk, runner, ids, self.sim.cq, self.sim.cl, dt)
+            f = hex_corner_forces(model, blk, runner, ids, self.sim.cq, self.sim.cl, dt,
+                                  hf.status_before)
             np.subtract.at(model.force, blk.conn[ids].reshape(-1), f.reshape(-1, 3))
         pa = s.particles
         pa.reserve(s.n_per * ids.shape[0])
@@ -197,6 +198,7 @@ class FracturePass(Pass):
             blk.energy, blk.elem_body, model.x, model.v, model.mass, s.node_live, s.n_per, pa.x,
             pa.v, pa.m, pa.radius, pa.energy, pa.body, pa.n)
         pa.n = int(n_p)
+        pass_orphan_forces(ids, blk.conn, s.node_live, model.force)
         model.energy_terms["eroded"] += float(e_out)
         s.counts["eroded"] += int(n_er)
         s.counts["converted"] += int(n_conv)
