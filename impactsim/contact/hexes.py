@@ -20,8 +20,15 @@ diagonals, none elsewhere); with them, below 1 um. The diagonal is not an edge o
 (mesh quality, fracture and the hex kernel do not know it): it exists only in this surface.
 Triangles of a split quad list -1 for their diagonal in `face_edges` when CREASES is off.
 
-`HexSurface` extends the tets' `Surface` with these faces, edges and nodes (hex faces never
-change: fracture of hexes is not available yet). `ProxyTets` gives the penetration measure
+`HexSurface` extends the tets' `Surface` with these faces, edges and nodes, following the hex
+blocks' status as hexes leave (fracture/hexes.py) in O(change), as the tets' surface does.
+
+Self-contact: the broad phase excludes pairs that share a node (contact/broadphase.py). With
+quads split in two, that would pair a node with the other triangle of its own quad and a split's
+diagonal with the edges of the quads around it, none of which share a node with it. The surface
+therefore gives each face and edge a key the exclusion compares (`face_key`, `edge_key`, (k, 4)):
+a hex triangle and a diagonal stand for their whole quad, a tet face and every true edge for
+their own nodes (padded by repetition). `ProxyTets` gives the penetration measure
 (diagnostics.py, which tests nodes against tets) a tet cover of every hex: its 12 faces'
 triangles (the same split as the contact faces) joined to the hex's centre, a point of its own
 after the mesh's nodes; exact for the volume bounded by those triangles.
