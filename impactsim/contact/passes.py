@@ -95,6 +95,9 @@ class ContactContext:
                  restore: float = RESTORE):
         self.surface = Surface.from_model(model)
         self._conn_shape = model.conn.shape
+        # the hexes' tet cover of the penetration measure (contact/hexes.py), built here so that
+        # a state built from the case has it (checkpoints restore into it)
+        self.proxy = _proxy(model)
         self.n_body = int(model.n_body)
         self.friction = float(friction)
         self.self_contact = bool(self_contact)
@@ -132,7 +135,7 @@ class ContactContext:
         self.surface = Surface.from_model(model)
         self._conn_shape = model.conn.shape
         self._h_key = None
-        self.proxy = None  # the hexes' tet cover of the penetration measure (contact/hexes.py)
+        self.proxy = _proxy(model)
 
     def prepare(self, model) -> float:
         """Follow erosion (status) and return the current mean surface edge length h [m]."""
@@ -206,6 +209,15 @@ class ContactContext:
         model.energy_terms["contact_dissipated"] = (
             model.energy_terms.get("contact_dissipated", 0.0) - work)
         self._v_star = None
+
+
+def _proxy(model):
+    """The tet cover of the hexes for the penetration measure, None without hexes."""
+    if not getattr(model, "blocks", None):
+        return None
+    from impactsim.contact.hexes import ProxyTets
+
+    return ProxyTets(model)
 
 
 def prescribed_lock(model) -> np.ndarray:
@@ -456,11 +468,7 @@ class ContactPass(Pass):
         ctx = self.ctx
         ctx.surface.sync(model.status)
         x, conn, elem_body, status = model.x, model.conn, model.elem_body, model.status
-        if getattr(model, "blocks", None):  # hexes: against a tet cover (contact/hexes.py)
-            if getattr(ctx, "proxy", None) is None:
-                from impactsim.contact.hexes import ProxyTets
-
-                ctx.proxy = ProxyTets(model)
+        if ctx.proxy is not None:  # hexes: against a tet cover (contact/hexes.py)
             x, conn, elem_body, status = ctx.proxy.update(model)
         pen = ctx.meter.measure(x, conn, elem_body, status, ctx.surface)["max_penetration"]
         self.max_penetration_seen = max(self.max_penetration_seen, pen)
