@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV ?= .venv
 PY := $(VENV)/bin/python
 BIN := $(VENV)/bin
-CASES := elastic-bar-wall taylor-bar two-cubes two-cylinders elastic-bars hertz-spheres sphere-plate oblique-sphere elastic-bar-wall-hex taylor-bar-hex taylor-bar-42crmo4 two-cylinders-hex
+CASES := elastic-bar-wall taylor-bar two-cubes two-cylinders elastic-bars hertz-spheres sphere-plate oblique-sphere elastic-bar-wall-hex taylor-bar-hex taylor-bar-42crmo4 two-cylinders-hex sphere-plate-hex
 SWEEP ?= cases/sweeps/mesh-size.toml
 REV ?= HEAD
 

@@ -111,10 +111,11 @@ def active_passes(case: Case) -> list[tuple[str, str]]:
         passes.append(("velocity", "boundary-conditions"))
     if case.walls:
         passes.append(("velocity", "walls"))
+    if any(f.active for f in fail):  # impactsim.fracture.make_fracture_passes (particles first)
+        passes.append(("velocity", "fracture.particles"))
     if has_contact(case):
         passes += [("velocity", f"contact.{name}") for name in case.contact.passes]
-    if any(f.active for f in fail):  # impactsim.fracture.make_fracture_passes
-        passes.append(("velocity", "fracture.particles"))
+    if any(f.active for f in fail):
         effects = [name for name, on in (
             ("spall", any(f.spall_strength is not None for f in fail)),
             ("loosening", any(f.loosening is not None for f in fail)),

@@ -95,6 +95,9 @@ class ContactContext:
                  restore: float = RESTORE):
         self.surface = Surface.from_model(model)
         self._conn_shape = model.conn.shape
+        # the hexes' tet cover of the penetration measure (contact/hexes.py), built here so that
+        # a state built from the case has it (checkpoints restore into it)
+        self.proxy = _proxy(model)
         self.n_body = int(model.n_body)
         self.friction = float(friction)
         self.self_contact = bool(self_contact)
@@ -132,6 +135,7 @@ class ContactContext:
         self.surface = Surface.from_model(model)
         self._conn_shape = model.conn.shape
         self._h_key = None
+        self.proxy = _proxy(model)
 
     def prepare(self, model) -> float:
         """Follow erosion (status) and return the current mean surface edge length h [m]."""
@@ -205,6 +209,15 @@ class ContactContext:
         model.energy_terms["contact_dissipated"] = (
             model.energy_terms.get("contact_dissipated", 0.0) - work)
         self._v_star = None
+
+
+def _proxy(model):
+    """The tet cover of the hexes for the penetration measure, None without hexes."""
+    if not getattr(model, "blocks", None):
+        return None
+    from impactsim.contact.hexes import ProxyTets
+
+    return ProxyTets(model)
 
 
 def prescribed_lock(model) -> np.ndarray:
@@ -410,24 +423,28 @@ class ContactPass(Pass):
 
     def _broad_phase(self, model, dt, h, hashed, queries=None) -> np.ndarray:
         """Sorted pairs (query row, hashed row) of rows of entity arrays whose swept, padded
-        boxes overlap: ``hashed`` and ``queries`` are (buffer name, rows (k, w), bodies (k,)),
-        only rows near another body take part (all with self-contact), and without
-        ``queries`` the hashed rows are queried against themselves (each pair once, i < j)."""
+        boxes overlap: ``hashed`` and ``queries`` are (buffer name, rows (k, w), bodies (k,)
+        [, keys (k, w')]), only rows near another body take part (all with self-contact), and
+        without ``queries`` the hashed rows are queried against themselves (each pair once,
+        i < j). The self-contact exclusion compares the rows' keys (default: the rows; a hex
+        surface's triangles and creases give their whole quad, contact/hexes.py)."""
         ctx = self.ctx
         pad = BOX_PAD * h
         blo, bhi = ctx.bounds(model, dt, pad)
-        name, ent, body = hashed
+        name, ent, body = hashed[:3]
+        ekey = hashed[3] if len(hashed) > 3 else ent
         esel, elo, ehi = ctx.select(name, model, dt, ent, pad, body, blo, bhi)
         if queries is None:
-            qsel, qlo, qhi, qent, qbody = esel, elo, ehi, ent, body
+            qsel, qlo, qhi, qkey, qbody = esel, elo, ehi, ekey, body
         else:
-            qname, qent, qbody = queries
+            qname, qent, qbody = queries[:3]
+            qkey = queries[3] if len(queries) > 3 else qent
             qsel, qlo, qhi = ctx.select(qname, model, dt, qent, pad, qbody, blo, bhi)
         if qsel.shape[0] == 0 or esel.shape[0] == 0:
             return _NO_PAIRS
         origin, cell = ctx.grid(blo, bhi, h)
         self.hash.build(elo, ehi, origin, cell)
-        qk, ek = qent[qsel], ent[esel]
+        qk, ek = qkey[qsel], ekey[esel]
         if ctx.node_key is not None:  # self-contact exclusion by node family (separation)
             qk, ek = ctx.node_key[qk], ctx.node_key[ek]
         pairs = self.hash.query(qlo, qhi, qk, qbody[qsel], ek, body[esel],
@@ -451,11 +468,7 @@ class ContactPass(Pass):
         ctx = self.ctx
         ctx.surface.sync(model.status)
         x, conn, elem_body, status = model.x, model.conn, model.elem_body, model.status
-        if getattr(model, "blocks", None):  # hexes: against a tet cover (contact/hexes.py)
-            if getattr(ctx, "proxy", None) is None:
-                from impactsim.contact.hexes import ProxyTets
-
-                ctx.proxy = ProxyTets(model)
+        if ctx.proxy is not None:  # hexes: against a tet cover (contact/hexes.py)
             x, conn, elem_body, status = ctx.proxy.update(model)
         pen = ctx.meter.measure(x, conn, elem_body, status, ctx.surface)["max_penetration"]
         self.max_penetration_seen = max(self.max_penetration_seen, pen)
@@ -490,7 +503,7 @@ class NodeFacePass(ContactPass):
         s = self.ctx.surface
         if s.n_faces == 0:
             return _NO_PAIRS
-        return self._broad_phase(model, dt, h, ("nf.face", s.faces, s.face_body),
+        return self._broad_phase(model, dt, h, ("nf.face", s.faces, s.face_body, s.face_key),
                                  ("nf.node", s.nodes.reshape(-1, 1), s.node_body))
 
     def _sweep(self, model, dt, h, pairs, active, stamp, sweep, since, geo, slack):
@@ -518,7 +531,7 @@ class EdgeEdgePass(ContactPass):
         s = ctx.surface
         if s.n_edges == 0:
             return _NO_PAIRS
-        pairs = self._broad_phase(model, dt, h, ("ee.edge", s.edges, s.edge_body))
+        pairs = self._broad_phase(model, dt, h, ("ee.edge", s.edges, s.edge_body, s.edge_key))
         if pairs.shape[0]:
             # outward normals at the edges, for touching pairs (edgeedge module docstring)
             self.normals = ctx.buffer("ee.normals", (s.n_edges, 3))

@@ -42,7 +42,12 @@ def free_face_changes(ids, adj, alive, face_flag, events):
     becomes nb's free face, with nb's local numbering. Updates ``alive`` and ``face_flag``
     (slot ``4*elem + local``) and writes the changes in that order to ``events`` (room for 4
     per id): slot s for a face that becomes free, -1 - s for one that stops being free.
-    Returns (events written, elements removed)."""
+    Returns (events written, elements removed).
+
+    The element's face count is ``adj.shape[1]`` (4 for tets, 6 for hexes, whose quads
+    ``impactsim.contact.hexes`` and ``impactsim.fracture.hexes`` follow with it): slots are
+    ``nf*elem + local`` and ``events`` needs room for nf per id."""
+    nf = adj.shape[1]
     m = 0
     removed = 0
     for k in range(ids.shape[0]):
@@ -51,8 +56,8 @@ def free_face_changes(ids, adj, alive, face_flag, events):
             continue
         alive[e] = False
         removed += 1
-        for i in range(4):
-            slot = 4 * e + i
+        for i in range(nf):
+            slot = nf * e + i
             if face_flag[slot]:
                 face_flag[slot] = False
                 events[m] = -1 - slot
@@ -61,10 +66,10 @@ def free_face_changes(ids, adj, alive, face_flag, events):
             nb = adj[e, i]
             if nb < 0 or not alive[nb]:
                 continue
-            for jn in range(4):
+            for jn in range(nf):
                 if adj[nb, jn] == e:
-                    face_flag[4 * nb + jn] = True
-                    events[m] = 4 * nb + jn
+                    face_flag[nf * nb + jn] = True
+                    events[m] = nf * nb + jn
                     m += 1
                     break
     return m, removed
@@ -239,6 +244,9 @@ class Surface:
             _compact_kernel(self.face_flag, self.conn, self.elem_body, self.elem_edges,
                             self.mesh_edges, self.edge_count, self.node_count,
                             self.node_body_all, LOCAL_FACES, FACE_EDGES, self._edge_index)
+        # the nodes the self-contact exclusion compares per face and edge (the entity's own;
+        # a hex surface keys its triangles by their whole quad, contact/hexes.py)
+        self.face_key, self.edge_key = self.faces, self.edges
         self.version += 1
 
     # --- sizes and measures ---------------------------------------------------------------
@@ -260,10 +268,11 @@ class Surface:
 
 
 
-def events_buffer(buf, n_ids) -> np.ndarray:
-    """A buffer for the ``events`` of ``free_face_changes`` for n_ids removed elements: ``buf``
-    when it is large enough, else one half as large again (no allocation while it suffices)."""
-    need = 4 * int(n_ids)
+def events_buffer(buf, n_ids, faces: int = 4) -> np.ndarray:
+    """A buffer for the ``events`` of ``free_face_changes`` for n_ids removed elements of
+    ``faces`` faces each: ``buf`` when it is large enough, else one half as large again (no
+    allocation while it suffices)."""
+    need = faces * int(n_ids)
     if buf.shape[0] >= need:
         return buf
     return np.empty(max(need, 64, int(1.5 * buf.shape[0])), dtype=np.int64)

@@ -108,21 +108,97 @@ def jc_fracture_strain(mat_params, mk, pressure, seq, rate, temperature):
 
 
 @numba.njit(cache=True, parallel=True)
-def patch_fields(vol, vol0, pressure, status, n2e_ptr, n2e, pnode, jnode):
+def patch_fields(vol, vol0, pressure, status, n2e_ptr, n2e, pnode, jnode, corners):
     """Nodal means over the live elements around each node: pressure pnode_i = sum V_e p_e /
-    sum V_e and volume ratio jnode_i = sum V_e / sum V0_e (1 and 0 at a node without any)."""
+    sum V_e and volume ratio jnode_i = sum V_e / sum V0_e (1 and 0 at a node without any).
+    n2e: entries e * corners + local corner (4 for tets, 8 for a hex block)."""
     for i in numba.prange(pnode.shape[0]):
         vs = 0.0
         v0s = 0.0
         ps = 0.0
         for k in range(n2e_ptr[i], n2e_ptr[i + 1]):
-            e = n2e[k] // 4
+            e = n2e[k] // corners
             if status[e] != ERODED:
                 vs += vol[e]
                 v0s += vol0[e]
                 ps += vol[e] * pressure[e]
         pnode[i] = ps / vs if vs > 0.0 else 0.0
         jnode[i] = vs / v0s if v0s > 0.0 else 1.0
+
+
+@numba.njit(cache=True, inline="always")
+def element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev, damage, eps_rate,
+                  temperature, mat_params):
+    """Steps 1-3 of the module docstring for live element e of any type (the per-element
+    arrays of the tets and of a hex block have one layout): spall with the pressure p, loosening,
+    Johnson-Cook damage (updates damage[e] and eps_p_prev[e]). Returns (status, newly damaged
+    0/1, newly fractured 0/1)."""
+    dam = 0
+    frac = 0
+    sxx, syy, szz = sdev[e, 0], sdev[e, 1], sdev[e, 2]
+    sxy, syz, szx = sdev[e, 3], sdev[e, 4], sdev[e, 5]
+    spall = mat_params[mk, P.SPALL]
+    # Gershgorin's bound on the largest principal stress first: most cells are far below
+    # the spall strength and skip the closed-form eigenvalue
+    if st == INTACT and max(
+            sxx + abs(sxy) + abs(szx), syy + abs(sxy) + abs(syz),
+            szz + abs(syz) + abs(szx)) - p > spall:
+        if max_principal(sxx - p, syy - p, szz - p, sxy, syz, szx) > spall:
+            st = DAMAGED
+            dam = 1
+    if st == DAMAGED and 1.0 - vol0[e] / vol[e] > mat_params[mk, P.CHI_STAR]:
+        st = FRACTURED
+        frac = 1
+    code = int(mat_params[mk, P.EROSION])
+    deps = eps_p[e] - eps_p_prev[e]
+    eps_p_prev[e] = eps_p[e]
+    if code == 2 and deps > 0.0:
+        seq = math.sqrt(1.5 * (sxx * sxx + syy * syy + szz * szz)
+                        + 3.0 * (sxy * sxy + syz * syz + szx * szx))
+        damage[e] += deps / jc_fracture_strain(mat_params, mk, p, seq, eps_rate[e],
+                                               temperature[e])
+    return st, dam, frac
+
+
+@numba.njit(cache=True, inline="always")
+def failing_material(mat_params, mk):
+    """True for a material with failure data (an erosion criterion, spall or loosening)."""
+    return (int(mat_params[mk, P.EROSION]) != 0 or mat_params[mk, P.SPALL] < math.inf
+            or mat_params[mk, P.CHI_STAR] < math.inf)
+
+
+@numba.njit(cache=True, inline="always")
+def element_action(e, mk, st, on_surface, lone, surface_only, eps_p, damage, temperature,
+                   mat_params, stretch):
+    """Step 4 of the module docstring but the distortion guard, for element e of any type:
+    PARTICLE, MELT, ERODE or NONE. on_surface: a face of it is free; lone: every face is free
+    and it had a face neighbour at t = 0 (a one-cell fragment); stretch: its largest principal
+    stretch (read only for erosion = "principal-strain")."""
+    code = int(mat_params[mk, P.EROSION])
+    failing = failing_material(mat_params, mk)
+    act = NONE
+    if st == FRACTURED and on_surface and code != 4:
+        act = PARTICLE
+    elif failing and on_surface and (
+            temperature[e] >= mat_params[mk, P.T_ROOM] + MELT_SHARE * (
+                mat_params[mk, P.T_MELT] - mat_params[mk, P.T_ROOM])
+            or eps_p[e] > MAX_PLASTIC_STRAIN):
+        act = MELT  # molten or runaway strain (3b): particles
+    elif failing and lone:
+        act = PARTICLE  # a one-cell fragment: every face neighbour has left the mesh
+    elif code != 0 and (on_surface or not surface_only):
+        val = mat_params[mk, P.EROSION_VALUE]
+        if code == 1:
+            hit = eps_p[e] >= val
+        elif code == 2:
+            hit = damage[e] >= val
+        elif code == 3:
+            hit = stretch - 1.0 >= val
+        else:
+            hit = st == FRACTURED
+        if hit:
+            act = ERODE
+    return act
 
 
 @numba.njit(cache=True, parallel=True)
@@ -135,7 +211,9 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
     (impactsim.fracture.boundary.Boundary). patch_spall: spall reads p_patch from pnode, the
     nodal means of `patch_fields` (else the element's own pressure; jnode is not read).
     eps_p_prev (e,) plastic strain at the previous call (updated here). Returns
-    (newly damaged, newly fractured, elements with an action).
+    (newly damaged, newly fractured, elements with an action). The pointwise steps
+    (``element_state``, ``element_action``) are shared with the hexes' kernel
+    (impactsim.fracture.hexes).
     """
     n_elem = conn.shape[0]
     n_dam = 0
@@ -152,57 +230,22 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
             p = 0.25 * (pnode[i0] + pnode[i1] + pnode[i2] + pnode[i3])  # p_patch
         else:
             p = pressure[e]
-        sxx, syy, szz = sdev[e, 0], sdev[e, 1], sdev[e, 2]
-        sxy, syz, szx = sdev[e, 3], sdev[e, 4], sdev[e, 5]
-        spall = mat_params[mk, P.SPALL]
-        # Gershgorin's bound on the largest principal stress first: most cells are far below
-        # the spall strength and skip the closed-form eigenvalue
-        if st == INTACT and max(
-                sxx + abs(sxy) + abs(szx), syy + abs(sxy) + abs(syz),
-                szz + abs(syz) + abs(szx)) - p > spall:
-            if max_principal(sxx - p, syy - p, szz - p, sxy, syz, szx) > spall:
-                st = DAMAGED
-                n_dam += 1
-        if st == DAMAGED and 1.0 - vol0[e] / vol[e] > mat_params[mk, P.CHI_STAR]:
-            st = FRACTURED
-            n_frac += 1
+        st, dam, frac = element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev, damage,
+                                      eps_rate, temperature, mat_params)
+        n_dam += dam
+        n_frac += frac
         status[e] = st
-        code = int(mat_params[mk, P.EROSION])
-        deps = eps_p[e] - eps_p_prev[e]
-        eps_p_prev[e] = eps_p[e]
-        if code == 2 and deps > 0.0:
-            seq = math.sqrt(1.5 * (sxx * sxx + syy * syy + szz * szz)
-                            + 3.0 * (sxy * sxy + syz * syz + szx * szx))
-            damage[e] += deps / jc_fracture_strain(mat_params, mk, p, seq, eps_rate[e],
-                                                   temperature[e])
         on_surface = (face_flag[4 * e] or face_flag[4 * e + 1] or face_flag[4 * e + 2]
                       or face_flag[4 * e + 3])
-        failing = code != 0 or spall < math.inf or mat_params[mk, P.CHI_STAR] < math.inf
-        act = NONE
-        if st == FRACTURED and on_surface and code != 4:
-            act = PARTICLE
-        elif failing and on_surface and (
-                temperature[e] >= mat_params[mk, P.T_ROOM] + MELT_SHARE * (
-                    mat_params[mk, P.T_MELT] - mat_params[mk, P.T_ROOM])
-                or eps_p[e] > MAX_PLASTIC_STRAIN):
-            act = MELT  # molten or runaway strain (3b): particles
-        elif (failing and face_flag[4 * e] and face_flag[4 * e + 1] and face_flag[4 * e + 2]
-              and face_flag[4 * e + 3] and (adj[e, 0] >= 0 or adj[e, 1] >= 0
-                                            or adj[e, 2] >= 0 or adj[e, 3] >= 0)):
-            act = PARTICLE  # a one-cell fragment: every face neighbour has left the mesh
-        elif code != 0 and (on_surface or not surface_only):
-            val = mat_params[mk, P.EROSION_VALUE]
-            if code == 1:
-                hit = eps_p[e] >= val
-            elif code == 2:
-                hit = damage[e] >= val
-            elif code == 3:
-                hit = max_principal_stretch(x, x0, i0, i1, i2, i3) - 1.0 >= val
-            else:
-                hit = st == FRACTURED
-            if hit:
-                act = ERODE
-        if act == NONE and failing:
+        lone = (face_flag[4 * e] and face_flag[4 * e + 1] and face_flag[4 * e + 2]
+                and face_flag[4 * e + 3] and (adj[e, 0] >= 0 or adj[e, 1] >= 0
+                                              or adj[e, 2] >= 0 or adj[e, 3] >= 0))
+        stretch = 1.0
+        if int(mat_params[mk, P.EROSION]) == 3:
+            stretch = max_principal_stretch(x, x0, i0, i1, i2, i3)
+        act = element_action(e, mk, st, on_surface, lone, surface_only, eps_p, damage,
+                             temperature, mat_params, stretch)
+        if act == NONE and failing_material(mat_params, mk):
             lim = 6.0 * GUARD_FRACTION * vol0[e]
             if (_volume6(x, v, 1.1 * dt, i0, i1, i2, i3) < lim
                     or _volume6(x, v, 2.2 * dt, i0, i1, i2, i3) < lim):

@@ -239,7 +239,7 @@ class Distortion:
                 out.append((blk, ids))
         return tets, out
 
-    def erode_block(self, model, blk, ids, node_live, sim=None) -> float:
+    def erode_block(self, model, blk, ids, node_live, sim=None, dt: float = 0.0) -> float:
         """Delete block elements ``ids`` (erode_cells); returns the energy that left [J]. With
         the Simulation, their forces of the last element update are taken off their nodes
         first, so that a deleted hex no longer pushes them at the next predictor (what
@@ -247,7 +247,7 @@ class Distortion:
         ids = ids[blk.status[ids] != ERODED]
         if sim is not None and ids.shape[0]:
             runner = sim.block_runners[[b is blk for b in model.blocks].index(True)]
-            f = hex_corner_forces(model, blk, runner, ids, sim.cq, sim.cl)
+            f = hex_corner_forces(model, blk, runner, ids, sim.cq, sim.cl, dt)
             np.subtract.at(model.force, blk.conn[ids].reshape(-1), f.reshape(-1, 3))
         out, _ = erode_cells(ids, blk.conn, blk.status, blk.elem_mass, blk.energy, model.v,
                              model.mass, node_live)
@@ -261,25 +261,32 @@ class Distortion:
 @numba.njit(cache=True)
 def _hex_forces(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                 hard, thermal, energy, vol, elem_mass, hg, hg_visc, hg_stiff, mat_params, cq,
-                cl, rows, fext):
+                cl, rows, fext, half):
     w = np.empty(SCRATCH)
     for e in range(conn.shape[0]):
         _hex_element(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                      temperature, hard, thermal, energy, vol, elem_mass, hg, hg_visc, hg_stiff,
-                     mat_params, 0.0, 0.0, cq, cl, rows, fext, w)
+                     mat_params, half, 0.0, cq, cl, rows, fext, w)
 
 
-def hex_corner_forces(model, blk, runner, ids, cq: float, cl: float) -> np.ndarray:
+def hex_corner_forces(model, blk, runner, ids, cq: float, cl: float, dt: float = 0.0,
+                      status=None) -> np.ndarray:
     """(len(ids), 8, 3) the corner forces hexes ``ids`` added to model.force at the last element
-    update: the kernel re-run with dt = 0 on copies of their state (no increment: the same
-    stress, bulk viscosity and hourglass resultants at the same positions and velocities)."""
+    update of step ``dt``: the kernel re-run with no increment on copies of their state (the
+    same stress, bulk viscosity and hourglass resultants at the same positions and velocities,
+    the velocity gradient on the same mid-step geometry x - dt/2 v: the forces the update added,
+    to round-off, so that a deleted hex's orphaned corners take no force with them and momentum
+    is conserved)."""
     n = ids.shape[0]
     rows = np.arange(8 * n, dtype=np.int32).reshape(n, 8)
     fext = np.zeros((8 * n, 3))
-    st = blk.status[ids].copy()  # still live: called before the deletion
+    # still live: called before the deletion; ``status`` the hexes' status at that update
+    # (the fracture criteria may have damaged them since)
+    st = (blk.status if status is None else status)[ids].copy()
     _hex_forces(model.x, model.v, np.ascontiguousarray(blk.conn[ids]), blk.elem_mat[ids], st,
                 blk.sdev[ids], blk.pressure[ids], blk.q[ids], blk.eps_p[ids],
                 blk.eps_rate[ids], blk.temperature[ids], runner.hard[ids], runner.thermal[ids],
                 blk.energy[ids], blk.vol[ids], blk.elem_mass[ids], blk.hg[ids],
-                blk.hg_visc[ids], blk.hg_stiff[ids], model.mat_params, cq, cl, rows, fext)
+                blk.hg_visc[ids], blk.hg_stiff[ids], model.mat_params, cq, cl, rows, fext,
+                0.5 * dt)
     return fext.reshape(n, 8, 3)

@@ -28,6 +28,9 @@ from impactsim.mesh.topology import face_adjacency
 from impactsim.model import ERODED
 
 MAX_CELLS = 1200  # raster cells per axis at most
+# five tets filling a hex (VTK corner order): the projection of a hex for the hole raster
+HEX_TETS = np.array([[0, 1, 3, 4], [1, 2, 3, 6], [1, 6, 4, 5], [3, 4, 6, 7], [1, 3, 4, 6]],
+                    dtype=np.int64)
 HOLE_DEFINITION = ("largest uncovered region, enclosed by the plate, of the projection onto "
                    "the initial mid-plane of the plate's largest piece (live elements joined "
                    "through shared nodes)")
@@ -41,7 +44,7 @@ def node_pieces(conn, active):
     from scipy.sparse.csgraph import connected_components
 
     ne, nn = conn.shape[0], int(conn.max()) + 1 if conn.size else 0
-    e = np.repeat(np.nonzero(active)[0], 4)
+    e = np.repeat(np.nonzero(active)[0], conn.shape[1])
     n = conn[active].ravel()
     g = coo_matrix((np.ones(e.size), (e, ne + n)), shape=(ne + nn, ne + nn))
     _, lab = connected_components(g, directed=False)
@@ -58,7 +61,14 @@ def fragments(conn, active):
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
-    adj = face_adjacency(conn, active)
+    if conn.shape[1] == 8:  # hexes: neighbours across their quads
+        from impactsim.fracture.separation import HEX_FACES, face_adjacency_k
+
+        adj = face_adjacency_k(conn, HEX_FACES)
+        adj = np.where(np.asarray(active, bool)[:, None], adj, -1)
+        adj = np.where((adj >= 0) & np.asarray(active, bool)[np.maximum(adj, 0)], adj, -1)
+    else:
+        adj = face_adjacency(conn, active)
     ne = conn.shape[0]
     e, k = np.nonzero(adj >= 0)
     g = coo_matrix((np.ones(e.size), (e, adj[e, k])), shape=(ne, ne))
@@ -137,6 +147,8 @@ def hole_size(x, x0, conn, live, h):
     nv = int(math.ceil((v0s.max() + margin - v0) / cell))
     pu, pv = (x - c) @ a1, (x - c) @ a2
     covered = np.zeros((nu, nv), dtype=bool)
+    if conn.shape[1] == 8:  # a hex covers what its five tets cover
+        conn, live = conn[:, HEX_TETS].reshape(-1, 4), np.repeat(live, 5)
     _raster(pu, pv, conn, live, u0, v0, cell, nu, nv, covered)
     lab, n = ndimage.label(~covered)
     border = np.unique(np.concatenate([lab[0], lab[-1], lab[:, 0], lab[:, -1]]))
@@ -170,6 +182,10 @@ def body_measures(model, node_live=None, particles=None) -> dict:
         off = model.node_start[b]
         conn = model.conn[es] - off
         live = live_all[es]
+        for blk in getattr(model, "blocks", []):  # a hex body: its rows of the block
+            rows = slice(blk.body_start[b], blk.body_start[b + 1])
+            if rows.stop > rows.start:
+                conn, live = blk.conn[rows] - off, blk.status[rows] != ERODED
         x, x0 = model.x[ns], model.x0[ns]
         m, v = model.mass[ns], model.v[ns]
         info = {"remaining_elements": int(live.sum())}

@@ -2,7 +2,8 @@
 
 ``make_fracture_passes(case, model)`` returns, when a material has failure data:
 
-- ``fracture.particles`` (velocity stage, after the contact passes): particle-face and, with
+- ``fracture.particles`` (velocity stage, before the contact passes, solver/pipeline.py, so that
+  contact corrects what the particles' impulses did to face nodes): particle-face and, with
   ``[fracture] particle_collisions``, particle-particle contact on the predictor velocities, then
   the particles move over the step (``impactsim.fracture.particles``); idle while there are
   no particles;
@@ -36,6 +37,8 @@ from impactsim.fracture import criteria as C
 from impactsim.fracture.boundary import Boundary
 from impactsim.fracture.distortion import Distortion
 from impactsim.fracture.fragments import cloud_axis, cloud_summary, leading_edge
+from impactsim.fracture.distortion import hex_corner_forces
+from impactsim.fracture.hexes import HexFracture, pass_orphan_forces
 from impactsim.fracture.measures import body_measures
 from impactsim.fracture.particles import (Particles, faces_near, move_particles, particle_boxes,
                                           particle_face_sweep, particle_particle_sweep,
@@ -61,9 +64,8 @@ class FractureState:
         self.axis = cloud_axis(case)  # the debris cloud's direction (fracture/fragments.py)
         self.action = np.zeros(model.n_elem, dtype=np.int8)
         self.ids = np.zeros(model.n_elem, dtype=np.int64)
-        b = self.boundary
-        e = b.faces[:b.n]
-        d = np.linalg.norm(model.x[e[:, 1]] - model.x[e[:, 0]], axis=1) if b.n else np.ones(1)
+        e = np.vstack([b.faces[:b.n] for b in self.face_lists()])
+        d = np.linalg.norm(model.x[e[:, 1]] - model.x[e[:, 0]], axis=1) if len(e) else np.ones(1)
         self.h_face = float(d.mean())  # [m] mean edge length of the free faces at t = 0
         self.eps_p_prev = model.eps_p.copy()
         self.mass_initial = float(model.mass.sum())
@@ -80,11 +82,27 @@ class FractureState:
         """The free faces and the live corners per node from model.conn afresh (at the start,
         and after node separation repointed corners)."""
         self.boundary = Boundary.from_model(model)
+        # the hex blocks' criteria state and free quads (fracture/hexes.py)
+        if getattr(self, "hexes", None) is None:
+            self.hexes = [HexFracture(model, blk) for blk in model.blocks]
+        else:
+            for hf in self.hexes:
+                hf.rebuild(model)
         self.node_live = np.bincount(model.conn[model.status != ERODED].reshape(-1),
                                      minlength=model.n_node).astype(np.int32)
         for blk in model.blocks:  # hex corners keep their nodes alive too
             self.node_live += np.bincount(blk.conn[blk.status != ERODED].reshape(-1),
                                           minlength=model.n_node).astype(np.int32)
+
+    def face_lists(self) -> list:
+        """The free-face lists the particles hit: the tets' Boundary, then each hex block's."""
+        return [self.boundary] + [h.boundary for h in self.hexes]
+
+    def damaged_fractured(self, model) -> tuple[int, int]:
+        """Elements (tets and hexes) now damaged and fractured."""
+        st = [model.status] + [blk.status for blk in model.blocks]
+        return (sum(int(np.count_nonzero(a == DAMAGED)) for a in st),
+                sum(int(np.count_nonzero(a == FRACTURED)) for a in st))
 
     def update_particle_energy(self, model) -> None:
         _, ke, ie, _ = self.particles.sums()
@@ -111,7 +129,7 @@ class FracturePass(Pass):
         b = s.boundary
         if s.patch_spall:
             C.patch_fields(model.vol, model.vol0, model.pressure, model.status, model.n2e_ptr,
-                           model.n2e, s.pnode, s.jnode)
+                           model.n2e, s.pnode, s.jnode, 4)
         n_dam, n_frac, n_act = C.fracture_criteria(
             model.x, model.v, model.x0, model.conn, model.elem_mat, model.status, model.sdev,
             model.pressure, model.vol, model.vol0, model.eps_p, s.eps_p_prev, model.damage,
@@ -121,13 +139,23 @@ class FracturePass(Pass):
         s.counts["fractured"] += int(n_frac)
         if n_act:
             self._remove(model, s.ids[:C.action_ids(s.action, s.ids)])
+        for hf in s.hexes:  # the hex blocks (fracture/hexes.py)
+            n_dam, n_frac, ids = hf.criteria(model, dt, s.surface_only, s.patch_spall)
+            s.counts["damaged"] += n_dam
+            s.counts["fractured"] += n_frac
+            if ids.shape[0]:
+                self._remove_hexes(model, hf, ids, hf.action[ids], dt)
         if s.distortion is not None and s.distortion.due(model, dt):
             tets, blocks = s.distortion.check(model)
             if tets.shape[0]:
                 self._remove(model, tets, np.full(tets.shape[0], C.ERODE, np.int8))
             for blk, ids in blocks:
                 model.energy_terms["eroded"] += s.distortion.erode_block(model, blk, ids,
-                                                                         s.node_live, self.sim)
+                                                                         s.node_live, self.sim,
+                                                                         dt)
+                for hf in s.hexes:
+                    if hf.blk is blk:
+                        hf.boundary.remove(ids)
         # the particles' energy at the end of the step (contacts, motion, new particles)
         s.update_particle_energy(model)
 
@@ -150,16 +178,42 @@ class FracturePass(Pass):
             self.sim.refresh_forces(ids)
         s.boundary.remove(ids)
 
+    def _remove_hexes(self, model, hf, ids, kinds, dt):
+        """Hexes ``ids`` of block hf.blk leave the mesh (fracture/hexes.py): their forces of the
+        last element update are taken off their nodes, then ``remove_elements`` erodes them or
+        turns them into particles, and the block's free quads follow."""
+        s = self.s
+        blk = hf.blk
+        s.counts["guard"] += int(np.count_nonzero(kinds == C.GUARD))
+        s.counts["melt"] += int(np.count_nonzero(kinds == C.MELT))
+        if self.sim is not None:
+            runner = self.sim.block_runners[[b is blk for b in model.blocks].index(True)]
+            f = hex_corner_forces(model, blk, runner, ids, self.sim.cq, self.sim.cl, dt,
+                                  hf.status_before)
+            np.subtract.at(model.force, blk.conn[ids].reshape(-1), f.reshape(-1, 3))
+        pa = s.particles
+        pa.reserve(s.n_per * ids.shape[0])
+        n_p, e_out, n_er, n_conv = remove_elements(
+            ids, (kinds == C.PARTICLE) | (kinds == C.MELT), blk.conn, blk.status, blk.elem_mass,
+            blk.energy, blk.elem_body, model.x, model.v, model.mass, s.node_live, s.n_per, pa.x,
+            pa.v, pa.m, pa.radius, pa.energy, pa.body, pa.n)
+        pa.n = int(n_p)
+        pass_orphan_forces(ids, blk.conn, s.node_live, model.force)
+        model.energy_terms["eroded"] += float(e_out)
+        s.counts["eroded"] += int(n_er)
+        s.counts["converted"] += int(n_conv)
+        hf.boundary.remove(ids)
+
     def history(self, model):
         s = self.s
         pa = s.particles
         _, ke, ie, p = pa.sums()
+        n_dam, n_frac = s.damaged_fractured(model)
         return {"particles": float(pa.n), "particle_kinetic_energy": ke,
                 "particle_energy": ke + ie,
                 "particle_momentum_x": float(p[0]), "particle_momentum_y": float(p[1]),
                 "particle_momentum_z": float(p[2]),
-                "damaged": float(np.count_nonzero(model.status == DAMAGED)),
-                "fractured": float(np.count_nonzero(model.status == FRACTURED)),
+                "damaged": float(n_dam), "fractured": float(n_frac),
                 "eroded_elements": float(s.counts["eroded"] + s.counts["converted"]),
                 "leading_edge": leading_edge(model, s.axis, pa)[0]}
 
@@ -184,8 +238,10 @@ class FracturePass(Pass):
                              "particle_mass": pa.mass(),
                              "particle_momentum": pa.momentum().tolist(),
                              "particle_buffer_grows": pa.grows,
-                             "free_faces": s.boundary.n,
-                             "free_face_grows": s.boundary.grows,
+                             "free_faces": s.boundary.n + sum(
+                                 h.boundary.n for h in s.hexes),
+                             "free_face_grows": s.boundary.grows + sum(
+                                 h.boundary.grows for h in s.hexes),
                              **({"distortion": s.distortion.summary()}
                                 if s.distortion is not None else {})}}
 
@@ -222,20 +278,24 @@ class ParticlePass(Pass):
         n = pa.n
         if n == 0:
             return
-        b = s.boundary
+        lists = s.face_lists()  # the tets' free faces, then each hex block's
+        n_faces = sum(b.n for b in lists)
         pad = PAD * s.h_face
         plo, phi = self._buffer("plo", n), self._buffer("phi", n)
         cloud = self.cloud
         r_max = particle_boxes(pa.x, pa.v, pa.radius, n, dt, pad, plo, phi, cloud)
         work = 0.0
-        if b.n:
-            flo, fhi = self._buffer("flo", b.n), self._buffer("fhi", b.n)
-            sel = self._buffer("sel", b.n, np.int32)
-            sel_body = self._buffer("sel_body", b.n, np.int32, None)
+        if n_faces:
+            flo, fhi = self._buffer("flo", n_faces), self._buffer("fhi", n_faces)
+            sel = self._buffer("sel", n_faces, np.int32)
+            sel_body = self._buffer("sel_body", n_faces, np.int32, None)
             bounds = self.bounds
             bounds[:] = cloud
-            k = faces_near(model.x, model.v, dt, b.faces, b.face_body, b.n, pad, cloud, flo,
-                           fhi, sel, sel_body, bounds)
+            k = 0
+            for b in lists:  # the faces near the particles, list after list
+                if b.n:
+                    k += faces_near(model.x, model.v, dt, b.faces, b.face_body, b.n, pad,
+                                    cloud, flo[k:], fhi[k:], sel[k:], sel_body[k:], bounds)
             if k:
                 origin, cell = grid_for([(bounds[:1], bounds[1:])], max(s.h_face, 2.0 * r_max))
                 self.hash.build(flo[:k], fhi[:k], origin, cell)

@@ -43,6 +43,16 @@ def max_principal_stretch(x, x0, i0, i1, i2, i3):
     s00, s10, s20 = x[i1, 0] - x[i0, 0], x[i1, 1] - x[i0, 1], x[i1, 2] - x[i0, 2]
     s01, s11, s21 = x[i2, 0] - x[i0, 0], x[i2, 1] - x[i0, 1], x[i2, 2] - x[i0, 2]
     s02, s12, s22 = x[i3, 0] - x[i0, 0], x[i3, 1] - x[i0, 1], x[i3, 2] - x[i0, 2]
+    return stretch_of(m00, m01, m02, m10, m11, m12, m20, m21, m22,
+                      s00, s01, s02, s10, s11, s12, s20, s21, s22)
+
+
+@numba.njit(cache=True, inline="always")
+def stretch_of(m00, m01, m02, m10, m11, m12, m20, m21, m22,
+               s00, s01, s02, s10, s11, s12, s20, s21, s22):
+    """Largest principal stretch sqrt(max eig(F^T F)) of F = S M^{-1}, with M (m_rc) a frame of
+    three material vectors at the reference state and S (s_rc) the same vectors now (a tet's
+    edges; a hex's centre Jacobian, impactsim.fracture.hexes); 1 when M is singular."""
     det = (m00 * (m11 * m22 - m12 * m21) - m01 * (m10 * m22 - m12 * m20)
            + m02 * (m10 * m21 - m11 * m20))
     if det == 0.0:

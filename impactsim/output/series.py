@@ -113,7 +113,7 @@ class SeriesWriter:
             pdata = {name: value.copy() for name, value in pdata.items()}
             cdata = {name: value.copy() for name, value in cdata.items()}
         bounds = np.cumsum([0] + sizes)
-        live = [i for i, size in enumerate(sizes) if size or len(sizes) == 1]
+        live = [i for i, size in enumerate(sizes) if size] or [len(sizes) - 1]  # one, if empty
         mesh = meshio.Mesh(pts, [typed[i] for i in live], point_data=pdata,
                            cell_data={name: [value[bounds[i]:bounds[i + 1]] for i in live]
                                       for name, value in cdata.items()})

@@ -66,23 +66,6 @@ def block_internal_energy(model: Model) -> float:
     return sum(internal_energy(b.energy, b.elem_mass, b.status) for b in model.blocks)
 
 
-def unsupported(case) -> str:
-    """Why the case cannot run with its hex bodies ('' when it can): the fracture passes and
-    self-contact see the tets only so far, and a hex body would never fracture."""
-    hexes = [b for b in case.bodies if b.element == "hex8"]
-    if not hexes:
-        return ""
-    names = ", ".join(repr(b.name) for b in hexes)
-    if case.contact.self_contact:
-        return (f"body {names}: self-contact is not available for element = \"hex8\" bodies "
-                "yet (contact between bodies is)")
-    for b in hexes:
-        if case.materials[b.material].failure.active:
-            return (f"body {b.name!r}: fracture is not available for element = \"hex8\" bodies "
-                    f"yet; material {b.material!r} has failure criteria")
-    return ""
-
-
 HOURGLASS_WARN = 0.1  # hourglass over internal energy above which the run warns
 
 

@@ -12,23 +12,32 @@ from impactsim.solver.passes import Pass
 
 
 def build_passes(case: Case, model: Model) -> list[Pass]:
-    """Velocity-stage passes in their order (boundary conditions, walls, contact in the order the
-    case lists them), then fracture-stage passes."""
+    """Velocity-stage passes in their order (boundary conditions, walls, the particles' contacts,
+    contact in the order the case lists them), then fracture-stage passes.
+
+    The particle pass (fracture.particles) runs before the contact passes: its impulses change
+    the velocities of face nodes (a light plate node hit by debris gained several hundred m/s),
+    and run after them they pushed nodes through the other body's faces after the contact
+    passes had converged (sphere-plate, 1 mm plate: nodes 0.17 mm (tets) and 0.97 mm (hexes)
+    inside the sphere; with the particles first, 0.25 and 0.6 um)."""
     passes: list[Pass] = []
     if len(model.bc_nodes):
         passes.append(PrescribedVelocityPass())
     if len(model.walls):
         passes.append(WallPass())
+    from impactsim.fracture.passes import fracture_wanted
+
+    fracture = []
+    if fracture_wanted(case):
+        from impactsim.fracture import make_fracture_passes
+
+        fracture = make_fracture_passes(case, model)
+    passes.extend(p for p in fracture if p.stage == "velocity")
     if (len(case.bodies) > 1 or case.contact.self_contact) and case.contact.passes:
         from impactsim.contact import make_contact_passes
 
         passes.extend(make_contact_passes(case, model))
-    from impactsim.fracture.passes import fracture_wanted
-
-    if fracture_wanted(case):
-        from impactsim.fracture import make_fracture_passes
-
-        passes.extend(make_fracture_passes(case, model))
+    passes.extend(p for p in fracture if p.stage != "velocity")
     return passes
 
 

@@ -204,12 +204,6 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
         estimate = estimate_cost(case, meshes=meshes)
         n_elem = model.n_elem + sum(b.n_elem for b in model.blocks)
         numba.set_num_threads(thread_count(case.run.threads, n_elem))
-        if model.blocks:
-            from impactsim.solver.blocks import unsupported
-
-            why = unsupported(case)
-            if why:
-                raise SimulationError(f"{case.run.name}: {why}")
         passes = build_passes(case, model)
         info(f"{case.run.name}: {model.n_node} nodes, {n_elem} elements, "
                 f"{model.n_body} bodies; passes: " + (", ".join(p.name for p in passes) or "none"))

@@ -102,6 +102,15 @@ def test_resumed_sphere_through_plate_is_bit_identical(tmp_path):
     assert s["particles"] > 0 and s["bodies"]["plate"]["hole"]["area"] > 0
 
 
+def test_resumed_hex_plate_is_bit_identical(tmp_path):
+    """The same with the plate in hexes: the hex blocks' fracture state (free quads, criteria
+    scratch), the hex contact surface and the particles come back."""
+    text = PLATE.replace('mesher = "structured"', 'mesher = "structured"\nelement = "hex8"\n'
+                         'hourglass = "stiffness"\nhourglass_coefficient = 0.15')
+    s = _resume_from_an_early_checkpoint(text, tmp_path, 1)
+    assert s["bodies"]["plate"]["debris"]["particles"] > 0
+
+
 def test_state_walk_saves_everything_but_configuration(tmp_path):
     from impactsim.mesh import mesh_body
     from impactsim.solver.build import build_model

@@ -133,19 +133,6 @@ def test_case_keys(tmp_path):
         load_case(p)
 
 
-def test_what_hexes_cannot_do_yet_is_refused_clearly(tmp_path):
-    """Self-contact and fracture of hex bodies are not available: a scene asking for them stops
-    with a message instead of silently ignoring them."""
-    from impactsim.case import load_case
-    from impactsim.solver.run import SimulationError, run_case
-
-    case = load_case(Path(__file__).parents[2] / "cases" / "elastic-bar-wall-hex.toml")
-    case.contact.self_contact = True
-    case.contact.passes = ["node-face"]
-    with pytest.raises(SimulationError, match="self-contact"):
-        run_case(case, tmp_path, progress=False)
-
-
 def test_mesh_report_of_a_hex_body(tmp_path):
     """`impactsim mesh` covers hexes: corner Jacobians, aspect ratio, warping, the stable step
     from V / largest face area, and mesh.vtu with a hexahedron block."""

@@ -30,6 +30,12 @@ def test_warmup_scenes_cover_the_pipeline_and_leave_a_cache_a_later_process_uses
     assert frac["fracture.particles"]["particle_face_impacts"] > 0
     assert frac["fracture.particles"]["particle_collisions"] > 0
     assert "hole" in frac["bodies"]["plate"]  # the plate's hole measure ran
+    # fracture and self-contact of hexes (fracture/hexes.py, contact/hexes.py)
+    hexf = s["hex-fracture"]
+    assert hexf["bodies"]["plate"]["debris"]["particles"] > 0  # hexes became particles
+    assert hexf["fracture"]["eroded"] > 0 and "hole" in hexf["bodies"]["plate"]
+    assert hexf["fracture.particles"]["particle_face_impacts"] > 0
+    assert hexf["contact.edge-edge"]["candidate_pairs"] > 0
     # a fresh interpreter (same cache folder) loads every kernel and compiles none
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     p = subprocess.run([sys.executable, "-c", _SECOND], cwd=ROOT, env=env, check=True,
