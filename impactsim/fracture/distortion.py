@@ -239,20 +239,6 @@ class Distortion:
                 out.append((blk, ids))
         return tets, out
 
-    def erode_block(self, model, blk, ids, node_live, sim=None, dt: float = 0.0) -> float:
-        """Delete block elements ``ids`` (erode_cells); returns the energy that left [J]. With
-        the Simulation, their forces of the last element update are taken off their nodes
-        first, so that a deleted hex no longer pushes them at the next predictor (what
-        Simulation.refresh_forces does for tets)."""
-        ids = ids[blk.status[ids] != ERODED]
-        if sim is not None and ids.shape[0]:
-            runner = sim.block_runners[[b is blk for b in model.blocks].index(True)]
-            f = hex_corner_forces(model, blk, runner, ids, sim.cq, sim.cl, dt)
-            np.subtract.at(model.force, blk.conn[ids].reshape(-1), f.reshape(-1, 3))
-        out, _ = erode_cells(ids, blk.conn, blk.status, blk.elem_mass, blk.energy, model.v,
-                             model.mass, node_live)
-        return float(out)
-
     def summary(self) -> dict:
         return {"interval": self.interval, "checks": self.checks,
                 "deleted": sum(self.counts.values()), **self.counts}

@@ -149,13 +149,12 @@ class FracturePass(Pass):
             tets, blocks = s.distortion.check(model)
             if tets.shape[0]:
                 self._remove(model, tets, np.full(tets.shape[0], C.ERODE, np.int8))
-            for blk, ids in blocks:
-                model.energy_terms["eroded"] += s.distortion.erode_block(model, blk, ids,
-                                                                         s.node_live, self.sim,
-                                                                         dt)
-                for hf in s.hexes:
-                    if hf.blk is blk:
-                        hf.boundary.remove(ids)
+            for blk, ids in blocks:  # hexes: as the criteria's erosion (fracture/hexes.py)
+                hf = next(h for h in s.hexes if h.blk is blk)
+                ids = ids[blk.status[ids] != ERODED]
+                if ids.shape[0]:
+                    self._remove_hexes(model, hf, ids, np.full(ids.shape[0], C.ERODE, np.int8),
+                                       dt)
         # the particles' energy at the end of the step (contacts, motion, new particles)
         s.update_particle_energy(model)
 
