@@ -100,7 +100,10 @@ failure = { erosion = "jc-damage", erosion_value = 1.0, jc_damage = [0.0, 0.01, 
     out.append(("hex", "[run]\nname = 'h'\nend_time = 1e-6\n" + hex_rod + striker + _WALL
                 + "[contact]\npasses = ['node-face', 'edge-edge']\n", 8))
     # node separation and distortion erosion [Z] (fracture/separation.py, distortion.py): a
-    # separable block dragged apart fast enough to release families and delete cells
+    # separable block dragged apart fast enough to release families and delete cells. The
+    # energy check only warns: the drag starts impulsively, and its first step alone moves the
+    # balance by 8-9 % of the (then tiny) reference energy, with or without fracture (the
+    # releases themselves keep the balance: tests/verification/test_node_separation.py)
     sep_mat = """
 [[material]]
 name = "sep"
