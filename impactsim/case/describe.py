@@ -113,13 +113,18 @@ def active_passes(case: Case) -> list[tuple[str, str]]:
         passes.append(("velocity", "walls"))
     if has_contact(case):
         passes += [("velocity", f"contact.{name}") for name in case.contact.passes]
-    if any(f.active for f in fail):  # impactsim.fracture.make_fracture_passes
+    separation = any(f.fracture_strain is not None for f in fail)
+    distortion = case.fracture.distortion_interval is not None
+    if any(f.active for f in fail) or separation or distortion:  # fracture.fracture_wanted
         passes.append(("velocity", "fracture.particles"))
         effects = [name for name, on in (
             ("spall", any(f.spall_strength is not None for f in fail)),
             ("loosening", any(f.loosening is not None for f in fail)),
-            ("erosion", any(f.erosion is not None for f in fail))) if on]
+            ("erosion", any(f.erosion is not None for f in fail)),
+            ("distortion erosion", distortion)) if on]
         passes.append(("fracture", "fracture (" + ", ".join(effects) + ")"))
+        if separation:
+            passes.append(("fracture", "fracture.separation"))
     return passes
 
 
