@@ -34,10 +34,12 @@ Akantu's cohesive inserter, with the copies made at build time so that no node a
 - After a step with releases, what depends on the connectivity is refreshed: the force rows of
   the element kernels (``Simulation.set_parts`` and the block runners), the node-to-element
   index, the fracture passes' free faces and live-node counts, and the contact surface
-  (``ContactContext.rebuild_surface``): the faces exposed by a release are free faces of
-  their bodies (contact with the other bodies, and self-contact of the fragments when
-  ``contact.self_contact``) at the next velocity stage. These refreshes rebuild whole
-  structures (O(N log N)); they run only on steps with releases (docs/fracture.md: cost).
+  (``ContactContext.reconnect_surface``: only the moved tets and their neighbours, giving the
+  arrays a rebuild gives; a model with hexes rebuilds it): the faces exposed by a release are
+  free faces of their bodies (contact with the other bodies, and self-contact of the
+  fragments when ``contact.self_contact``) at the next velocity stage. The other refreshes
+  rebuild whole structures (O(N log N)); they run only on steps with releases
+  (docs/fracture.md: cost).
 """
 
 from __future__ import annotations
@@ -456,6 +458,9 @@ class SeparationPass:
         self.s = state
         self.sep = sep
         self.sim = None
+        # the contact surface follows a release in place (Surface.reconnect); False rebuilds
+        # it (the reference of tests and benchmarks/bench_reconnect.py)
+        self.incremental = True
 
     def attach(self, sim) -> None:
         self.sim = sim
@@ -515,8 +520,14 @@ class SeparationPass:
             for r in sim.block_runners:
                 r.rows = force_rows(r.block.conn, model.n_node, r.rows.part_size)
                 r.fext = np.zeros((r.rows.n_rows, 3))
+            changed = [m[1] for m in self.sep.moved if m[0].holder is model]
+            changed = np.concatenate(changed) if changed else np.zeros(0, np.int64)
+            blocks_changed = any(m[0].holder is not model for m in self.sep.moved)
             for ctx in self.contexts():
-                ctx.rebuild_surface(model)
+                if self.incremental and not blocks_changed:
+                    ctx.reconnect_surface(model, changed)
+                else:
+                    ctx.rebuild_surface(model)
         model.n2e_ptr, model.n2e = node_to_element(model.conn, model.n_node)
         self.s.rebuild_mesh(model)
 
