@@ -295,8 +295,9 @@ class Surface:
         at = np.searchsorted(old, keys)
         found = (at < old.shape[0]) & (old[np.minimum(at, old.shape[0] - 1)] == keys)
         if not np.all(found):
-            merged = np.union1d(old, keys[~found])
-            pos = np.searchsorted(merged, old)
+            add = np.unique(keys[~found])  # few: insert them, no sort of the whole list
+            merged = np.insert(old, np.searchsorted(old, add), add)
+            pos = np.arange(old.shape[0]) + np.searchsorted(add, old)
             self.elem_edges = pos[self.elem_edges]
             count = np.zeros(merged.shape[0], np.int32)
             count[pos] = self.edge_count
