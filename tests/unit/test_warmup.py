@@ -30,6 +30,12 @@ def test_warmup_scenes_cover_the_pipeline_and_leave_a_cache_a_later_process_uses
     assert frac["fracture.particles"]["particle_face_impacts"] > 0
     assert frac["fracture.particles"]["particle_collisions"] > 0
     assert "hole" in frac["bodies"]["plate"]  # the plate's hole measure ran
+    # node separation released (tets: the surface reconnected in place; hexes: their corner
+    # forces re-run), distortion erosion deleted cells
+    assert s["separation"]["fracture"]["separation"]["new_nodes"] > 0
+    assert s["separation"]["contact.node-face"]["candidate_pairs"] >= 0
+    assert s["separation"]["fracture"]["distortion"]["deleted"] > 0
+    assert s["separation-hex"]["fracture"]["separation"]["new_nodes"] > 0
     # a fresh interpreter (same cache folder) loads every kernel and compiles none
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     p = subprocess.run([sys.executable, "-c", _SECOND], cwd=ROOT, env=env, check=True,
