@@ -21,6 +21,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parents[1]
 CASE = ROOT / "cases" / "three-plate-shield.toml"
 DOC = ROOT / "docs" / "fracture.md"
@@ -69,7 +71,7 @@ def picture(run_dir: Path, target: Path) -> str:
     from impactsim.output.render import RenderError, render_series
 
     try:
-        pngs = render_series(run_dir, field="body", cut=((0.0, 1.0, 0.0), None), view="all",
+        pngs = render_series(run_dir, field="body", cut=(np.array([0.0, 1.0, 0.0]), None), view="all",
                              out=run_dir / "render", window_size=(900, 700))
     except RenderError as err:
         print(f"no picture: {err}", flush=True)

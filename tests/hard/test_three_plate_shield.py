@@ -4,7 +4,8 @@ sphere through plate 1); the slow one the whole 25 us.
 
 What must hold: the run reaches its end time, mass to round-off, momentum (mesh plus particles:
 no wall, no constraint) to round-off of the impact momentum, the energy balance within its
-bound, no fragment through the next plate (no material beyond the rear face of plate 3;
+bound, no fragment through the next plate (no material of the other bodies beyond plate 3's
+(bulged) rear face;
 contact's max_penetration under a tenth of the plates' cells while the cloud crosses the gaps;
 to 25 us it reaches a cell once the cloud hits plate 3: docs/fracture.md, a known defect), plate 1 perforated, and the
 debris-cloud statistics in summary.json."""
@@ -51,8 +52,10 @@ def _check(s, hist, model, energy_bound, penetration_bound):
     pen = hist["max_penetration"]
     assert np.nanmax(pen) < penetration_bound
     assert np.nanquantile(pen, 0.5) < 0.01 * H  # most of the time: nothing measurable
-    rear = model.x0[model.node_start[2]:model.node_start[3], 2].min()
-    assert model.x[model.mass > 0, 2].min() > rear - 1e-9
+    p3 = slice(model.node_start[2], model.node_start[3])
+    others = model.mass > 0
+    others[p3] = False
+    assert model.x[others, 2].min() > model.x[p3, 2].min()  # plate 3 as it is now (bulged)
     shield = s["shield"]
     assert [p["name"] for p in shield["plates"]] == ["plate-1", "plate-2", "plate-3"]
     assert shield["plates"][0]["perforated"] and shield["d1"] > 7.9e-3  # wider than the sphere
