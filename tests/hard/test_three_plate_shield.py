@@ -61,7 +61,7 @@ def _check(s, hist, model, energy_bound, penetration_bound):
     assert not shield["plates"][2]["perforated"]
     f = s["fragments"]
     assert f["count"] > 10 and f["mesh_pieces"] > 2
-    assert f["leading_edge_speed"] > 1000.0 and 0.0 < f["spread_angle_deg"] < 90.0
+    assert f["leading_edge_speed"] > 0.0 and 0.0 < f["spread_angle_deg"] < 90.0
     assert f["mass_by_size"]["cumulative_mass"][-1] == pytest.approx(f["total_mass"])
     sep = s["fracture"]["separation"]
     assert sep["new_nodes"] > 0 and s["fracture"]["distortion"]["checks"] > 0
@@ -72,6 +72,7 @@ def test_shield_first_microseconds(tmp_path, monkeypatch):
     s, hist, model = _run(tmp_path, "3 us", monkeypatch)
     _check(s, hist, model, 0.02, 0.1 * H)
     assert not s["shield"]["plates"][1]["perforated"]  # the cloud has not reached plate 2
+    assert s["fragments"]["leading_edge_speed"] > 1000.0  # ... and flies
 
 
 @pytest.mark.slow
@@ -82,3 +83,6 @@ def test_shield_whole_run(tmp_path, monkeypatch):
     # 2-2.65 mm cells (docs/fracture.md: three-plate shield); nothing gets through plate 3
     _check(s, hist, model, 0.03, 1.3 * H)
     assert s["shield"]["plates"][1]["perforated"] and s["shield"]["d2"] > 7.9e-3
+    # plate 3 has stopped the cloud: its front moves at a fraction of the 5.5 km/s (the bulge
+    # of plate 3: 470-580 m/s measured)
+    assert s["fragments"]["leading_edge_speed"] < 1500.0
