@@ -186,7 +186,8 @@ EOS = Table("eos", "Pressure model. linear: p = K (1 - V/V0) with the bulk modul
 
 FAILURE = Table("failure", "Fracture and erosion data; a mechanism is off when its key is "
                 "absent. The string \"none\" in place of the table switches off everything a "
-                "library entry brings.", (
+                "library entry brings; a key set to \"none\" (e.g. `spall_strength = \"none\"`) "
+                "switches off that one mechanism of the library entry.", (
     Key("spall_strength", "quantity", "Spall: a cell whose maximum principal tensile stress "
         "exceeds this is damaged (> 0).", None, dim="pressure"),
     Key("loosening", "number", "Loosening chi*: a damaged cell with 1 - V0/V > chi* is fully "

@@ -39,7 +39,7 @@ from impactsim.fracture.distortion import Distortion
 from impactsim.fracture.fragments import cloud_axis, cloud_summary, leading_edge
 from impactsim.fracture.distortion import hex_corner_forces
 from impactsim.fracture.hexes import HexFracture, pass_orphan_forces
-from impactsim.fracture.measures import body_measures
+from impactsim.fracture.measures import body_measures, shield_summary
 from impactsim.fracture.particles import (Particles, faces_near, move_particles, particle_boxes,
                                           particle_face_sweep, particle_particle_sweep,
                                           particle_walls)
@@ -221,7 +221,8 @@ class FracturePass(Pass):
         pa = s.particles
         mass_final = float(model.mass.sum()) + pa.mass()
         bodies = body_measures(model, s.node_live, pa)
-        return {"mass_initial": s.mass_initial, "mass_final": mass_final,
+        shield = shield_summary(model, bodies, s.axis)
+        return {**({"shield": shield} if shield is not None else {}),"mass_initial": s.mass_initial, "mass_final": mass_final,
                 "mass_error": (mass_final - s.mass_initial) / s.mass_initial,
                 "particles": int(pa.n), "eroded_elements": int(s.counts["eroded"]
                                                              + s.counts["converted"]),
