@@ -21,7 +21,8 @@ from impactsim.solver.loop import Simulation, SimulationStopped
 from impactsim.solver.pipeline import build_passes, mach_warnings
 
 CORE_COLUMNS = ["time", "step", "dt", "kinetic_energy", "internal_energy", "viscous_energy",
-                "contact_dissipated", "external_work", "eroded_energy", "total_energy",
+                "contact_dissipated", "external_work", "eroded_energy", "half_step_energy",
+                "total_energy",
                 "momentum_x", "momentum_y", "momentum_z"]
 
 
