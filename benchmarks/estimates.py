@@ -24,19 +24,20 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 CASES = ["elastic-bar-wall", "taylor-bar", "two-cubes", "two-cylinders", "elastic-bars",
-         "hertz-spheres", "sphere-plate", "oblique-sphere"]
+         "hertz-spheres", "elastic-bar-wall-hex", "taylor-bar-hex", "two-cylinders-hex",
+         "sphere-plate", "oblique-sphere"]
 STORE = ROOT / "benchmarks" / "estimates.json"
 DOC = ROOT / "docs" / "estimates.md"
 
 
-def _estimate(name: str) -> dict:
+def _estimate(name: str, speed: dict | None = None) -> dict:
     from impactsim.case import load_case
     from impactsim.case.estimate import estimate_cost
     from impactsim.mesh import mesh_bodies
 
     case = load_case(ROOT / "cases" / f"{name}.toml")
     meshes = mesh_bodies(case)
-    est = estimate_cost(case, meshes=meshes)
+    est = estimate_cost(case, speed=speed, meshes=meshes)
     from impactsim.mesh.topology import boundary_faces
 
     faces = sum(len(boundary_faces(t)[0]) for _, t in meshes)
@@ -45,14 +46,42 @@ def _estimate(name: str) -> dict:
             "memory_bytes": est.memory_bytes, "speed": est.speed}
 
 
+def _speed(name: str) -> dict:
+    """The machine's speed measured now, for the thread count the case's run will use (not
+    stored: the machine is shared, and its load when the case runs is what the run meets)."""
+    from impactsim.case import load_case
+    from impactsim.case.estimate import calibrate_speed, estimate_cost, run_threads
+
+    case = load_case(ROOT / "cases" / f"{name}.toml")
+    elements = estimate_cost(case, speed={"ns_per_element_step": 1.0,
+                                          "seconds_per_step": 0.0}).elements
+    return calibrate_speed(run_threads(case, elements), store=False)
+
+
+def _steps_profile(out: Path) -> dict:
+    """The time step of the run from its history.csv: first, smallest, and the time at which
+    it first fell below half the first one."""
+    from impactsim.results import history_array
+
+    h = history_array(out / "history.csv")
+    dt = h["dt"][1:]
+    t = h["time"][1:]
+    if not len(dt):
+        return {}
+    below = t[dt < 0.5 * dt[0]]
+    return {"dt_first": float(dt[0]), "dt_min": float(dt.min()),
+            "time_half": float(below[0]) if len(below) else None}
+
+
 def run_all(cases: list[str]) -> dict:
     data = json.loads(STORE.read_text()) if STORE.exists() else {}
     for name in cases:
         out = Path("/tmp") / f"impactsim-estimates-{name}"
+        speed = _speed(name)
         t0 = time.perf_counter()
         proc = subprocess.run(
             [sys.executable, "-c", "from impactsim.cli import main; main()", "run",
-             str(ROOT / "cases" / f"{name}.toml"), "-q", "-o", str(out)],
+             str(ROOT / "cases" / f"{name}.toml"), "-q", "--overwrite", "-o", str(out)],
             env=dict(os.environ, PYTHONPATH=str(ROOT)), capture_output=True, text=True)
         wall = time.perf_counter() - t0
         summary = json.loads((out / "summary.json").read_text())
@@ -64,7 +93,11 @@ def run_all(cases: list[str]) -> dict:
                       "checks": summary.get("checks"), "stopped": summary.get("stopped"),
                       "energy_balance_error": summary.get("energy_balance_error"),
                       "energy_balance_error_max": summary.get("energy_balance_error_max"),
-                      "max_rss": rss}
+                      "max_rss": rss, "speed": speed, "dt": _steps_profile(out),
+                      "estimate_in_run": summary.get("estimate"),
+                      "re_estimate": summary.get("re_estimate"),
+                      "measured": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+                      "load_average": os.getloadavg()[0]}
         STORE.write_text(json.dumps(data, indent=1))
         print(f"{name}: {summary['steps']} steps, {summary['wall_seconds']:.1f} s",
               flush=True)
@@ -79,7 +112,7 @@ def table(data: dict) -> str:
         if name not in data:
             continue
         real = data[name]
-        est = _estimate(name)
+        est = _estimate(name, real.get("speed"))
         ratio = est["wall_seconds"] / real["wall_seconds"]
         per_est = 1e3 * est["wall_seconds"] / max(est["steps"], 1)
         per_real = 1e3 * real["wall_seconds"] / max(real["steps"], 1)

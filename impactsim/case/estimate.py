@@ -56,6 +56,7 @@ from pathlib import Path
 
 import numpy as np
 
+from impactsim.case.crush import crushes, shrink_profile, step_factor
 from impactsim.case.schema import Body, Case
 
 # Measured with impactsim.mesh.mesh_body (gmsh 4.x, HXT mesher) on a unit box, a 1 x 0.5 x 0.25
@@ -80,28 +81,42 @@ SPEED_FILE_VERSION = 1
 # the element kernel costs 100-1000 ns per element-step on any x86 core of the last decade.
 PLAUSIBLE_NS = (30.0, 30_000.0)
 PLAUSIBLE_STEP_SECONDS = (0.0, 0.05)
-# Contact, fracture, output and the run's own per-step work, from the seconds per pass of the
-# bundled cases (benchmarks/estimates.py, docs/estimates.md; 2 shared cores): the contact passes
-# took 1,000-3,400 ns per boundary face and step (median about 2,200), the fracture passes 1.1-1.7
-# times the element loop (with the node work they add), frame output 5-25 us per element and
-# frame (zlib), the loop's history row, watch and progress 170-650 us per step; setting up a
-# run (imports, loading the compiled kernels) 1-8 s; gmsh about 250 us per tetrahedron when the
-# mesh is not in the cache (a 17k-tet sphere in 4.7 s).
-CONTACT_SECONDS_PER_FACE_STEP = 2.2e-6
-FRACTURE_SHARE = 1.5
-FRAME_SECONDS_PER_ELEMENT = {"zlib": 12e-6, "none": 3e-6}
-RUN_SECONDS_PER_STEP = 3e-4
-SETUP_SECONDS = 3.0
+# The run's passes in units of t_e, the calibrated seconds per element-step (the fastest chunk
+# of the calibration), fitted to the seconds per pass of the bundled runs (benchmarks/
+# estimates.py, docs/estimates.md; each case against a calibration made just before it, 2 shared
+# cores at a load average of 4-5):
+# - the element loop took 1.7-1.8 t_e per tet-step with tet4 (a run meets the machine's load on
+#   average, the calibration keeps its quietest moment; a real mesh misses the cache more than
+#   the calibration's block), ANP_COST times that with the averaged nodal pressure (2.8), a hex
+#   HEX_COST tet-steps;
+# - the node passes and the watch 0.2-0.3 t_e per element-step;
+# - the contact passes 4-24 t_e per boundary face and step (median 11);
+# - the fracture passes 3.2 t_e per element-step (sphere-plate);
+# - a frame 60-140 t_e per element; a history row with contact its max_penetration measure,
+#   about 2 t_e per boundary face;
+# - setting up a run (imports, loading the compiled kernels, building the state) 0.5-1.3 s and
+#   15 us per element (3.5 s at 164k); gmsh about 250 us per tetrahedron when the mesh is not in
+#   the cache (a 17k-tet sphere in 4.7 s).
+ELEMENT_TE = 1.75
+ANP_COST = 1.6
+NODES_TE = 0.25
+CONTACT_TE_PER_FACE = 11.0
+FRACTURE_TE = 3.2
+FRAME_TE_PER_ELEMENT = {"zlib": 90.0, "none": 25.0}
+ROW_TE_PER_FACE = 2.0
+RUN_SECONDS_PER_STEP = 3e-5
+SETUP_SECONDS = 1.0
+SETUP_SECONDS_PER_ELEMENT = 15e-6
 GMSH_SECONDS_PER_ELEMENT = 2.5e-4
 FACES_PER_H2 = 2.2  # boundary triangles per h^2 of surface (structured 2, gmsh about 2.3)
 # Peak memory: the interpreter with numpy, numba, gmsh and meshio loaded, and per element the
 # state, the integrator's buffers, the contact surface and the frames being written.
 BASE_BYTES = 400e6
 BYTES_PER_ELEMENT = 2000.0
-# A step clamped to land on an output time is a random fraction f of the stable one; growing back
-# by 10 % a step (solver.loop.DT_GROWTH) then costs ln(1/f)/ln 1.1 - 11 (1 - f) steps more than
-# at full size: 5 on average over f.
-FRAME_STEPS = 5
+# A step clamped to land on an output time inside the run: the loop reaches it in one or two
+# steps of at least half the stable one and grows back by 10 % a step (solver.loop.DT_GROWTH);
+# the bundled runs lose about one step per such frame (elastic-bar-wall: 7 for 11 frames).
+FRAME_STEPS = 1
 
 
 @dataclass
@@ -121,6 +136,18 @@ class Estimate:
     memory_bytes: float = 0.0  # peak memory of the run
     seconds: dict | None = None  # wall seconds per part: elements, contact, fracture, output
     steps_needed: int = 0  # steps to end_time (steps is this, capped at run.max_steps)
+    crush_factor: float = 1.0  # mean shrink of the step by crushing (case/crush.py)
+    # the crush model behind crush_factor: (crushes, each body's first step l/c, the run's)
+    crush: tuple = ((), (), 0.0)
+
+    def shrink_ahead(self, time: float, end_time: float) -> float:
+        """How many times more steps [time, end_time] takes than at the step of `time`, by the
+        crush model: the mean over it of dt(time) / dt(t)."""
+        found, own, first = self.crush
+        if not found or not end_time > time:
+            return 1.0
+        now = float(shrink_profile(found, own, first, [time])[0])
+        return step_factor(found, own, first, end_time, start=time) / now
 
     def line(self) -> str:
         src = self.speed.get("source", "default")
@@ -426,6 +453,7 @@ def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = N
 
     per_body, unknown = {}, []
     l_min, c_max, faces = math.inf, 0.0, 0.0
+    own_steps = [math.inf] * len(case.bodies)  # each body's first step l / c [s] (cfl 1)
     for i, body in enumerate(case.bodies):
         mesh = meshes[i] if meshes is not None and i < len(meshes) else None
         if mesh is not None:
@@ -447,21 +475,35 @@ def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = N
         if n is None:
             unknown.append(body.name)
             continue
+        c = wave_speed(case, body)
         if length is not None:
             l_min = min(l_min, length)
-        c_max = max(c_max, wave_speed(case, body))
+            if c > 0.0:
+                own_steps[i] = length / c
+        c_max = max(c_max, c)
     elements = min(sum(n for n in per_body.values() if n), MAX_COUNT)
-    # the cost in tet-steps: a hex costs HEX_COST of them
-    work = min(sum(n * (HEX_COST if b.element == "hex8" else 1.0)
+    # the cost in tet-steps: a hex costs HEX_COST of them, a tet with the averaged nodal
+    # pressure ANP_COST
+    from impactsim.solver.formulation import resolve_element
+
+    tet = ANP_COST if resolve_element(case) == "anp" else 1.0
+    work = min(sum(n * (HEX_COST if b.element == "hex8" else tet)
                    for b, n in zip(case.bodies, per_body.values()) if n), float(MAX_COUNT))
     threads = run_threads(case, elements)
     frames = len(case.output.times) if case.output.times else case.output.frames + 1
+    crush_factor, crush = 1.0, ((), (), 0.0)
     if elements and c_max > 0.0 and 0.0 < l_min < math.inf:
-        dt = case.run.cfl * l_min / c_max
+        first = min(own_steps)  # the smallest l / c of the bodies (not l_min / c_max)
+        first = first if 0.0 < first < math.inf else l_min / c_max
+        dt = case.run.cfl * first
         # the linear viscosity's share of the step in compression, L / (Q + sqrt(Q^2 + c^2))
-        # with Q = C_l c (physics.md), and the steps lost landing on each output frame
+        # with Q = C_l c (physics.md), the step's shrink as impacts crush the elements
+        # (case/crush.py), and the steps lost landing on each output frame
         viscous = math.sqrt(1.0 + case.run.q_linear**2) - case.run.q_linear
-        wanted = case.run.end_time / (viscous * dt) + FRAME_STEPS * frames
+        crush = (crushes(case, meshes), own_steps, first)
+        crush_factor = step_factor(*crush, case.run.end_time)
+        wanted = (case.run.end_time * crush_factor / (viscous * dt)
+                  + FRAME_STEPS * inner_frames(case))
         steps_needed = int(min(wanted, 1e18)) + 1
         steps = min(case.run.max_steps, steps_needed)
     else:
@@ -469,15 +511,20 @@ def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = N
     if speed is None:
         speed = machine_speed(threads)
     t_elem = 1e-9 * speed["ns_per_element_step"]
-    parts = {"elements": steps * (speed["seconds_per_step"] + work * t_elem)}
-    if has_contact(case):
-        parts["contact"] = steps * faces * CONTACT_SECONDS_PER_FACE_STEP
+    parts = {"elements": steps * (speed["seconds_per_step"]
+                                  + (ELEMENT_TE * work + NODES_TE * elements) * t_elem)}
+    contact = has_contact(case)
+    if contact:
+        parts["contact"] = steps * faces * CONTACT_TE_PER_FACE * t_elem
     if any(case.materials[b.material].failure.active for b in case.bodies):
-        parts["fracture"] = steps * elements * FRACTURE_SHARE * t_elem
-    per_frame = FRAME_SECONDS_PER_ELEMENT[case.output.compression]
+        parts["fracture"] = steps * elements * FRACTURE_TE * t_elem
+    per_frame = FRAME_TE_PER_ELEMENT[case.output.compression] * t_elem
     parts["output"] = frames * elements * per_frame
-    parts["per-step output and checks"] = RUN_SECONDS_PER_STEP * steps
-    parts["setup"] = SETUP_SECONDS
+    rows = steps / max(case.output.history_every, 1)
+    parts["per-step output and checks"] = (RUN_SECONDS_PER_STEP * steps
+                                           + (rows * faces * ROW_TE_PER_FACE * t_elem
+                                              if contact else 0.0))
+    parts["setup"] = SETUP_SECONDS + SETUP_SECONDS_PER_ELEMENT * elements
     if meshes is None:
         parts["meshing"] = sum(GMSH_SECONDS_PER_ELEMENT * (n or 0) for b, n in zip(
             case.bodies, per_body.values()) if b.mesher == "gmsh" and b.shape != "file"
@@ -485,7 +532,53 @@ def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = N
     return Estimate(elements=elements, per_body=per_body, l_min=l_min, wave_speed=c_max, dt=dt,
                     steps=steps, wall_seconds=sum(parts.values()), speed=speed,
                     unknown_bodies=unknown, threads=threads, memory_bytes=memory_bytes(elements),
-                    seconds=parts, steps_needed=steps_needed)
+                    seconds=parts, steps_needed=steps_needed, crush_factor=crush_factor,
+                    crush=crush)
+
+
+# the run re-estimates itself once, after this share of its simulated time or these wall
+# seconds of stepping, whichever comes first (solver/run.py)
+RE_ESTIMATE_SHARE = 0.05
+RE_ESTIMATE_SECONDS = 20.0
+
+
+def re_estimate(est: Estimate, *, time: float, end_time: float, steps: int, dt: float,
+                loop_seconds: float, elapsed: float, frames_left: int = 0,
+                frames: int = 1) -> dict:
+    """The run's own estimate of itself after its first part: the steps left at the step it
+    takes now (`dt`, shrunk further from here on as the crush model says) at the seconds per
+    step it measured (`loop_seconds` over `steps`), the frames still to write at the
+    estimate's cost per frame, and the wall seconds `elapsed` so far. Returns the figures that
+    summary.json keeps under ``re_estimate``."""
+    per_step = loop_seconds / steps if steps > 0 else math.nan
+    left = max(end_time - time, 0.0)
+    ahead = est.shrink_ahead(time, end_time)
+    steps_left = left / dt * ahead if dt > 0.0 and math.isfinite(dt) else math.nan
+    per_frame = (est.seconds or {}).get("output", 0.0) / max(frames, 1)
+    wall = elapsed + steps_left * per_step + frames_left * per_frame
+    return {"time": time, "steps_so_far": steps, "elapsed_seconds": elapsed,
+            "seconds_per_step": per_step, "dt": dt, "shrink_ahead": ahead,
+            "steps": int(steps + steps_left) if math.isfinite(steps_left) else None,
+            "wall_seconds": wall}
+
+
+def re_estimate_line(r: dict) -> str:
+    """The line a run prints with its re-estimate."""
+    from impactsim.case.units import format_quantity
+
+    steps = f"≈ {r['steps']:,} steps" if r["steps"] is not None else "steps unknown"
+    return (f"re-estimate at t = {format_quantity(r['time'], 'time')} (step "
+            f"{r['steps_so_far']:,}): {steps}, ≈ {format_seconds(r['wall_seconds'])} wall in "
+            f"all (measured {1e3 * r['seconds_per_step']:.3g} ms/step at a step of "
+            f"{format_quantity(r['dt'], 'time')})")
+
+
+def inner_frames(case: Case) -> int:
+    """Output times strictly inside (0, end_time): the ones a step is clamped to land on."""
+    end = case.run.end_time
+    if case.output.times:
+        return sum(1 for t in set(case.output.times) if 0.0 < t < end)
+    return max(case.output.frames - 1, 0)
 
 
 def _cached(body: Body) -> bool:

@@ -147,7 +147,8 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
     import numba
 
     from impactsim.case import case_to_dict
-    from impactsim.case.estimate import check_fits, estimate_cost
+    from impactsim.case.estimate import (RE_ESTIMATE_SECONDS, RE_ESTIMATE_SHARE, check_fits,
+                                         estimate_cost, re_estimate, re_estimate_line)
     from impactsim.checks import CheckFailed, CheckLog
     from impactsim.output.history import HistoryWriter
     from impactsim.output.progress import Progress
@@ -277,6 +278,8 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
     first_step_seconds = None
     t_out = 0.0
     watch = sim.watch
+    revised = None  # the run's re-estimate of itself (case/estimate.py re_estimate)
+    loop_start, loop_step0 = None, model.step
 
     def write_frame():
         nonlocal t_out
@@ -331,6 +334,8 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
                 stop_kind = "max_steps"
                 break
             target = times[next_frame] if next_frame < len(times) else end
+            if loop_start is None:
+                loop_start = wallclock.perf_counter()
             sim.step(target - model.time)
             stops.urgent = False  # compiled and stepping: a signal waits for the step's end
             if abs(model.time - target) <= eps_t:
@@ -348,6 +353,15 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
                 write_frame()
                 next_frame += 1
             bar.update(model.time, model.step, sim.dt)
+            if revised is None and (model.time >= RE_ESTIMATE_SHARE * end or
+                                    wallclock.perf_counter() - loop_start
+                                    >= RE_ESTIMATE_SECONDS):
+                now = wallclock.perf_counter()
+                revised = re_estimate(
+                    estimate, time=model.time, end_time=end, steps=model.step - loop_step0,
+                    dt=sim.next_dt(), loop_seconds=now - loop_start, elapsed=now - start,
+                    frames_left=len(times) - next_frame, frames=len(times))
+                info(re_estimate_line(revised))
             if schedule.due(model.step, model.time):
                 with stops.finishing():
                     ckpt.write_checkpoint(sim, out)
@@ -430,7 +444,9 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
     summary["estimate"] = {"elements": estimate.elements, "steps": estimate.steps,
                            "wall_seconds": estimate.wall_seconds,
                            "memory_bytes": estimate.memory_bytes, "threads": estimate.threads,
-                           "seconds": estimate.seconds}
+                           "seconds": estimate.seconds, "crush_factor": estimate.crush_factor}
+    if revised is not None:
+        summary["re_estimate"] = revised
     for p in passes:  # one level deep: a pass may add keys to an existing table ("bodies")
         for key, val in p.summary(model).items():
             if isinstance(val, dict) and isinstance(summary.get(key), dict):
