@@ -82,30 +82,31 @@ SPEED_FILE_VERSION = 1
 PLAUSIBLE_NS = (30.0, 30_000.0)
 PLAUSIBLE_STEP_SECONDS = (0.0, 0.05)
 # The run's passes in units of t_e, the calibrated seconds per element-step (the fastest chunk
-# of the calibration), fitted to the seconds per pass of the bundled runs (benchmarks/
-# estimates.py, docs/estimates.md; each case against a calibration made just before it, 2 shared
-# cores at a load average of 4-5):
-# - the element loop took 1.7-1.8 t_e per tet-step with tet4 (a run meets the machine's load on
-#   average, the calibration keeps its quietest moment; a real mesh misses the cache more than
-#   the calibration's block), ANP_COST times that with the averaged nodal pressure (2.8), a hex
-#   HEX_COST tet-steps;
-# - the node passes and the watch 0.2-0.3 t_e per element-step;
-# - the contact passes 4-24 t_e per boundary face and step (median 11);
-# - the fracture passes 3.2 t_e per element-step (sphere-plate);
-# - a frame 60-140 t_e per element; a history row with contact its max_penetration measure,
-#   about 2 t_e per boundary face;
+# of the calibration, a quiet moment's figure) times the machine's load factor
+# 1 + LOAD_SLOPE * (load average per core): a run meets the load on average. Fitted to the
+# seconds per pass of the bundled runs (benchmarks/estimates.py, docs/estimates.md; each case
+# against a calibration made just before it, on 2 shared cores at a load average of 4-5, where
+# the element loop took 1.7-1.8 calibrated t_e per tet-step):
+# - the element loop 1 t_e per tet-step with tet4, ANP_COST times that with the averaged nodal
+#   pressure, a hex HEX_COST tet-steps;
+# - the node passes and the watch 0.14 t_e per element-step;
+# - the contact passes 2-13 t_e per boundary face and step (median 5);
+# - the fracture passes 1.8 t_e per element-step (sphere-plate);
+# - a frame 35-80 t_e per element; a history row with contact its max_penetration measure,
+#   about 1 t_e per boundary face;
 # - setting up a run (imports, loading the compiled kernels, building the state) 0.5-1.3 s and
 #   15 us per element (3.5 s at 164k); gmsh about 250 us per tetrahedron when the mesh is not in
 #   the cache (a 17k-tet sphere in 4.7 s).
-ELEMENT_TE = 1.75
+LOAD_SLOPE = 0.32
+ELEMENT_TE = 1.0
 ANP_COST = 1.6
-NODES_TE = 0.25
-CONTACT_TE_PER_FACE = 11.0
-FRACTURE_TE = 3.2
-FRAME_TE_PER_ELEMENT = {"zlib": 90.0, "none": 25.0}
-ROW_TE_PER_FACE = 2.0
+NODES_TE = 0.14
+CONTACT_TE_PER_FACE = 5.1
+FRACTURE_TE = 1.8
+FRAME_TE_PER_ELEMENT = {"zlib": 51.0, "none": 14.0}
+ROW_TE_PER_FACE = 1.1
 RUN_SECONDS_PER_STEP = 3e-5
-SETUP_SECONDS = 1.0
+SETUP_SECONDS = 0.7
 SETUP_SECONDS_PER_ELEMENT = 15e-6
 GMSH_SECONDS_PER_ELEMENT = 2.5e-4
 FACES_PER_H2 = 2.2  # boundary triangles per h^2 of surface (structured 2, gmsh about 2.3)
@@ -137,6 +138,7 @@ class Estimate:
     seconds: dict | None = None  # wall seconds per part: elements, contact, fracture, output
     steps_needed: int = 0  # steps to end_time (steps is this, capped at run.max_steps)
     crush_factor: float = 1.0  # mean shrink of the step by crushing (case/crush.py)
+    load_factor: float = 1.0  # the machine's load on the calibrated speed (load_factor())
     # the crush model behind crush_factor: (crushes, each body's first step l/c, the run's)
     crush: tuple = ((), (), 0.0)
 
@@ -446,9 +448,24 @@ def machine_speed(threads: int | None = None, calibrate: bool | None = None) -> 
 
 
 # --- the estimate -----------------------------------------------------------------------------
-def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = None) -> Estimate:
+def load_factor(load: float | None = None) -> float:
+    """How much slower than its calibration (the fastest chunk) a run goes on this machine now:
+    1 + LOAD_SLOPE * the 1-minute load average per core (`load`: the average; None reads it)."""
+    if load is None:
+        try:
+            load = os.getloadavg()[0]
+        except (OSError, AttributeError):
+            load = 0.0
+    cores = os.cpu_count() or 1
+    return 1.0 + LOAD_SLOPE * max(float(load), 0.0) / cores
+
+
+def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = None,
+                  load: float | None = None) -> Estimate:
     """Elements, steps, memory and wall time of `case` (module docstring). `meshes`: the bodies'
-    (points, tets), or None per body not meshed yet; counts and lengths are then exact."""
+    (points, tets), or None per body not meshed yet; counts and lengths are then exact. `load`:
+    the machine's load average the run will meet; by default the current one when the speed is
+    this machine's (speed None), none when a speed is given."""
     from impactsim.case.describe import has_contact
 
     per_body, unknown = {}, []
@@ -510,8 +527,11 @@ def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = N
         dt, steps, steps_needed = math.nan, 0, 0
     if speed is None:
         speed = machine_speed(threads)
-    t_elem = 1e-9 * speed["ns_per_element_step"]
-    parts = {"elements": steps * (speed["seconds_per_step"]
+        slow = load_factor(load)
+    else:
+        slow = load_factor(load if load is not None else 0.0)
+    t_elem = 1e-9 * speed["ns_per_element_step"] * slow
+    parts = {"elements": steps * (speed["seconds_per_step"] * slow
                                   + (ELEMENT_TE * work + NODES_TE * elements) * t_elem)}
     contact = has_contact(case)
     if contact:
@@ -530,6 +550,7 @@ def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = N
             case.bodies, per_body.values()) if b.mesher == "gmsh" and b.shape != "file"
             and not _cached(b))
     return Estimate(elements=elements, per_body=per_body, l_min=l_min, wave_speed=c_max, dt=dt,
+                    load_factor=slow,
                     steps=steps, wall_seconds=sum(parts.values()), speed=speed,
                     unknown_bodies=unknown, threads=threads, memory_bytes=memory_bytes(elements),
                     seconds=parts, steps_needed=steps_needed, crush_factor=crush_factor,
