@@ -457,12 +457,16 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
                         summary[key][k2] = v2
             else:
                 summary[key] = val
-    unconverged = summary.get("unconverged_steps") or 0
-    if unconverged and chk.unconverged_contact != "ignore":
+    unconverged, in_contact = unconverged_contact(summary)
+    share = unconverged / in_contact if in_contact else 0.0
+    if (unconverged and share > chk.unconverged_contact_share
+            and chk.unconverged_contact != "ignore"):
         try:
             checks.trigger("unconverged_contact", chk.unconverged_contact,
                            f"{unconverged} step(s) whose projected contact rounds did not "
-                           "converge", count=unconverged)
+                           f"converge, {100 * share:.3g} % of the {in_contact} step(s) in "
+                           f"contact (limit {100 * chk.unconverged_contact_share:g} %)",
+                           count=unconverged)
         except CheckFailed as err:
             if summary["stopped"] is None:
                 summary["stopped"] = str(err)
@@ -518,6 +522,18 @@ def _initial_checks(case: Case, meshes: list, checks) -> None:
         checks.trigger("initial_penetration", action,
                        f"at t = 0: {text} (deepest {worst.depth * 1e3:.4g} mm): move the "
                        "bodies apart", count=len(found))
+
+
+def unconverged_contact(summary: dict) -> tuple[int, int]:
+    """(steps whose projected contact rounds did not converge, steps in contact) from the
+    passes' tables of a summary: the contact passes report under "contact.<name>" (the shared
+    projection counts once, in the pass that reports it), another pass at the top level; steps
+    in contact default to the run's steps."""
+    tables = [summary] + [v for k, v in summary.items()
+                          if k.startswith("contact") and isinstance(v, dict)]
+    unconverged = sum(int(t.get("unconverged_steps") or 0) for t in tables)
+    in_contact = max([int(t.get("steps_in_contact") or 0) for t in tables] + [0])
+    return unconverged, in_contact or int(summary.get("steps") or 0)
 
 
 def _hourglass_check(row: dict, chk, checks) -> None:
