@@ -13,10 +13,13 @@ axis that separates them (the wall's normal), v_n the approach speed along it. A
 separates, or meets after end_time, does not count.
 
 Crush (``Crush``). Each plastic body of an impact is crushed by the dynamic pressure of the
-approach against its initial flow stress Y0 (ideal-plastic Y0, Johnson-Cook A): the crush number
-Phi = rho v_n^2 / Y0 (rho its density). Its elements' step shrinks by s = SHRINK[element](Phi)
+impact against its initial flow stress Y0 (ideal-plastic Y0, Johnson-Cook A): the crush number
+Phi = rho v^2 / Y0, v the relative speed (all of it: an oblique impact gouges as it presses; a
+target, the body with the larger cross-section, is indented at half of it) and rho the smaller
+of the two bodies' densities (a light target cannot press a dense striker harder than its own
+dynamic pressure). Its elements' step shrinks by s = SHRINK[element](Phi)
 once the crushing has run its course, approached as 1 + (s - 1)(1 - exp(-(t - t_c) / tau)) with
-the crush time tau = CRUSH_LENGTHS h / v_n (h the body's mesh size: the flattening takes the
+the crush time tau = CRUSH_LENGTHS h / v (h the body's mesh size: the flattening takes the
 approach of a few element lengths). Elastic bodies are not crushed. A body whose material erodes
 or breaks into particles loses its crushed cells before they flatten further: its shrink is at
 most FAILURE_SHRINK. A body's step is its own first step (its L_min / c, which may be larger than
@@ -61,6 +64,7 @@ class Impact:
     # per body: True for a striker (its cross-section across the axis no larger than the
     # other's, or any body meeting a wall), False for the target it punches into
     strikers: tuple = (True, True)
+    relative_speed: float = 0.0  # [m/s] |v_a - v_b| (an oblique impact slides as it presses)
 
 
 @dataclass
@@ -92,12 +96,15 @@ def flow_stress(mat: Material) -> float | None:
     return None
 
 
-def crush_number(mat: Material, speed: float) -> float:
-    """Phi = rho v^2 / Y0 of a plastic material met at `speed`; 0 for an elastic one."""
+def crush_number(mat: Material, speed: float, density: float | None = None) -> float:
+    """Phi = rho v^2 / Y0 of a plastic material met at `speed`, rho the smaller of its own
+    density and the other body's (`density`: a light target cannot press a dense striker
+    harder than its own dynamic pressure); 0 for an elastic material."""
     y0 = flow_stress(mat)
     if y0 is None or not speed > 0.0:
         return 0.0
-    return mat.density * speed * speed / y0
+    rho = mat.density if density is None else min(mat.density, density)
+    return rho * speed * speed / y0
 
 
 def shrink_of(phi: float, element: str = "tet", fails: bool = False) -> float:
@@ -113,19 +120,22 @@ def crushes(case: Case, meshes: list | None = None) -> list[Crush]:
     names = {b.name: i for i, b in enumerate(case.bodies)}
     out = []
     for imp in impacts(case, meshes):
-        for name, striker in zip(imp.bodies, imp.strikers):
+        density = [case.materials[case.bodies[names[n]].material].density if n in names
+                   else None for n in imp.bodies]  # None: a wall
+        for k, (name, striker) in enumerate(zip(imp.bodies, imp.strikers)):
             i = names.get(name)
             if i is None:  # a wall
                 continue
             body = case.bodies[i]
             mat = case.materials[body.material]
             # a target is indented at the striker's speed into it, about half the approach
-            phi = crush_number(mat, imp.speed if striker else 0.5 * imp.speed)
+            speed = imp.relative_speed or imp.speed
+            phi = crush_number(mat, speed if striker else 0.5 * speed, density[1 - k])
             s = shrink_of(phi, body.element, mat.failure.active)
             if s > 1.0:
                 h = body.mesh_size if body.mesh_size > 0.0 else 0.0
                 lengths = CRUSH_LENGTHS.get(body.element, CRUSH_LENGTHS["tet"])
-                out.append(Crush(i, s, imp.time, lengths * h / imp.speed, phi))
+                out.append(Crush(i, s, imp.time, lengths * h / speed, phi))
     return out
 
 
@@ -169,13 +179,16 @@ def impacts(case: Case, meshes: list | None = None) -> list[Impact]:
         for b in range(a + 1, len(case.bodies)):
             if boxes[b] is None:
                 continue
-            hit = _pair(boxes[a], boxes[b], np.subtract(body.velocity, case.bodies[b].velocity))
+            v_rel = np.subtract(body.velocity, case.bodies[b].velocity)
+            hit = _pair(boxes[a], boxes[b], v_rel)
             if hit is not None and hit[1] < end:
-                out.append(Impact((body.name, case.bodies[b].name), *hit))
+                out.append(Impact((body.name, case.bodies[b].name), *hit,
+                                  relative_speed=float(np.linalg.norm(v_rel))))
         for k, wall in enumerate(case.walls):
             hit = _wall(boxes[a], np.asarray(body.velocity, dtype=float), wall)
             if hit is not None and hit[1] < end:
-                out.append(Impact((body.name, f"wall[{k}]"), *hit))
+                out.append(Impact((body.name, f"wall[{k}]"), *hit, (True, True),
+                                  float(np.linalg.norm(body.velocity))))
     return out
 
 

@@ -88,7 +88,9 @@ PLAUSIBLE_STEP_SECONDS = (0.0, 0.05)
 # against a calibration made just before it, on 2 shared cores at a load average of 4-5, where
 # the element loop took 1.7-1.8 calibrated t_e per tet-step):
 # - the element loop 1 t_e per tet-step with tet4, ANP_COST times that with the averaged nodal
-#   pressure, a hex HEX_COST tet-steps;
+#   pressure, a hex HEX_COST tet-steps; on two threads PARALLEL_COST times the two-thread
+#   calibration (a thread waits for the other at every launch when the cores are shared:
+#   sphere-plate 1.5, oblique-sphere 1.8);
 # - the node passes and the watch 0.14 t_e per element-step;
 # - the contact passes 2-13 t_e per boundary face and step (median 5);
 # - the fracture passes 1.8 t_e per element-step (sphere-plate);
@@ -100,6 +102,7 @@ PLAUSIBLE_STEP_SECONDS = (0.0, 0.05)
 LOAD_SLOPE = 0.32
 ELEMENT_TE = 1.0
 ANP_COST = 1.6
+PARALLEL_COST = 1.65
 NODES_TE = 0.14
 CONTACT_TE_PER_FACE = 5.1
 FRACTURE_TE = 1.8
@@ -531,8 +534,10 @@ def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = N
     else:
         slow = load_factor(load if load is not None else 0.0)
     t_elem = 1e-9 * speed["ns_per_element_step"] * slow
+    parallel = PARALLEL_COST if threads > 1 else 1.0
     parts = {"elements": steps * (speed["seconds_per_step"] * slow
-                                  + (ELEMENT_TE * work + NODES_TE * elements) * t_elem)}
+                                  + (ELEMENT_TE * parallel * work + NODES_TE * elements)
+                                  * t_elem)}
     contact = has_contact(case)
     if contact:
         parts["contact"] = steps * faces * CONTACT_TE_PER_FACE * t_elem
