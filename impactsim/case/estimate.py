@@ -11,15 +11,17 @@ since elements near the surface are smaller than inside. A body thinner than its
 one layer of elements (``THIN_PER_H2`` per h^2 of its mid-surface). Mesh files: unknown before
 reading, so not counted.
 
-Steps. M = end_time / (cfl · L_min / c): L_min the smallest element altitude (the element length
-of the time step, ALGORITHMS.md 1) and c the longitudinal wave speed sqrt((K + 4G/3)/rho) of the
-fastest material. Structured boxes: L_min exact, from the Kuhn split of one cell. gmsh:
-L_min = ``GMSH_ALTITUDE_RATIO`` · h, measured on the same meshes. Compression raises the sound
-speed, the artificial viscosity lowers the step (by sqrt(1 + C_l^2) - C_l, taken always) and
-each output frame costs about FRAME_STEPS steps; plastic flattening shrinks elements, so a
-Taylor-bar-like impact takes more steps than this (about 1.5 times: 3,509 against 2,300).
+Steps. M = F end_time / (cfl · min(L / c)): L a body's smallest element altitude (the element
+length of the time step, ALGORITHMS.md 1) and c its material's longitudinal wave speed
+sqrt((K + 4G/3)/rho), the smallest ratio over the bodies. Structured boxes: L exact, from the
+Kuhn split of one cell. gmsh: L = ``GMSH_ALTITUDE_RATIO`` · h, measured on the same meshes.
+Compression raises the sound speed, the artificial viscosity lowers the step (by
+sqrt(1 + C_l^2) - C_l, taken always) and each output frame inside the run costs about
+FRAME_STEPS steps. F, the crush factor, is the mean shrink of the step as plastic impacts
+flatten and shear the elements (case/crush.py: the Taylor bar 3.0, the tet two-cylinders 15,
+the elastic cases 1).
 
-Wall time. T = M (t_step + N · t_element), the loop's time per step, with the two constants
+Wall time. The element loop's time per step t_step + N · t_element, with the two constants
 measured on this machine by a short run of the element loop (a Johnson-Cook copper block on a
 rigid wall, with the per-step history accounting of a real run): ``calibrate_speed``, about two
 seconds, run by ``python -m impactsim.case.estimate`` or the first time an estimate is asked
@@ -30,10 +32,19 @@ The speed is measured and used for the thread count the run will use (``run_thre
 of solver.run.thread_count, one thread below 50,000 elements); a measurement outside
 PLAUSIBLE_NS / PLAUSIBLE_STEP_SECONDS is noise and is discarded (never stored).
 
-On top of the element loop: the contact passes (CONTACT_SECONDS_PER_FACE_STEP per boundary face
-and step), the fracture passes (FRACTURE_SHARE of the element loop), frame output (per element
-and frame), the run's per-step history row, watch and progress, setting up, and gmsh meshing of
-bodies not in the mesh cache: the constants are fitted to the bundled cases (docs/estimates.md).
+Every pass is counted in units of t_element times the machine's load factor (``load_factor``:
+the calibration keeps its quietest moment, a run meets the load on average): the element loop
+(ANP_COST for the averaged nodal pressure, HEX_COST for a hex, PARALLEL_COST on two threads),
+the node passes and the watch, the contact passes (per boundary face and step), the fracture
+passes (per element and step), frame output (per element and frame), the history rows (with
+contact, its max_penetration measure per boundary face), setting up (fixed and per element), and
+gmsh meshing of bodies not in the mesh cache: the constants are fitted to the bundled cases
+(docs/estimates.md, benchmarks/estimates.py).
+
+Re-estimate. After RE_ESTIMATE_SHARE of its simulated time or RE_ESTIMATE_SECONDS of stepping a
+run estimates itself again (``re_estimate``): the steps left at the step it takes now, shrunk
+further as the crush model says from there on, at the seconds per step it measured; printed, and
+kept in summary.json (``re_estimate``).
 
 Memory. BASE_BYTES + BYTES_PER_ELEMENT per element (peak RSS of the bundled runs: 300-350 MB up
 to 35k tets, 531 MB at 164k, 740 MB at 212k). ``check_fits`` refuses, before meshing, a case
