@@ -108,8 +108,9 @@ PLAUSIBLE_STEP_SECONDS = (0.0, 0.05)
 # - a frame 35-80 t_e per element; a history row with contact its max_penetration measure,
 #   about 1 t_e per boundary face;
 # - setting up a run (imports, loading the compiled kernels, building the state) 0.5-1.3 s and
-#   15 us per element (3.5 s at 164k); gmsh about 250 us per tetrahedron when the mesh is not in
-#   the cache (a 17k-tet sphere in 4.7 s).
+#   15 us per element (3.5 s at 164k), also slowed by the load (0.4 s and 8.5 us per element on
+#   a quiet machine); gmsh about 250 us per tetrahedron when the mesh is not in the cache (a
+#   17k-tet sphere in 4.7 s).
 LOAD_SLOPE = 0.32
 ELEMENT_TE = 1.0
 ANP_COST = 1.6
@@ -120,8 +121,8 @@ FRACTURE_TE = 1.8
 FRAME_TE_PER_ELEMENT = {"zlib": 51.0, "none": 14.0}
 ROW_TE_PER_FACE = 1.1
 RUN_SECONDS_PER_STEP = 3e-5
-SETUP_SECONDS = 0.7
-SETUP_SECONDS_PER_ELEMENT = 15e-6
+SETUP_SECONDS = 0.4
+SETUP_SECONDS_PER_ELEMENT = 8.5e-6
 GMSH_SECONDS_PER_ELEMENT = 2.5e-4
 FACES_PER_H2 = 2.2  # boundary triangles per h^2 of surface (structured 2, gmsh about 2.3)
 # Peak memory: the interpreter with numpy, numba, gmsh and meshio loaded, and per element the
@@ -560,7 +561,7 @@ def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = N
     parts["per-step output and checks"] = (RUN_SECONDS_PER_STEP * steps
                                            + (rows * faces * ROW_TE_PER_FACE * t_elem
                                               if contact else 0.0))
-    parts["setup"] = SETUP_SECONDS + SETUP_SECONDS_PER_ELEMENT * elements
+    parts["setup"] = (SETUP_SECONDS + SETUP_SECONDS_PER_ELEMENT * elements) * slow
     if meshes is None:
         parts["meshing"] = sum(GMSH_SECONDS_PER_ELEMENT * (n or 0) for b, n in zip(
             case.bodies, per_body.values()) if b.mesher == "gmsh" and b.shape != "file"
