@@ -93,36 +93,37 @@ SPEED_FILE_VERSION = 1
 PLAUSIBLE_NS = (30.0, 30_000.0)
 PLAUSIBLE_STEP_SECONDS = (0.0, 0.05)
 # The run's passes in units of t_e, the calibrated seconds per element-step (the fastest chunk
-# of the calibration, a quiet moment's figure) times the machine's load factor
-# 1 + LOAD_SLOPE * (load average per core): a run meets the load on average. Fitted to the
-# seconds per pass of the bundled runs (benchmarks/estimates.py, docs/estimates.md; each case
-# against a calibration made just before it, on 2 shared cores at a load average of 4-5, where
-# the element loop took 1.7-1.8 calibrated t_e per tet-step):
-# - the element loop 1 t_e per tet-step with tet4, ANP_COST times that with the averaged nodal
-#   pressure, a hex HEX_COST tet-steps; on two threads PARALLEL_COST times the two-thread
+# of the calibration), times the machine's load factor 1 + LOAD_SLOPE * (load average per core):
+# a run meets the load on average. Fitted to the seconds per pass of the bundled runs
+# (benchmarks/estimates.py, docs/estimates.md; each case against a calibration made just before
+# it, on 2 cores shared with other jobs: the element loop took 1.6-1.8 calibrated t_e per
+# tet-step at a load average of 4.4-5, 1.4-2.7 at 9-11, and the load factor at 0 is what a real
+# mesh costs more than the calibration's block):
+# - the element loop ELEMENT_TE per tet-step with tet4, ANP_COST times that with the averaged
+#   nodal pressure, a hex HEX_COST tet-steps; on two threads PARALLEL_COST times the two-thread
 #   calibration (a thread waits for the other at every launch when the cores are shared:
 #   sphere-plate 1.5, oblique-sphere 1.8);
-# - the node passes and the watch 0.14 t_e per element-step;
-# - the contact passes 2-13 t_e per boundary face and step (median 5);
-# - the fracture passes 1.8 t_e per element-step (sphere-plate);
-# - a frame 35-80 t_e per element; a history row with contact its max_penetration measure,
-#   about 1 t_e per boundary face;
-# - setting up a run (imports, loading the compiled kernels, building the state) 0.5-1.3 s and
-#   15 us per element (3.5 s at 164k), also slowed by the load (0.4 s and 8.5 us per element on
-#   a quiet machine); gmsh about 250 us per tetrahedron when the mesh is not in the cache (a
-#   17k-tet sphere in 4.7 s).
-LOAD_SLOPE = 0.32
-ELEMENT_TE = 1.0
+# - the node passes and the watch 0.2 t_e per element-step;
+# - the contact passes 3-17 t_e per boundary face and step (median 7);
+# - the fracture passes 2.5 t_e per element-step (sphere-plate, oblique-sphere);
+# - a frame 50-110 t_e per element; a history row with contact its max_penetration measure,
+#   about 1.5 t_e per boundary face;
+# - setting up a run (imports, loading the compiled kernels, building the state): 0.5-1.3 s at a
+#   load average of 4.4-5, 1.1-2.5 s at 7.5-10.6, a one-thread start-up that gets its share of
+#   the cores (SETUP_SECONDS x the load per core), and 12 us per element (3.5 s at 164k); gmsh
+#   about 250 us per tetrahedron when the mesh is not in the cache (a 17k-tet sphere in 4.7 s).
+LOAD_SLOPE = 0.10
+ELEMENT_TE = 1.4
 ANP_COST = 1.6
 PARALLEL_COST = 1.65
-NODES_TE = 0.14
-CONTACT_TE_PER_FACE = 5.1
-FRACTURE_TE = 1.8
-FRAME_TE_PER_ELEMENT = {"zlib": 51.0, "none": 14.0}
-ROW_TE_PER_FACE = 1.1
+NODES_TE = 0.2
+CONTACT_TE_PER_FACE = 7.2
+FRACTURE_TE = 2.55
+FRAME_TE_PER_ELEMENT = {"zlib": 72.0, "none": 20.0}
+ROW_TE_PER_FACE = 1.5
 RUN_SECONDS_PER_STEP = 3e-5
-SETUP_SECONDS = 0.4
-SETUP_SECONDS_PER_ELEMENT = 8.5e-6
+SETUP_SECONDS = 0.35
+SETUP_SECONDS_PER_ELEMENT = 12e-6
 GMSH_SECONDS_PER_ELEMENT = 2.5e-4
 FACES_PER_H2 = 2.2  # boundary triangles per h^2 of surface (structured 2, gmsh about 2.3)
 # Peak memory: the interpreter with numpy, numba, gmsh and meshio loaded, and per element the
@@ -561,7 +562,8 @@ def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = N
     parts["per-step output and checks"] = (RUN_SECONDS_PER_STEP * steps
                                            + (rows * faces * ROW_TE_PER_FACE * t_elem
                                               if contact else 0.0))
-    parts["setup"] = (SETUP_SECONDS + SETUP_SECONDS_PER_ELEMENT * elements) * slow
+    parts["setup"] = (SETUP_SECONDS * max(1.0, (slow - 1.0) / LOAD_SLOPE)
+                      + SETUP_SECONDS_PER_ELEMENT * elements * slow)
     if meshes is None:
         parts["meshing"] = sum(GMSH_SECONDS_PER_ELEMENT * (n or 0) for b, n in zip(
             case.bodies, per_body.values()) if b.mesher == "gmsh" and b.shape != "file"
