@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import json
 import os
+import resource
 import subprocess
 import sys
 import time
@@ -91,13 +92,16 @@ def _run_once(name: str) -> dict:
     out = Path("/tmp") / f"impactsim-estimates-{name}"
     speed = _speed(name)
     t0 = time.perf_counter()
+    cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     proc = subprocess.run(
         [sys.executable, "-c", "from impactsim.cli import main; main()", "run",
          str(ROOT / "cases" / f"{name}.toml"), "-q", "--overwrite", "-o", str(out)],
         env=dict(os.environ, PYTHONPATH=str(ROOT)), capture_output=True, text=True)
     wall = time.perf_counter() - t0
+    cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime)
     summary = json.loads((out / "summary.json").read_text())
-    return {"process_seconds": wall, "exit": proc.returncode,
+    return {"process_seconds": wall, "process_cpu_seconds": cpu, "exit": proc.returncode,
             "steps": summary["steps"], "elements": summary["elements"],
             "wall_seconds": summary["wall_seconds"], "threads": summary["threads"],
             "seconds_per_pass": summary["seconds_per_pass"],
@@ -129,9 +133,10 @@ def run_all(cases: list[str]) -> dict:
 
 
 def table(data: dict) -> str:
-    rows = ["| case | elements | threads | steps est. / real | ratio | wall est. / real [s] | "
-            "ratio | re-estimate in the run [s] | ratio | checks triggered |",
-            "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+    rows = ["| case | elements | threads | load | steps est. / real | ratio | wall est. / real "
+            "[s] | ratio | process CPU / wall | re-estimate in the run [s] | ratio | "
+            "checks triggered |",
+            "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
     for name in CASES:
         if name not in data:
             continue
@@ -141,10 +146,13 @@ def table(data: dict) -> str:
         again = real.get("re_estimate") or {}
         again_s = (f"{again['wall_seconds']:.1f} | {again['wall_seconds'] / real['wall_seconds']:.2f}"
                    if again.get("wall_seconds") else "- | -")
+        cpu = real.get("process_cpu_seconds")
+        share = f"{cpu / real['process_seconds']:.2f}" if cpu else "-"
         rows.append(f"| {name} | {real['elements']:,} | {real['threads']} | "
+                    f"{real.get('load_average', 0.0):.1f} | "
                     f"{est['steps']:,} / {real['steps']:,} | {est['steps'] / real['steps']:.2f} | "
                     f"{est['wall_seconds']:.1f} / {real['wall_seconds']:.1f} | {ratio:.2f} | "
-                    f"{again_s} | {', '.join(real['checks'] or {}) or 'none'} |")
+                    f"{share} | {again_s} | {', '.join(real['checks'] or {}) or 'none'} |")
     return "\n".join(rows)
 
 
