@@ -89,8 +89,11 @@ REPEATS = 3
 
 def _run_once(name: str) -> dict:
     """Calibrate the speed, run the case as a user does, and return its figures."""
+    from impactsim.case.estimate import cpu_share
+
     out = Path("/tmp") / f"impactsim-estimates-{name}"
     speed = _speed(name)
+    share = sorted(cpu_share() for _ in range(3))[1]
     t0 = time.perf_counter()
     cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     proc = subprocess.run(
@@ -112,7 +115,7 @@ def _run_once(name: str) -> dict:
             "estimate_in_run": summary.get("estimate"),
             "re_estimate": summary.get("re_estimate"),
             "measured": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
-            "load_average": os.getloadavg()[0]}
+            "load_average": os.getloadavg()[0], "cpu_share": share}
 
 
 def run_all(cases: list[str]) -> dict:

@@ -464,6 +464,19 @@ def machine_speed(threads: int | None = None, calibrate: bool | None = None) -> 
 
 
 # --- the estimate -----------------------------------------------------------------------------
+def cpu_share(seconds: float = 0.3) -> float:
+    """The share of a core this process gets now (0-1]: the thread's CPU time over the wall
+    time of a busy loop of `seconds`. On a machine shared with other jobs a one-thread run gets
+    about this share, so its wall time is its CPU time over it."""
+    t0, c0 = wallclock.perf_counter(), wallclock.thread_time()
+    x = 0
+    while wallclock.perf_counter() - t0 < seconds:
+        for i in range(2000):
+            x += i
+    wall = wallclock.perf_counter() - t0
+    return min(1.0, max((wallclock.thread_time() - c0) / wall, 0.01)) if wall > 0 else 1.0
+
+
 def load_factor(load: float | None = None) -> float:
     """How much slower than its calibration (the fastest chunk) a run goes on this machine now:
     1 + LOAD_SLOPE * the 1-minute load average per core (`load`: the average; None reads it)."""
