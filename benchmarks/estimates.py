@@ -34,14 +34,14 @@ STORE = ROOT / "benchmarks" / "estimates.json"
 DOC = ROOT / "docs" / "estimates.md"
 
 
-def _estimate(name: str, speed: dict | None = None, load: float | None = None) -> dict:
+def _estimate(name: str, speed: dict | None = None, share: float | None = None) -> dict:
     from impactsim.case import load_case
     from impactsim.case.estimate import estimate_cost
     from impactsim.mesh import mesh_bodies
 
     case = load_case(ROOT / "cases" / f"{name}.toml")
     meshes = mesh_bodies(case)
-    est = estimate_cost(case, speed=speed, meshes=meshes, load=load)
+    est = estimate_cost(case, speed=speed, meshes=meshes, share=share)
     from impactsim.mesh.topology import boundary_faces
 
     faces = sum(len(boundary_faces(t)[0]) for _, t in meshes)
@@ -144,7 +144,7 @@ def table(data: dict) -> str:
         if name not in data:
             continue
         real = data[name]
-        est = _estimate(name, real.get("speed"), real.get("load_average"))
+        est = _estimate(name, real.get("speed"), real.get("cpu_share"))
         ratio = est["wall_seconds"] / real["wall_seconds"]
         again = real.get("re_estimate") or {}
         again_s = (f"{again['wall_seconds']:.1f} | {again['wall_seconds'] / real['wall_seconds']:.2f}"

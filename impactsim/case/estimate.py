@@ -32,8 +32,10 @@ The speed is measured and used for the thread count the run will use (``run_thre
 of solver.run.thread_count, one thread below 50,000 elements); a measurement outside
 PLAUSIBLE_NS / PLAUSIBLE_STEP_SECONDS is noise and is discarded (never stored).
 
-Every pass is counted in units of t_element times the machine's load factor (``load_factor``:
-the calibration keeps its quietest moment, a run meets the load on average): the element loop
+Every pass is counted in units of t_element (the calibration keeps its quietest moment: the
+speed of a free core) times the contention (``contention``: 1 / the share of a core this process
+gets now, measured by a 0.3 s busy loop, ``cpu_share``; on a machine shared with other jobs a
+run gets about that share on average): the element loop
 (ANP_COST for the averaged nodal pressure, HEX_COST for a hex, PARALLEL_COST on two threads),
 the node passes and the watch, the contact passes (per boundary face and step), the fracture
 passes (per element and step), frame output (per element and frame), the history rows (with
@@ -93,12 +95,10 @@ SPEED_FILE_VERSION = 1
 PLAUSIBLE_NS = (30.0, 30_000.0)
 PLAUSIBLE_STEP_SECONDS = (0.0, 0.05)
 # The run's passes in units of t_e, the calibrated seconds per element-step (the fastest chunk
-# of the calibration), times the machine's load factor 1 + LOAD_SLOPE * (load average per core):
-# a run meets the load on average. Fitted to the seconds per pass of the bundled runs
-# (benchmarks/estimates.py, docs/estimates.md; each case against a calibration made just before
-# it, on 2 cores shared with other jobs: the element loop took 1.6-1.8 calibrated t_e per
-# tet-step at a load average of 4.4-5, 1.4-2.7 at 9-11, and the load factor at 0 is what a real
-# mesh costs more than the calibration's block):
+# of the calibration: a free core), for a run that has a core to itself; the wall time divides
+# them by the share of a core the run gets (contention()). Fitted to the seconds per pass of the
+# bundled runs times their share of a core (process CPU over wall; benchmarks/estimates.py,
+# docs/estimates.md):
 # - the element loop ELEMENT_TE per tet-step with tet4, ANP_COST times that with the averaged
 #   nodal pressure, a hex HEX_COST tet-steps; on two threads PARALLEL_COST times the two-thread
 #   calibration (a thread waits for the other at every launch when the cores are shared:
@@ -112,7 +112,6 @@ PLAUSIBLE_STEP_SECONDS = (0.0, 0.05)
 #   load average of 4.4-5, 1.1-2.5 s at 7.5-10.6, a one-thread start-up that gets its share of
 #   the cores (SETUP_SECONDS x the load per core), and 12 us per element (3.5 s at 164k); gmsh
 #   about 250 us per tetrahedron when the mesh is not in the cache (a 17k-tet sphere in 4.7 s).
-LOAD_SLOPE = 0.10
 ELEMENT_TE = 1.4
 ANP_COST = 1.6
 PARALLEL_COST = 1.65
@@ -154,7 +153,7 @@ class Estimate:
     seconds: dict | None = None  # wall seconds per part: elements, contact, fracture, output
     steps_needed: int = 0  # steps to end_time (steps is this, capped at run.max_steps)
     crush_factor: float = 1.0  # mean shrink of the step by crushing (case/crush.py)
-    load_factor: float = 1.0  # the machine's load on the calibrated speed (load_factor())
+    contention: float = 1.0  # 1 / the share of a core the run gets (contention())
     # the crush model behind crush_factor: (crushes, each body's first step l/c, the run's)
     crush: tuple = ((), (), 0.0)
 
@@ -477,24 +476,23 @@ def cpu_share(seconds: float = 0.3) -> float:
     return min(1.0, max((wallclock.thread_time() - c0) / wall, 0.01)) if wall > 0 else 1.0
 
 
-def load_factor(load: float | None = None) -> float:
-    """How much slower than its calibration (the fastest chunk) a run goes on this machine now:
-    1 + LOAD_SLOPE * the 1-minute load average per core (`load`: the average; None reads it)."""
-    if load is None:
-        try:
-            load = os.getloadavg()[0]
-        except (OSError, AttributeError):
-            load = 0.0
-    cores = os.cpu_count() or 1
-    return 1.0 + LOAD_SLOPE * max(float(load), 0.0) / cores
+def contention(share: float | None = None) -> float:
+    """How much slower than on a free core a run goes now: 1 / the share of a core this process
+    gets (``cpu_share``, measured unless `share` is given; not measured, and 1, under
+    IMPACTSIM_NO_CALIBRATE=1)."""
+    if share is None:
+        if os.environ.get("IMPACTSIM_NO_CALIBRATE", "") in ("1", "true", "yes"):
+            return 1.0
+        share = cpu_share()
+    return 1.0 / min(max(float(share), 0.01), 1.0)
 
 
 def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = None,
-                  load: float | None = None) -> Estimate:
+                  share: float | None = None) -> Estimate:
     """Elements, steps, memory and wall time of `case` (module docstring). `meshes`: the bodies'
-    (points, tets), or None per body not meshed yet; counts and lengths are then exact. `load`:
-    the machine's load average the run will meet; by default the current one when the speed is
-    this machine's (speed None), none when a speed is given."""
+    (points, tets), or None per body not meshed yet; counts and lengths are then exact.
+    `share`: the share of a core the run will get (``cpu_share``); by default measured now when
+    the speed is this machine's (speed None), a whole core when a speed is given."""
     from impactsim.case.describe import has_contact
 
     per_body, unknown = {}, []
@@ -556,12 +554,12 @@ def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = N
         dt, steps, steps_needed = math.nan, 0, 0
     if speed is None:
         speed = machine_speed(threads)
-        slow = load_factor(load)
+        slow = contention(share)
     else:
-        slow = load_factor(load if load is not None else 0.0)
-    t_elem = 1e-9 * speed["ns_per_element_step"] * slow
+        slow = contention(share if share is not None else 1.0)
+    t_elem = 1e-9 * speed["ns_per_element_step"]
     parallel = PARALLEL_COST if threads > 1 else 1.0
-    parts = {"elements": steps * (speed["seconds_per_step"] * slow
+    parts = {"elements": steps * (speed["seconds_per_step"]
                                   + (ELEMENT_TE * parallel * work + NODES_TE * elements)
                                   * t_elem)}
     contact = has_contact(case)
@@ -575,14 +573,14 @@ def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = N
     parts["per-step output and checks"] = (RUN_SECONDS_PER_STEP * steps
                                            + (rows * faces * ROW_TE_PER_FACE * t_elem
                                               if contact else 0.0))
-    parts["setup"] = (SETUP_SECONDS * max(1.0, (slow - 1.0) / LOAD_SLOPE)
-                      + SETUP_SECONDS_PER_ELEMENT * elements * slow)
+    parts["setup"] = SETUP_SECONDS + SETUP_SECONDS_PER_ELEMENT * elements
     if meshes is None:
         parts["meshing"] = sum(GMSH_SECONDS_PER_ELEMENT * (n or 0) for b, n in zip(
             case.bodies, per_body.values()) if b.mesher == "gmsh" and b.shape != "file"
             and not _cached(b))
+    parts = {k: v * slow for k, v in parts.items()}  # what the run's share of a core makes them
     return Estimate(elements=elements, per_body=per_body, l_min=l_min, wave_speed=c_max, dt=dt,
-                    load_factor=slow,
+                    contention=slow,
                     steps=steps, wall_seconds=sum(parts.values()), speed=speed,
                     unknown_bodies=unknown, threads=threads, memory_bytes=memory_bytes(elements),
                     seconds=parts, steps_needed=steps_needed, crush_factor=crush_factor,

@@ -10,8 +10,8 @@ import pytest
 
 from impactsim.case import load_case_text
 from impactsim.case import crush as C
-from impactsim.case.estimate import (DEFAULT_SPEED, LOAD_SLOPE, estimate_cost, inner_frames,
-                                     load_factor, re_estimate)
+from impactsim.case.estimate import (DEFAULT_SPEED, contention, cpu_share, estimate_cost,
+                                     inner_frames, re_estimate)
 
 ROD = """
 [run]
@@ -138,18 +138,18 @@ def test_estimated_steps_carry_the_crush_factor():
         rod())) * elastic.dt / plastic.dt, rel=0.01)
 
 
-def test_load_factor_and_frames_inside_the_run():
-    assert load_factor(0.0) == 1.0
-    import os
-
-    cores = os.cpu_count() or 1
-    assert load_factor(2.0 * cores) == pytest.approx(1.0 + 2.0 * LOAD_SLOPE)
+def test_contention_and_frames_inside_the_run(monkeypatch):
+    assert 0.0 < cpu_share(0.05) <= 1.0
+    assert contention(1.0) == 1.0 and contention(0.25) == pytest.approx(4.0)
+    monkeypatch.setenv("IMPACTSIM_NO_CALIBRATE", "1")
+    assert contention() == 1.0  # not measured under tests and CI
     case = rod()
     assert inner_frames(case) == case.output.frames - 1
-    slow = estimate_cost(case, dict(DEFAULT_SPEED), load=4.0 * cores)
-    fast = estimate_cost(case, dict(DEFAULT_SPEED), load=0.0)
-    assert slow.seconds["elements"] == pytest.approx(fast.seconds["elements"]
-                                                     * (1.0 + 4.0 * LOAD_SLOPE), rel=1e-6)
+    shared = estimate_cost(case, dict(DEFAULT_SPEED), share=0.25)
+    alone = estimate_cost(case, dict(DEFAULT_SPEED))
+    assert alone.contention == 1.0 and shared.contention == pytest.approx(4.0)
+    for part, seconds in alone.seconds.items():
+        assert shared.seconds[part] == pytest.approx(4.0 * seconds, rel=1e-9), part
 
 
 def test_re_estimate_is_the_measured_rate_over_the_steps_left():

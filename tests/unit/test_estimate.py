@@ -90,7 +90,7 @@ def test_default_speed_without_calibration_then_stored_measurement(tmp_path, mon
     est = estimate_cost(load_case_text(BAR.format(end="1 ms")), speed)
     from impactsim.case.estimate import ELEMENT_TE, NODES_TE
 
-    assert est.load_factor == 1.0  # a speed given: no load unless given too
+    assert est.contention == 1.0  # a speed given: a whole core unless a share is given too
     per_step = speed["seconds_per_step"] + (ELEMENT_TE + NODES_TE) * est.elements * 1e-9 * \
         speed["ns_per_element_step"]
     assert est.seconds["elements"] == pytest.approx(est.steps * per_step)
