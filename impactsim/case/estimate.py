@@ -369,7 +369,9 @@ normal = [0, 0, 1]
 def _seconds_per_step(cells: int, seconds: float, chunk: int) -> tuple[int, float]:
     """(elements, loop seconds per step) of the copper block run for about `seconds`: the fastest
     of the chunks of `chunk` steps, since other processes holding the cores only ever slow a
-    chunk down (the median of a busy minute measured 4x the quiet figure)."""
+    chunk down (the median of a busy minute measured 4x the quiet figure); on one thread in
+    the thread's CPU time (a chunk's wall time under a share of 0.4 of a core was 1.7 times
+    its CPU time even in the fastest chunk)."""
     from impactsim.mesh import mesh_body
     from impactsim.solver.build import build_model
     from impactsim.solver.loop import Simulation
@@ -381,13 +383,18 @@ def _seconds_per_step(cells: int, seconds: float, chunk: int) -> tuple[int, floa
     for _ in range(3):  # warm-up (loads the compiled kernels)
         sim.step()
         sim.energies(), sim.momentum()
+    # on one thread the kernels run in this thread: its CPU time is what a free core takes, even
+    # when other jobs hold the cores (a chunk's wall time then includes their turns)
+    import numba
+
+    clock = wallclock.thread_time if numba.get_num_threads() == 1 else wallclock.perf_counter
     rates, start = [], wallclock.perf_counter()
     while wallclock.perf_counter() - start < seconds or len(rates) < 3:
-        t0 = wallclock.perf_counter()
+        t0 = clock()
         for _ in range(chunk):
             sim.step()
             sim.energies(), sim.momentum()  # what a history row costs per step
-        rates.append((wallclock.perf_counter() - t0) / chunk)
+        rates.append((clock() - t0) / chunk)
     return model.n_elem, float(np.min(rates))
 
 
