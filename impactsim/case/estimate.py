@@ -112,16 +112,16 @@ PLAUSIBLE_STEP_SECONDS = (0.0, 0.05)
 #   load average of 4.4-5, 1.1-2.5 s at 7.5-10.6, a one-thread start-up that gets its share of
 #   the cores (SETUP_SECONDS x the load per core), and 12 us per element (3.5 s at 164k); gmsh
 #   about 250 us per tetrahedron when the mesh is not in the cache (a 17k-tet sphere in 4.7 s).
-ELEMENT_TE = 1.4
-ANP_COST = 1.6
+ELEMENT_TE = 1.1
+ANP_COST = 1.4
 PARALLEL_COST = 1.65
-NODES_TE = 0.2
-CONTACT_TE_PER_FACE = 7.2
+NODES_TE = 0.15
+CONTACT_TE_PER_FACE = 6.0
 FRACTURE_TE = 2.55
-FRAME_TE_PER_ELEMENT = {"zlib": 72.0, "none": 20.0}
+FRAME_TE_PER_ELEMENT = {"zlib": 55.0, "none": 15.0}
 ROW_TE_PER_FACE = 1.5
 RUN_SECONDS_PER_STEP = 3e-5
-SETUP_SECONDS = 0.35
+SETUP_SECONDS = 0.6
 SETUP_SECONDS_PER_ELEMENT = 12e-6
 GMSH_SECONDS_PER_ELEMENT = 2.5e-4
 FACES_PER_H2 = 2.2  # boundary triangles per h^2 of surface (structured 2, gmsh about 2.3)
