@@ -181,6 +181,13 @@ class Estimate:
         """The wall time per part, and a warning when max_steps ends the run early."""
         parts = self.seconds or {}
         out = []
+        if self.crush_factor > 1.05:
+            found = self.crush[0]
+            worst = max(found, key=lambda c: c.shrink) if found else None
+            out.append(f"crushing: the step shrinks ≈ {self.crush_factor:.2g} times on average "
+                       "over the run" + (f" (crush number {worst.phi:.2g}: down to 1/"
+                                         f"{worst.shrink:.2g} of a body's first step)"
+                                         if worst else ""))
         if parts:
             out.append("wall time: " + ", ".join(f"{k} ≈ {format_seconds(v)}"
                                                  for k, v in parts.items()))
