@@ -110,6 +110,7 @@ def crush_number(mat: Material, speed: float, density: float | None = None) -> f
 def shrink_of(phi: float, element: str = "tet", fails: bool = False) -> float:
     """The shrink s of a body's step once crushed at crush number phi (module docstring)."""
     k, p, cap = HEX_SHRINK if element == "hex8" else TET_SHRINK
+    phi = min(phi, 1e6)  # far beyond any cap (and no overflow of the power for 1e300 m/s)
     s = k * phi ** p if phi > 0.0 else 1.0
     s = min(max(1.0, s), cap)
     return min(s, FAILURE_SHRINK) if fails else s
