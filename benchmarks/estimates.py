@@ -93,7 +93,8 @@ def _run_once(name: str) -> dict:
 
     out = Path("/tmp") / f"impactsim-estimates-{name}"
     speed = _speed(name)
-    share = sorted(cpu_share() for _ in range(3))[1]
+    share = sorted(cpu_share(1.0) for _ in range(3))[1]  # a second each: a burst of
+    # another job can halve a 0.3 s probe (two-cylinders: 0.15 before a run that got 0.35)
     t0 = time.perf_counter()
     cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     proc = subprocess.run(

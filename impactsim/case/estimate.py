@@ -116,10 +116,11 @@ ELEMENT_TE = 1.1
 ANP_COST = 1.4
 PARALLEL_COST = 1.65
 NODES_TE = 0.15
-CONTACT_TE_PER_FACE = 6.0
+CONTACT_TE_PER_FACE = 7.0
 FRACTURE_TE = 2.55
 FRAME_TE_PER_ELEMENT = {"zlib": 55.0, "none": 15.0}
-ROW_TE_PER_FACE = 1.5
+FRAME_SECONDS = 0.01  # a frame's own cost (files, the series' index), whatever its size
+ROW_TE_PER_FACE = 2.0
 RUN_SECONDS_PER_STEP = 3e-5
 SETUP_SECONDS = 0.6
 SETUP_SECONDS_PER_ELEMENT = 12e-6
@@ -259,8 +260,9 @@ def _count(n: float) -> int:
 
 
 # a hex-step costs about this many tet-steps (docs/performance.md: 190 against 80 ns on one
-# thread, the Johnson-Cook bench of each, measured at the same time)
-HEX_COST = 2.4
+# thread, the Johnson-Cook bench of each, measured at the same time; in the bundled Taylor bar
+# with hexes 2.8 of the element loop's calibrated tet-steps, docs/estimates.md)
+HEX_COST = 2.8
 
 
 def _hex_mesh(body: Body):
@@ -582,7 +584,7 @@ def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = N
     if any(case.materials[b.material].failure.active for b in case.bodies):
         parts["fracture"] = steps * elements * FRACTURE_TE * t_elem
     per_frame = FRAME_TE_PER_ELEMENT[case.output.compression] * t_elem
-    parts["output"] = frames * elements * per_frame
+    parts["output"] = frames * (elements * per_frame + FRAME_SECONDS)
     rows = steps / max(case.output.history_every, 1)
     parts["per-step output and checks"] = (RUN_SECONDS_PER_STEP * steps
                                            + (rows * faces * ROW_TE_PER_FACE * t_elem
