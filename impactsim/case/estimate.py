@@ -99,19 +99,19 @@ PLAUSIBLE_STEP_SECONDS = (0.0, 0.05)
 # them by the share of a core the run gets (contention()). Fitted to the seconds per pass of the
 # bundled runs times their share of a core (process CPU over wall; benchmarks/estimates.py,
 # docs/estimates.md):
-# - the element loop ELEMENT_TE per tet-step with tet4, ANP_COST times that with the averaged
-#   nodal pressure, a hex HEX_COST tet-steps; on two threads PARALLEL_COST times the two-thread
-#   calibration (a thread waits for the other at every launch when the cores are shared:
-#   sphere-plate 1.5, oblique-sphere 1.8);
-# - the node passes and the watch 0.2 t_e per element-step;
-# - the contact passes 3-17 t_e per boundary face and step (median 7);
-# - the fracture passes 2.5 t_e per element-step (sphere-plate, oblique-sphere);
-# - a frame 50-110 t_e per element; a history row with contact its max_penetration measure,
-#   about 1.5 t_e per boundary face;
-# - setting up a run (imports, loading the compiled kernels, building the state): 0.5-1.3 s at a
-#   load average of 4.4-5, 1.1-2.5 s at 7.5-10.6, a one-thread start-up that gets its share of
-#   the cores (SETUP_SECONDS x the load per core), and 12 us per element (3.5 s at 164k); gmsh
-#   about 250 us per tetrahedron when the mesh is not in the cache (a 17k-tet sphere in 4.7 s).
+# - the element loop 0.9-1.7 t_e per tet-step with tet4 (the calibration's block is a best
+#   case; the small scenes pay a per-step overhead), ANP_COST times that with the averaged
+#   nodal pressure (Taylor bar), a hex HEX_COST tet-steps; on two threads PARALLEL_COST times
+#   the two-thread calibration (a thread waits for the other at every launch when the cores
+#   are shared);
+# - the node passes and the watch 0.1-0.3 t_e per element-step;
+# - the contact passes 2.6-9.4 t_e per boundary face and step;
+# - the fracture passes FRACTURE_TE per element-step (sphere-plate, oblique-sphere);
+# - a frame 45-95 t_e per element and its own 10 ms; a history row with contact, its
+#   max_penetration measure, 0-4 t_e per boundary face (the crushing scenes the most);
+# - setting up a run (imports, loading the compiled kernels, building the state) 0.55-0.7 s of
+#   CPU and about 12 us per element; gmsh about 250 us per tetrahedron when the mesh is not in
+#   the cache (a 17k-tet sphere in 4.7 s).
 ELEMENT_TE = 1.1
 ANP_COST = 1.4
 PARALLEL_COST = 1.65
