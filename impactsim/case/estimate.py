@@ -106,9 +106,10 @@ PLAUSIBLE_STEP_SECONDS = (0.0, 0.05)
 #   are shared);
 # - the node passes and the watch 0.1-0.3 t_e per element-step;
 # - the contact passes 2.6-9.4 t_e per boundary face and step;
-# - the fracture passes FRACTURE_TE per element-step (sphere-plate, oblique-sphere);
-# - a frame 45-95 t_e per element and its own 10 ms; a history row with contact, its
-#   max_penetration measure, 0-4 t_e per boundary face (the crushing scenes the most);
+# - the fracture passes 0.8-2.0 t_e per element-step (oblique-sphere, sphere-plate);
+# - a frame 20-95 t_e per element (the large ones cheapest) and its own 10 ms; a history row
+#   with contact, its max_penetration measure, 0-4 t_e per boundary face (crushing scenes
+#   the most);
 # - setting up a run (imports, loading the compiled kernels, building the state) 0.55-0.7 s of
 #   CPU and about 12 us per element; gmsh about 250 us per tetrahedron when the mesh is not in
 #   the cache (a 17k-tet sphere in 4.7 s).
@@ -117,8 +118,8 @@ ANP_COST = 1.4
 PARALLEL_COST = 1.65
 NODES_TE = 0.15
 CONTACT_TE_PER_FACE = 7.0
-FRACTURE_TE = 2.55
-FRAME_TE_PER_ELEMENT = {"zlib": 55.0, "none": 15.0}
+FRACTURE_TE = 1.3
+FRAME_TE_PER_ELEMENT = {"zlib": 45.0, "none": 12.0}
 FRAME_SECONDS = 0.01  # a frame's own cost (files, the series' index), whatever its size
 ROW_TE_PER_FACE = 2.0
 RUN_SECONDS_PER_STEP = 3e-5
