@@ -108,8 +108,8 @@ PLAUSIBLE_STEP_SECONDS = (0.0, 0.05)
 # - the contact passes 2.6-9.4 t_e per boundary face and step;
 # - the fracture passes 0.8-2.0 t_e per element-step (oblique-sphere, sphere-plate);
 # - a frame 20-95 t_e per element (the large ones cheapest) and its own 10 ms; a history row
-#   with contact, its max_penetration measure, 0-4 t_e per boundary face (crushing scenes
-#   the most);
+#   with contact, its max_penetration measure, 2-4 t_e per boundary face in the crushing
+#   scenes, next to nothing in the elastic ones;
 # - setting up a run (imports, loading the compiled kernels, building the state) 0.55-0.7 s of
 #   CPU and about 12 us per element; gmsh about 250 us per tetrahedron when the mesh is not in
 #   the cache (a 17k-tet sphere in 4.7 s).
@@ -117,7 +117,7 @@ ELEMENT_TE = 1.1
 ANP_COST = 1.4
 PARALLEL_COST = 1.65
 NODES_TE = 0.15
-CONTACT_TE_PER_FACE = 7.0
+CONTACT_TE_PER_FACE = 6.0
 FRACTURE_TE = 1.3
 FRAME_TE_PER_ELEMENT = {"zlib": 45.0, "none": 12.0}
 FRAME_SECONDS = 0.01  # a frame's own cost (files, the series' index), whatever its size
@@ -587,9 +587,12 @@ def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = N
     per_frame = FRAME_TE_PER_ELEMENT[case.output.compression] * t_elem
     parts["output"] = frames * (elements * per_frame + FRAME_SECONDS)
     rows = steps / max(case.output.history_every, 1)
+    # the history row's max_penetration measure costs where bodies crush into each other
+    # (none in the elastic contacts, 2-4 t_e per face in the crushing ones)
+    crushing = min(1.0, crush_factor - 1.0)
     parts["per-step output and checks"] = (RUN_SECONDS_PER_STEP * steps
-                                           + (rows * faces * ROW_TE_PER_FACE * t_elem
-                                              if contact else 0.0))
+                                           + (rows * faces * ROW_TE_PER_FACE * crushing
+                                              * t_elem if contact else 0.0))
     parts["setup"] = SETUP_SECONDS + SETUP_SECONDS_PER_ELEMENT * elements
     if meshes is None:
         parts["meshing"] = sum(GMSH_SECONDS_PER_ELEMENT * (n or 0) for b, n in zip(
