@@ -102,9 +102,10 @@ failure = { erosion = "jc-damage", erosion_value = 1.0, jc_damage = [0.0, 0.01, 
                 + "[contact]\npasses = ['node-face', 'edge-edge']\n", 8))
     # node separation and distortion erosion [Z] (fracture/separation.py, distortion.py): a
     # separable block dragged apart fast enough to release families and delete cells. The
-    # energy check only warns: the drag starts impulsively, and its first step alone moves the
-    # balance by 8-9 % of the (then tiny) reference energy, with or without fracture (the
-    # releases themselves keep the balance: tests/verification/test_node_separation.py)
+    # energy check only warns: the drag starts impulsively, and even with the time-centred
+    # balance its first three steps move it by 9 % of the (then tiny) reference energy (8 %
+    # with hexes, 35 % with self-contact on; the releases themselves keep the balance:
+    # tests/verification/test_node_separation.py). Noted in the issue; not a warm-up's job.
     sep_mat = """
 [[material]]
 name = "sep"
@@ -130,8 +131,8 @@ energy_balance_action = "warn"
                 + "[contact]\npasses = ['node-face', 'edge-edge']\nself_contact = true\n"
                 + "[fracture]\nerosion_region = 'anywhere'\nparticles_per_element = 1\n"
                 + "particle_collisions = true\nspall_pressure = 'patch'\n"
-                # the hex plate's first steps under a 3 km/s impact book the stress work before
-                # the kinetic energy falls (8 % at step 1): compile coverage, not a balance
+                # compile coverage, not a balance: the balance error of this coarse 3 km/s
+                # hex-plate start peaks at 4.6 %, too close to the 5 % limit to gate on
                 + "[checks]\nenergy_balance_action = 'warn'\n")
     out.append(("hex-fracture", hex_frac, 60))
     # with self-contact: the contact surface follows the releases in place (Surface.reconnect)
