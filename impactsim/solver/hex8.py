@@ -320,11 +320,8 @@ def _block(e0, mk, x, v, conn, sdev, pressure, q, eps_p, eps_rate, temperature, 
     """The vector path of a full block of B intact hexes of material mk (hex8_block.py);
     returns (min dt, its element, viscous work, hourglass work), or an infinite dt and
     nothing written when a hex of the block inverted (the scalar path then counts it)."""
-    hourglass = False
     stiff = False
     for i in range(B):
-        if hg_visc[e0 + i] > 0.0:
-            hourglass = True
         if hg_stiff[e0 + i] > 0.0:
             stiff = True
     HB.load_block(x, v, conn, sdev, pressure, energy, vol, elem_mass, hg, hg_visc, hg_stiff,
@@ -340,14 +337,11 @@ def _block(e0, mk, x, v, conn, sdev, pressure, q, eps_p, eps_rate, temperature, 
     elif code != P.ELASTIC:
         E._return_block(buf, code, mat_params, mk, shear, eps_p, temperature, hard, thermal,
                         e0)
-    bulk = mat_params[mk, P.K]
-    HB.pressure_block(buf, dt, int(mat_params[mk, P.EOS]), mat_params[mk, P.RHO0], bulk,
-                      mat_params[mk, P.C0], mat_params[mk, P.S], mat_params[mk, P.GAMMA0],
-                      shear, cq, cl)
-    if hourglass or stiff:
-        HB.hourglass_block(buf, dt, bulk, shear)
+    HB.forces_block(buf, dt, int(mat_params[mk, P.EOS]), mat_params[mk, P.RHO0],
+                    mat_params[mk, P.K], mat_params[mk, P.C0], mat_params[mk, P.S],
+                    mat_params[mk, P.GAMMA0], shear, cq, cl)
     return HB.store_block(rows, sdev, pressure, q, eps_rate, energy, vol, hg, fext, e0, buf,
-                          hourglass or stiff, stiff)
+                          stiff)
 
 
 # nogil: the frame writer's thread runs while the kernel does (as element.element_update)
