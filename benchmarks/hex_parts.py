@@ -162,7 +162,8 @@ def main(argv=None) -> dict:
                      a["q"], a["eps_p"], a["eps_rate"], a["temperature"], a["hard"],
                      a["thermal"], a["energy"], a["vol"], blk.elem_mass, a["hg"], blk.hg_visc,
                      blk.hg_stiff, m.mat_params, dt, sim.cq, sim.cl, m.force, fr.rows, run.fext,
-                     fr.extra_ptr, fr.extra_rows, fr.part_size // H.CHUNK, run.chunk_out, 1)
+                     fr.extra_ptr, fr.extra_rows, fr.part_size // H.CHUNK, run.chunk_out, 1,
+                     False)
 
     out = {"kernel": cpu_ns(kernel, state, n, args.reps, inner),
            "stream": cpu_ns(lambda a: _stream(

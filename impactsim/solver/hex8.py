@@ -348,9 +348,11 @@ def _block(e0, mk, x, v, conn, sdev, pressure, q, eps_p, eps_rate, temperature, 
 @numba.njit(cache=True, parallel=True, nogil=True, error_model="numpy", fastmath=FAST)
 def hex_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                hard, thermal, energy, vol, elem_mass, hg, hg_visc, hg_stiff, mat_params, dt, cq,
-               cl, force, rows, fext, extra_ptr, extra_rows, part_chunks, chunk_out, threads):
+               cl, force, rows, fext, extra_ptr, extra_rows, part_chunks, chunk_out, threads,
+               assign):
     """Advance every hex of a block from n to n+1 and ADD its nodal forces to `force` (after
-    the tets' element update has written it). Per chunk of CHUNK hexes, chunk_out holds
+    the tets' element update has written it; with `assign` they are written instead, for the
+    first block of a model without tets). fext must be zero on entry and is left zero. Per chunk of CHUNK hexes, chunk_out holds
     [min stable dt, viscous work, inverted count, element of min dt, hourglass work].
     Parts of `part_chunks` chunks run one per thread (part t, t + T, ... on thread t of
     T = `threads`), every corner adds to its row of `fext` (`scatter.force_rows(conn, n_node,
@@ -359,10 +361,6 @@ def hex_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
     number of threads."""
     n_elem = conn.shape[0]
     half = 0.5 * dt
-    for i in numba.prange(fext.shape[0]):
-        fext[i, 0] = 0.0
-        fext[i, 1] = 0.0
-        fext[i, 2] = 0.0
     n_ch = (n_elem + CHUNK - 1) // CHUNK
     n_parts = (n_ch + part_chunks - 1) // part_chunks
     for t in numba.prange(threads):
@@ -406,16 +404,29 @@ def hex_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                 chunk_out[ch, OUT_INVERTED] = inverted
                 chunk_out[ch, OUT_WORST] = worst
                 chunk_out[ch, OUT_HGWORK] = hgwork
+    # each node's rows, summed in part order and left zero for the next call (every row is a
+    # node's own or one of its extra rows, so this zeroes all of fext)
     for i in numba.prange(force.shape[0]):
         fx, fy, fz = fext[i, 0], fext[i, 1], fext[i, 2]
+        fext[i, 0] = 0.0
+        fext[i, 1] = 0.0
+        fext[i, 2] = 0.0
         for k in range(extra_ptr[i], extra_ptr[i + 1]):
             r = extra_rows[k]
             fx += fext[r, 0]
             fy += fext[r, 1]
             fz += fext[r, 2]
-        force[i, 0] += fx
-        force[i, 1] += fy
-        force[i, 2] += fz
+            fext[r, 0] = 0.0
+            fext[r, 1] = 0.0
+            fext[r, 2] = 0.0
+        if assign:
+            force[i, 0] = fx
+            force[i, 1] = fy
+            force[i, 2] = fz
+        else:
+            force[i, 0] += fx
+            force[i, 1] += fy
+            force[i, 2] += fz
 
 
 def hex_volume_gradient(points: np.ndarray) -> tuple[np.ndarray, float]:
