@@ -78,7 +78,7 @@ def _parts(level, x, v, conn, rows, sdev, pressure, q, eps_p, eps_rate, temperat
     """Every full block through the vector path (hex8._block) cut short after part `level`:
     0 load, 1 kinematics, 2 return, 3 EOS, stress and hourglass forces, 4 store."""
     B = E.B
-    buf = np.empty(HB.HROWS * B)
+    buf = E.aligned_empty(HB.HROWS * B)
     mk = 0
     half = 0.5 * dt
     shear = mat_params[mk, P.G]

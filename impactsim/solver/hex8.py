@@ -59,6 +59,7 @@ from impactsim.solver import hex8_block as HB
 from impactsim.solver import vecmath as VM
 from impactsim.solver.element import FAST, _deviator, _deviatoric_work, _jaumann_trial
 from impactsim.solver.hex8_block import _vol_der
+from impactsim.solver.scatter import take_node
 
 B = E.B  # lanes of a block of the vector path (hex8_block.py)
 CHUNK = 256  # hexes per reduction chunk (a multiple of B)
@@ -365,7 +366,7 @@ def hex_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
     n_parts = (n_ch + part_chunks - 1) // part_chunks
     for t in numba.prange(threads):
         w = np.empty(SCRATCH)
-        buf = np.empty(HB.HROWS * B)  # the block buffer of the vector path
+        buf = E.aligned_empty(HB.HROWS * B)  # the block buffer of the vector path
         for part in range(t, n_parts, threads):
             for ch in range(part * part_chunks, min(n_ch, (part + 1) * part_chunks)):
                 dt_min = math.inf
@@ -404,21 +405,8 @@ def hex_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                 chunk_out[ch, OUT_INVERTED] = inverted
                 chunk_out[ch, OUT_WORST] = worst
                 chunk_out[ch, OUT_HGWORK] = hgwork
-    # each node's rows, summed in part order and left zero for the next call (every row is a
-    # node's own or one of its extra rows, so this zeroes all of fext)
     for i in numba.prange(force.shape[0]):
-        fx, fy, fz = fext[i, 0], fext[i, 1], fext[i, 2]
-        fext[i, 0] = 0.0
-        fext[i, 1] = 0.0
-        fext[i, 2] = 0.0
-        for k in range(extra_ptr[i], extra_ptr[i + 1]):
-            r = extra_rows[k]
-            fx += fext[r, 0]
-            fy += fext[r, 1]
-            fz += fext[r, 2]
-            fext[r, 0] = 0.0
-            fext[r, 1] = 0.0
-            fext[r, 2] = 0.0
+        fx, fy, fz = take_node(i, fext, extra_ptr, extra_rows)
         if assign:
             force[i, 0] = fx
             force[i, 1] = fy
