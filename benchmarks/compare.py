@@ -10,7 +10,10 @@ element-step for each version (wall ns with --threads > 1), their ratio, and how
 two end states are (the two versions should compute the same physics).
 
     python benchmarks/compare.py REV [--steps 60] [--warm 20] [--run 5] [--elastic]
-        [--cells 32] [--threads 1]
+        [--cells 32] [--threads 1] [--hex viscous|stiffness]
+
+--hex runs the hex scene of bench_hex.py instead (48^3 hexes, --cells is then the hexes along
+an edge) with that hourglass form, and prints ns per hex-step.
 
 The first call for a revision compiles its kernels (about half a minute); they are cached in
 the export folder (`.bench_compare/<rev>` under the repository).
@@ -31,6 +34,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_element import case_text  # noqa: E402
+from bench_hex import case_text as hex_case_text  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -55,19 +59,26 @@ def export(rev: str) -> str:
     return str(dest)
 
 
-def build(pkg: str, cells: int, elastic: bool):
-    """The bench scene of bench_element.py, built with package `pkg`."""
+def build(pkg: str, cells: int, elastic: bool, hourglass: str = ""):
+    """The bench scene of bench_element.py (of bench_hex.py with an `hourglass` form), built
+    with package `pkg`."""
     load_case_text = importlib.import_module(f"{pkg}.case").load_case_text
     mesh_body = importlib.import_module(f"{pkg}.mesh").mesh_body
     build_model = importlib.import_module(f"{pkg}.solver.build").build_model
     build_passes = importlib.import_module(f"{pkg}.solver.pipeline").build_passes
     Simulation = importlib.import_module(f"{pkg}.solver.loop").Simulation
     P = importlib.import_module(f"{pkg}.materials.params")
-    case = load_case_text(case_text((cells, cells, cells + 1)))
+    case = load_case_text(hex_case_text(cells, hourglass) if hourglass
+                          else case_text((cells, cells, cells + 1)))
     model = build_model(case, [mesh_body(case.bodies[0], use_cache=False)])
     if elastic:
         model.mat_params[:, P.STRENGTH] = P.ELASTIC
     return model, Simulation(model, build_passes(case, model), cfl=0.6)
+
+
+def _count(model) -> int:
+    """Elements of the scene: the tets, else the elements of the further blocks (hexes)."""
+    return model.n_elem or sum(b.n_elem for b in model.blocks)
 
 
 def main(argv=None) -> dict:
@@ -79,16 +90,20 @@ def main(argv=None) -> dict:
     ap.add_argument("--elastic", action="store_true", help="the block made elastic")
     ap.add_argument("--cells", type=int, default=32, help="cells along x (6 tets each)")
     ap.add_argument("--threads", type=int, default=1, help="numba threads")
+    ap.add_argument("--hex", default="", help="the hex scene with this hourglass form")
     args = ap.parse_args(argv)
     sys.path.insert(0, export(args.rev))
     sys.path.insert(0, str(ROOT))
     numba.set_num_threads(args.threads)
+    if args.hex and args.cells == 32:
+        args.cells = 48
     sims = {}
     for label, pkg in ((args.rev, "impactsim_rev"), ("working tree", "impactsim")):
         t0 = time.perf_counter()
-        model, sim = build(pkg, args.cells, args.elastic)
+        model, sim = build(pkg, args.cells, args.elastic, args.hex)
         sim.step()  # compiles (or loads) the kernels
-        print(f"{label}: {model.n_elem} tets, ready in {time.perf_counter() - t0:.1f} s")
+        print(f"{label}: {_count(model)} {'hexes' if args.hex else 'tets'}, ready in "
+              f"{time.perf_counter() - t0:.1f} s")
         sims[label] = (model, sim)
     for model, sim in sims.values():
         for _ in range(args.warm - 1):
@@ -106,13 +121,13 @@ def main(argv=None) -> dict:
             wall[label] += time.perf_counter() - w0
         done += n
     (ma, _), (mb, _) = sims.values()
-    per = 1e9 / (mb.n_elem * args.steps)
+    per = 1e9 / (_count(mb) * args.steps)
     # on one thread CPU time, which the neighbours' load disturbs less; on several the wall
     # clock, which also shows how evenly the threads share the work
     ns = {label: per * (cpu[label] if args.threads == 1 else wall[label]) for label in sims}
     a, b = ns.values()
     drift = float(np.abs(ma.x - mb.x).max() / np.abs(mb.x - mb.x0).max())
-    plastic = int(np.count_nonzero(mb.eps_p))
+    plastic = int(np.count_nonzero(mb.blocks[0].eps_p if args.hex else mb.eps_p))
     print(f"{'JC' if not args.elastic else 'elastic'}, {args.threads} thread(s), steps "
           f"{args.warm}..{args.warm + args.steps}, {plastic} plastic elements: "
           f"{'CPU' if args.threads == 1 else 'wall'} ns per element-step")

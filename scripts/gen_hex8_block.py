@@ -29,8 +29,199 @@ def lines_b(px, out):
         L.append(f"{out(0, n)}, {out(1, n)}, {out(2, n)} = _vol_der({args})")
     return L
 
+PRESSURE = """
+
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def forces_block(buf, dt, eos, rho0, bulk, c0, s, gamma0, shear, cq, cl):
+    \"\"\"Deviatoric work, EOS pressure with the energy implicit, bulk viscosity, stable dt (as
+    element._pressure_block, with the hex's volume), then the Flanagan-Belytschko hourglass
+    resultants and their work, and the corner forces of stress and hourglass control together
+    (hex8._hex_element's formulas, regrouped: see gen_hex8_block.hourglass_lines).\"\"\"
+    for i in range(B):
+        vnew = buf[R_DET * B + i] * (1.0 / 6.0)
+"""
+
+PRESSURE_BODY = """        vold = buf[R_VOLD * B + i]
+        mass = buf[R_MASS * B + i]
+        rho = mass / vnew
+        exx = buf[(R_D + 0) * B + i]
+        eyy = buf[(R_D + 1) * B + i]
+        ezz = buf[(R_D + 2) * B + i]
+        dxy = buf[(R_D + 3) * B + i]
+        dyz = buf[(R_D + 4) * B + i]
+        dzx = buf[(R_D + 5) * B + i]
+        nxx = buf[(R_SN + 0) * B + i]
+        nyy = buf[(R_SN + 1) * B + i]
+        nzz = buf[(R_SN + 2) * B + i]
+        nxy = buf[(R_SN + 3) * B + i]
+        nyz = buf[(R_SN + 4) * B + i]
+        nzx = buf[(R_SN + 5) * B + i]
+        wdev = 0.25 * dt * (vold + vnew) * (
+            (buf[(R_S0 + 0) * B + i] + nxx) * exx + (buf[(R_S0 + 1) * B + i] + nyy) * eyy
+            + (buf[(R_S0 + 2) * B + i] + nzz) * ezz
+            + 2.0 * ((buf[(R_S0 + 3) * B + i] + nxy) * dxy + (buf[(R_S0 + 4) * B + i] + nyz) * dyz
+                     + (buf[(R_S0 + 5) * B + i] + nzx) * dzx))
+        length = buf[R_LEN * B + i]
+        trd = buf[R_TRD * B + i]
+        pa, pb, c2a, c2b = eos_linear_part(eos, rho, rho0, bulk, c0, s, gamma0)
+        pold = buf[R_POLD * B + i]
+        dv = vnew - vold
+        c = math.sqrt(max(c2a + c2b * max(pold, 0.0), 0.0))
+        qn = rho * length * (cq * cq * length * trd * trd - cl * c * trd) if trd < 0.0 else 0.0
+        base = buf[R_EN * B + i] + (wdev - dv * (0.5 * pold + qn)) / mass
+        kk = 0.5 * dv / mass
+        enew = (base - kk * pa) / (1.0 + kk * pb)
+        pn = pa + pb * enew
+        buf[R_EN1 * B + i] = enew
+        buf[R_PN * B + i] = pn
+        buf[R_QN * B + i] = qn
+        buf[R_QW * B + i] = -qn * dv
+        c2 = max(c2a + c2b * max(pn, 0.0), 0.0) + 4.0 * shear / (3.0 * rho)
+        qq = cl * math.sqrt(c2) - cq * cq * length * trd if trd < 0.0 else 0.0
+        buf[R_DTE * B + i] = length / (qq + math.sqrt(max(qq * qq + c2, 0.0)))
+        ptot = pn + qn
+"""
+
+# the sign of Gamma_a at node n, by pairs of nodes: with p = x_m + x_n, d = x_m - x_n for the
+# pairs (0, 1), (2, 3), (4, 5), (6, 7), Gamma_a . x is a signed sum of the four p (a = 0) or
+# the four d (a = 1, 2, 3); checked against GAMMA in gen()
+HG_PAIRS = {0: ("p", (1, -1, -1, 1)), 1: ("d", (1, -1, -1, 1)), 2: ("d", (1, 1, 1, 1)),
+            3: ("d", (-1, -1, 1, 1))}
+
+
+def signed(terms):
+    out = ""
+    for sign, t in terms:
+        out += (" + " if sign > 0 else " - ") + t
+    return out[3:] if out.startswith(" + ") else "-" + out[3:]
+
+
+def gamma_dot(v, d):
+    """Lines computing G{v}{a}{d} = Gamma_a . v_d (a = 0..3) of the 8 corner values v{d}{n}."""
+    L = []
+    for k in range(4):
+        m, n = 2 * k, 2 * k + 1
+        L.append(f"p{k} = {v}{d}{m} + {v}{d}{n}")
+        L.append(f"d{k} = {v}{d}{m} - {v}{d}{n}")
+    for a in range(4):
+        kind, sg = HG_PAIRS[a]
+        L.append(f"G{v}{a}{d} = " + signed([(sg[k], f"{kind}{k}") for k in range(4)]))
+    return L
+
+
+def hourglass_lines():
+    """The hourglass part of forces_block, inside the lane loop: (the rates, before the
+    pressure part; the resultants and all forces, after it).
+
+    FB81's shape vectors g_an = (1/8) [Gamma_an - h_a . b_n] with h_a = (Gamma_a . x) / V are
+    not formed. The rates are qdot_ia = sum_n v_in g_an = (1/8) [Gamma_a . v_i - h_a . W_i]
+    with W_ij = sum_n v_in b_jn, and the forces -sum_a Q_ia g_an =
+    -(1/8) sum_a Q_ia Gamma_an + (1/8) M_ij b_jn with M_ij = sum_a Q_ia h_aj, so stress and
+    hourglass forces together are f_in = -(sigma_ij - M_ij / 8) b_jn - (1/8) sum_a Q_ia
+    Gamma_an: the same sums in another order (equal to round-off), with far fewer operations
+    and fewer values alive at once (the lane loop spills less)."""
+    L = []
+    A = L.append
+    # W_ij = sum_n v_in b_jn, sum b.b and Gamma_a . v, by pairs of nodes (2k, 2k + 1)
+    for k in range(4):
+        for m in (2 * k, 2 * k + 1):
+            for d in XYZ:
+                A(f"b{d}{m} = {row('HB', 3 * m + XYZ.index(d))}")
+                A(f"u{d}{m} = {row('HV', 3 * m + XYZ.index(d))}")
+            A(("bb = " if m == 0 else "bb += ") + f"bx{m} * bx{m} + by{m} * by{m} + bz{m} * bz{m}")
+            for di in XYZ:
+                for dj in XYZ:
+                    A(f"W{di}{dj} {'=' if m == 0 else '+='} u{di}{m} * b{dj}{m}")
+        for d in XYZ:
+            A(f"p{d} = u{d}{2 * k} + u{d}{2 * k + 1}")
+            A(f"d{d} = u{d}{2 * k} - u{d}{2 * k + 1}")
+            for a in range(4):
+                kind, sg = HG_PAIRS[a]
+                term = f"{kind}{d}"
+                if k == 0:
+                    A(f"Gu{a}{d} = {'' if sg[k] > 0 else '-'}{term}")
+                else:
+                    A(f"Gu{a}{d} {'+=' if sg[k] > 0 else '-='} {term}")
+    # h_a = (Gamma_a . x) / V
+    A("vinv = 1.0 / vnew")
+    for d in XYZ:
+        for n in range(8):
+            A(f"x{d}{n} = {row('HX', 3 * n + XYZ.index(d))}")
+        L.extend(gamma_dot("x", d))
+        for a in range(4):
+            A(f"h{a}{d} = Gx{a}{d} * vinv")
+    for a in range(4):
+        for di in XYZ:
+            A(f"r{a}{di} = 0.125 * (Gu{a}{di} - (h{a}x * W{di}x + h{a}y * W{di}y"
+              f" + h{a}z * W{di}z))")
+    rates = L
+    L = []
+    A = L.append
+    A("cv = buf[HGV * B + i]")
+    A("cs = buf[HGS * B + i]")
+    A("chg = math.sqrt(max(c2, 0.0))")
+    A("kv = cv * rho * chg * VM.power(vnew, 2.0 / 3.0)")
+    A("ks = cs * dt * (bulk + 4.0 * shear / 3.0) * bb * vinv * (1.0 / 3.0)")
+    A("work = 0.0")
+    for a in range(4):
+        for di in XYZ:
+            k = 3 * a + XYZ.index(di)
+            r = f"r{a}{di}"
+            A(f"s0 = {row('HG', k)}")
+            A(f"s1 = s0 + ks * {r}")
+            A(f"{row('HG', k)} = s1")
+            A(f"Q{a}{di} = s1 + kv * {r}")
+            A(f"work += dt * (0.5 * (s0 + s1) + kv * {r}) * {r}")
+    A("buf[HGW * B + i] = work")
+    # T = sigma - M / 8 (M_ij = sum_a Q_ia h_aj), sigma = s - (p + q) 1
+    sig = {"xx": "nxx - ptot", "yy": "nyy - ptot", "zz": "nzz - ptot", "xy": "nxy", "yx": "nxy",
+           "yz": "nyz", "zy": "nyz", "zx": "nzx", "xz": "nzx"}
+    for di in XYZ:
+        for dj in XYZ:
+            A(f"T{di}{dj} = {sig[di + dj]} - 0.125 * ("
+              + " + ".join(f"Q{a}{di} * h{a}{dj}" for a in range(4)) + ")")
+    # f_in = -T_ij b_jn - (1/8) sum_a Q_ia Gamma_an
+    for di in XYZ:
+        A(f"A{di}, C{di} = 0.125 * (Q0{di} + Q1{di}), 0.125 * (Q2{di} + Q3{di})")
+        A(f"D{di}, E{di} = 0.125 * (Q0{di} - Q1{di}), 0.125 * (Q2{di} - Q3{di})")
+    for n in range(8):
+        for d in XYZ:
+            A(f"b{d} = {row('HB', 3 * n + XYZ.index(d))}")
+        for di in XYZ:
+            A(f"{row('HF', 3 * n + XYZ.index(di))} = -(T{di}x * bx + T{di}y * by + T{di}z * bz)"
+              f" - ({qgamma(n, di)})")
+    return rates, L
+
+
+def qgamma(n, d):
+    """(1/8) sum_a Q_ia Gamma_an from the pair sums A = (Q0 + Q1) / 8, D = (Q0 - Q1) / 8,
+    C = (Q2 + Q3) / 8, E = (Q2 - Q3) / 8."""
+    g = [GAMMA[a][n] for a in range(4)]
+    first = ("A" if g[0] == g[1] else "D", g[0])
+    second = ("C" if g[2] == g[3] else "E", g[2])
+    return signed([(first[1], first[0] + d), (second[1], second[0] + d)])
+
+
+def check_pairs():
+    """HG_PAIRS and qgamma against GAMMA, numerically."""
+    rng = np.random.default_rng(0)
+    G = np.array(GAMMA, dtype=float)
+    x = rng.normal(size=8)
+    p = [x[2 * k] + x[2 * k + 1] for k in range(4)]
+    d = [x[2 * k] - x[2 * k + 1] for k in range(4)]
+    for a in range(4):
+        kind, sg = HG_PAIRS[a]
+        got = sum(sg[k] * (p if kind == "p" else d)[k] for k in range(4))
+        assert abs(got - G[a] @ x) < 1e-12, a
+    q = rng.normal(size=4)
+    env = {"Ax": (q[0] + q[1]) / 8, "Dx": (q[0] - q[1]) / 8, "Cx": (q[2] + q[3]) / 8,
+           "Ex": (q[2] - q[3]) / 8}
+    for n in range(8):
+        assert abs(eval(qgamma(n, "x"), {}, env) - q @ G[:, n] / 8) < 1e-12, n
+
 
 def gen():
+    check_pairs()
     ind = " " * 8
     src = []
     P = src.append
@@ -44,7 +235,7 @@ The block buffer shares its rows with element.py's where the meaning is the same
 strain rate, return-map rows: the Johnson-Cook vector return `element._jc_return_block` and
 `element._return_block` run on it unchanged; R_DET holds 6 V as for a tet), and adds the hex
 rows HX (x^{n+1}), HV (velocity), HB (b = dV/dx at n+1), HF (corner forces), HG (stiffness
-hourglass resultants), HGV, HGS (hourglass coefficients), HGW (hourglass work), HC2 (c^2).
+hourglass resultants), HGV, HGS (hourglass coefficients), HGW (hourglass work).
 """
 
 from __future__ import annotations
@@ -68,8 +259,7 @@ HG = HF + 24  # 12 rows: stiffness hourglass resultants (in, updated)
 HGV = HG + 12
 HGS = HGV + 1
 HGW = HGS + 1
-HC2 = HGW + 1
-HROWS = HC2 + 1
+HROWS = HGW + 1
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
@@ -196,122 +386,16 @@ def load_block(x, v, conn, sdev, pressure, energy, vol, elem_mass, hg, hg_visc, 
     A(ind + "j2 = 0.5 * (nxx * nxx + nyy * nyy + nzz * nzz) + nxy * nxy + nyz * nyz + nzx * nzx")
     A(ind + f"{row('R_SEQ', 0)} = math.sqrt(max(3.0 * j2, 0.0))")
     P("\n\n" + "\n".join(K) + "\n")
-    # ---- pressure, stress forces
-    P('''
-
-@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
-def pressure_block(buf, dt, eos, rho0, bulk, c0, s, gamma0, shear, cq, cl):
-    """Deviatoric work, EOS pressure with the energy implicit, bulk viscosity, stable dt and the
-    stress forces f_I = -sigma b_I (as element._pressure_block, with the hex's volume)."""
-    for i in range(B):
-        vnew = buf[R_DET * B + i] * (1.0 / 6.0)
-        vold = buf[R_VOLD * B + i]
-        mass = buf[R_MASS * B + i]
-        rho = mass / vnew
-        exx = buf[(R_D + 0) * B + i]
-        eyy = buf[(R_D + 1) * B + i]
-        ezz = buf[(R_D + 2) * B + i]
-        dxy = buf[(R_D + 3) * B + i]
-        dyz = buf[(R_D + 4) * B + i]
-        dzx = buf[(R_D + 5) * B + i]
-        nxx = buf[(R_SN + 0) * B + i]
-        nyy = buf[(R_SN + 1) * B + i]
-        nzz = buf[(R_SN + 2) * B + i]
-        nxy = buf[(R_SN + 3) * B + i]
-        nyz = buf[(R_SN + 4) * B + i]
-        nzx = buf[(R_SN + 5) * B + i]
-        wdev = 0.25 * dt * (vold + vnew) * (
-            (buf[(R_S0 + 0) * B + i] + nxx) * exx + (buf[(R_S0 + 1) * B + i] + nyy) * eyy
-            + (buf[(R_S0 + 2) * B + i] + nzz) * ezz
-            + 2.0 * ((buf[(R_S0 + 3) * B + i] + nxy) * dxy + (buf[(R_S0 + 4) * B + i] + nyz) * dyz
-                     + (buf[(R_S0 + 5) * B + i] + nzx) * dzx))
-        length = buf[R_LEN * B + i]
-        trd = buf[R_TRD * B + i]
-        pa, pb, c2a, c2b = eos_linear_part(eos, rho, rho0, bulk, c0, s, gamma0)
-        pold = buf[R_POLD * B + i]
-        dv = vnew - vold
-        c = math.sqrt(max(c2a + c2b * max(pold, 0.0), 0.0))
-        qn = rho * length * (cq * cq * length * trd * trd - cl * c * trd) if trd < 0.0 else 0.0
-        base = buf[R_EN * B + i] + (wdev - dv * (0.5 * pold + qn)) / mass
-        kk = 0.5 * dv / mass
-        enew = (base - kk * pa) / (1.0 + kk * pb)
-        pn = pa + pb * enew
-        buf[R_EN1 * B + i] = enew
-        buf[R_PN * B + i] = pn
-        buf[R_QN * B + i] = qn
-        buf[R_QW * B + i] = -qn * dv
-        c2 = max(c2a + c2b * max(pn, 0.0), 0.0) + 4.0 * shear / (3.0 * rho)
-        buf[HC2 * B + i] = c2
-        qq = cl * math.sqrt(c2) - cq * cq * length * trd if trd < 0.0 else 0.0
-        buf[R_DTE * B + i] = length / (qq + math.sqrt(max(qq * qq + c2, 0.0)))
-        ptot = pn + qn
-        txx, tyy, tzz = nxx - ptot, nyy - ptot, nzz - ptot
-''')
-    F = []
-    for n in range(8):
-        F.append(ind + f"bx, by, bz = {row('HB', 3 * n)}, {row('HB', 3 * n + 1)}, "
-                 f"{row('HB', 3 * n + 2)}")
-        F.append(ind + f"{row('HF', 3 * n)} = -(txx * bx + nxy * by + nzx * bz)")
-        F.append(ind + f"{row('HF', 3 * n + 1)} = -(nxy * bx + tyy * by + nyz * bz)")
-        F.append(ind + f"{row('HF', 3 * n + 2)} = -(nzx * bx + nyz * by + tzz * bz)")
-    P("\n".join(F) + "\n")
-    # ---- hourglass
-    Hh = []
-    A = Hh.append
-    A('@numba.njit(cache=True, error_model="numpy", fastmath=FAST)')
-    A('def hourglass_block(buf, dt, bulk, shear):')
-    A('    """Flanagan-Belytschko hourglass forces of the block (hex8._hex_element): gamma vectors,')
-    A('    rates, viscous and stiffness resultants, their work; added to the HF rows."""')
-    A('    for i in range(B):')
-    A(ind + "cv = buf[HGV * B + i]")
-    A(ind + "cs = buf[HGS * B + i]")
-    A(ind + "vnew = buf[R_DET * B + i] * (1.0 / 6.0)")
-    A(ind + "vinv = 1.0 / vnew")
-    A(ind + "rho = buf[R_MASS * B + i] * vinv")
-    for n in range(8):
-        for d in range(3):
-            A(f"{ind}{XYZ[d]}{n} = {row('HX', 3 * n + d)}")
-            A(f"{ind}b{XYZ[d]}{n} = {row('HB', 3 * n + d)}")
-            A(f"{ind}u{XYZ[d]}{n} = {row('HV', 3 * n + d)}")
-    A(ind + "bb = " + " + ".join(f"b{XYZ[d]}{n} * b{XYZ[d]}{n}" for n in range(8) for d in range(3)))
-    A(ind + "chg = math.sqrt(max(buf[HC2 * B + i], 0.0))")
-    A(ind + "kv = cv * rho * chg * VM.power(vnew, 2.0 / 3.0)")
-    A(ind + "ks = cs * dt * (bulk + 4.0 * shear / 3.0) * bb * vinv * (1.0 / 3.0)")
-    A(ind + "work = 0.0")
-    for n in range(8):
-        for d in range(3):
-            A(ind + f"f{XYZ[d]}{n} = 0.0")
-    for a, G in enumerate(GAMMA):
-        def gsum(d):
-            terms = [("+" if g > 0 else "-") + f" {XYZ[d]}{n}" for n, g in enumerate(G)]
-            t = " ".join(terms)
-            return t[2:] if t.startswith("+") else t
-        for d in range(3):
-            A(ind + f"h{XYZ[d]} = ({gsum(d)}) * vinv")
-        for n, g in enumerate(G):
-            A(ind + f"g{n} = 0.125 * ({float(g)} - (hx * bx{n} + hy * by{n} + hz * bz{n}))")
-        for d in range(3):
-            A(ind + f"r{XYZ[d]} = " + " + ".join(f"u{XYZ[d]}{n} * g{n}" for n in range(8)))
-        for d in range(3):
-            k = 3 * a + d
-            A(ind + f"s0{XYZ[d]} = {row('HG', k)}")
-            A(ind + f"s1{XYZ[d]} = s0{XYZ[d]} + ks * r{XYZ[d]}")
-            A(ind + f"{row('HG', k)} = s1{XYZ[d]}")
-            A(ind + f"q{XYZ[d]} = s1{XYZ[d]} + kv * r{XYZ[d]}")
-            A(ind + f"work += dt * (0.5 * (s0{XYZ[d]} + s1{XYZ[d]}) + kv * r{XYZ[d]}) * r{XYZ[d]}")
-        for n in range(8):
-            for d in range(3):
-                A(ind + f"f{XYZ[d]}{n} -= q{XYZ[d]} * g{n}")
-    for n in range(8):
-        for d in range(3):
-            A(ind + f"{row('HF', 3 * n + d)} += f{XYZ[d]}{n}")
-    A(ind + "buf[HGW * B + i] = work")
-    P("\n\n" + "\n".join(Hh) + "\n")
+    # ---- pressure, stress and hourglass forces, in one loop
+    rates, forces = hourglass_lines()
+    P(PRESSURE)
+    P("\n".join(ind + ln for ln in rates) + "\n")
+    P(PRESSURE_BODY)
+    P("\n".join(ind + ln for ln in forces) + "\n")
     P('''
 
 @numba.njit(cache=True, error_model="numpy")
-def store_block(rows, sdev, pressure, q, eps_rate, energy, vol, hg, fext, e0, buf, hourglass,
-                stiff):
+def store_block(rows, sdev, pressure, q, eps_rate, energy, vol, hg, fext, e0, buf, stiff):
     """Copy the block's results back and add its forces to the corners' rows of fext (in lane
     order); returns (min dt, its element, viscous work, hourglass work) reduced in lane order."""
     sd = sdev[e0:e0 + B]
@@ -345,8 +429,7 @@ def store_block(rows, sdev, pressure, q, eps_rate, energy, vol, hg, fext, e0, bu
             for d in range(3):
                 fext[r, d] += buf[(HF + 3 * k + d) * B + i]
         qwork += buf[R_QW * B + i]
-        if hourglass:
-            hgwork += buf[HGW * B + i]
+        hgwork += buf[HGW * B + i]
         dte = buf[R_DTE * B + i]
         if dte < dt_min:
             dt_min = dte

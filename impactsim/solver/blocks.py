@@ -31,24 +31,27 @@ class BlockRunner:
         E.yield_cache(block.elem_mat, model.mat_params, block.eps_p, block.temperature,
                       self.hard, self.thermal)
 
-    def update(self, model: Model, dt: float, cq: float, cl: float) -> np.ndarray:
-        """Run the block's kernel (adds to model.force); returns its per-chunk results."""
+    def update(self, model: Model, dt: float, cq: float, cl: float, assign: bool = False
+               ) -> np.ndarray:
+        """Run the block's kernel (adds to model.force, or writes it with `assign`); returns its
+        per-chunk results."""
         b, fr = self.block, self.rows
         H.hex_update(model.x, model.v, b.conn, b.elem_mat, b.status, b.sdev, b.pressure, b.q,
                      b.eps_p, b.eps_rate, b.temperature, self.hard, self.thermal, b.energy,
                      b.vol, b.elem_mass, b.hg, b.hg_visc, b.hg_stiff, model.mat_params, dt, cq,
                      cl, model.force, fr.rows, self.fext, fr.extra_ptr, fr.extra_rows,
-                     fr.part_size // H.CHUNK, self.chunk_out, numba.get_num_threads())
+                     fr.part_size // H.CHUNK, self.chunk_out, numba.get_num_threads(), assign)
         return self.chunk_out
 
 
-def update_blocks(runners: list[BlockRunner], model: Model, dt: float, cq: float, cl: float
-                  ) -> tuple[float, int, float, float, int]:
+def update_blocks(runners: list[BlockRunner], model: Model, dt: float, cq: float, cl: float,
+                  assign: bool = False) -> tuple[float, int, float, float, int]:
     """All further blocks after the tets: (min stable dt, its block element as
-    -(1 + index in the block), viscous work, hourglass work, inverted count)."""
+    -(1 + index in the block), viscous work, hourglass work, inverted count). With `assign`
+    (no tets ran) the first block writes model.force instead of adding to it."""
     dt_min, worst, qwork, hgwork, inverted = np.inf, -1, 0.0, 0.0, 0
-    for r in runners:
-        out = r.update(model, dt, cq, cl)
+    for k, r in enumerate(runners):
+        out = r.update(model, dt, cq, cl, assign and k == 0)
         k = int(np.argmin(out[:, H.OUT_DT]))
         if out[k, H.OUT_DT] < dt_min:
             dt_min = float(out[k, H.OUT_DT])

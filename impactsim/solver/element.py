@@ -50,7 +50,7 @@ from impactsim.materials.laws import (eos_linear_part, hardening, newton_start,
                                       rate_independent_floor, thermal_factor)
 from impactsim.model import DAMAGED, ERODED, FRACTURED
 from impactsim.solver import vecmath as VM
-from impactsim.solver.scatter import gather_node
+from impactsim.solver.scatter import take_node
 
 CHUNK = 512
 PART = 4 * CHUNK  # elements of a part (scatter.py), the unit of work of a thread
@@ -111,6 +111,17 @@ VECTOR_ITERATIONS = 5
 
 def n_chunks(n_elem: int) -> int:
     return max(1, (n_elem + CHUNK - 1) // CHUNK)
+
+
+@numba.njit(cache=True, inline="always")
+def aligned_empty(n):
+    """An empty array of n doubles starting on a 64-byte boundary (a cache line), for the
+    block buffers: their rows are 256 bytes, so every 64-byte vector load and store of a lane
+    loop then stays inside one cache line (numba's np.empty aligns to 32 bytes only, and a load
+    straddling two lines costs two)."""
+    raw = np.empty(n + 8)
+    off = ((64 - raw.ctypes.data % 64) % 64) // 8
+    return raw[off:off + n]
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
@@ -890,7 +901,7 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     caching the kernel), each part's chunks in order. Every corner adds its force to its row of
     `fext` (`rows`, `extra_ptr`, `extra_rows`: `scatter.force_rows` for parts of that size),
     which has that one writer, and each node's rows are then summed in part order into
-    `force`. Every node thus gets its elements' forces in the same order whatever the number of
+    `force` (and left zero: fext must be zero on entry). Every node thus gets its elements' forces in the same order whatever the number of
     threads.
 
     The stable dt of an element is L / (Q + sqrt(Q^2 + c^2)), L = 3V / max face area (smallest
@@ -898,14 +909,10 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     """
     n_elem = conn.shape[0]
     half = 0.5 * dt
-    for i in numba.prange(fext.shape[0]):
-        fext[i, 0] = 0.0
-        fext[i, 1] = 0.0
-        fext[i, 2] = 0.0
     n_ch = (n_elem + CHUNK - 1) // CHUNK
     n_parts = (n_ch + part_chunks - 1) // part_chunks
     for t in numba.prange(threads):
-        buf = np.empty(ROWS * B)  # one block buffer per thread and step
+        buf = aligned_empty(ROWS * B)  # one block buffer per thread and step
         for part in range(t, n_parts, threads):
             for ch in range(part * part_chunks, min(n_ch, (part + 1) * part_chunks)):
                 _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
@@ -913,7 +920,7 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
                        mat_params, jnode, use_anp, half, dt, cq, cl, rows, fext, chunk_out,
                        buf)
     for i in numba.prange(force.shape[0]):
-        gather_node(i, fext, extra_ptr, extra_rows, force)
+        force[i, 0], force[i, 1], force[i, 2] = take_node(i, fext, extra_ptr, extra_rows)
 
 
 # node_forces runs on one thread below this many nodes: it is called every step that erosion or

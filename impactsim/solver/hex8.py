@@ -59,6 +59,7 @@ from impactsim.solver import hex8_block as HB
 from impactsim.solver import vecmath as VM
 from impactsim.solver.element import FAST, _deviator, _deviatoric_work, _jaumann_trial
 from impactsim.solver.hex8_block import _vol_der
+from impactsim.solver.scatter import take_node
 
 B = E.B  # lanes of a block of the vector path (hex8_block.py)
 CHUNK = 256  # hexes per reduction chunk (a multiple of B)
@@ -320,11 +321,8 @@ def _block(e0, mk, x, v, conn, sdev, pressure, q, eps_p, eps_rate, temperature, 
     """The vector path of a full block of B intact hexes of material mk (hex8_block.py);
     returns (min dt, its element, viscous work, hourglass work), or an infinite dt and
     nothing written when a hex of the block inverted (the scalar path then counts it)."""
-    hourglass = False
     stiff = False
     for i in range(B):
-        if hg_visc[e0 + i] > 0.0:
-            hourglass = True
         if hg_stiff[e0 + i] > 0.0:
             stiff = True
     HB.load_block(x, v, conn, sdev, pressure, energy, vol, elem_mass, hg, hg_visc, hg_stiff,
@@ -340,23 +338,22 @@ def _block(e0, mk, x, v, conn, sdev, pressure, q, eps_p, eps_rate, temperature, 
     elif code != P.ELASTIC:
         E._return_block(buf, code, mat_params, mk, shear, eps_p, temperature, hard, thermal,
                         e0)
-    bulk = mat_params[mk, P.K]
-    HB.pressure_block(buf, dt, int(mat_params[mk, P.EOS]), mat_params[mk, P.RHO0], bulk,
-                      mat_params[mk, P.C0], mat_params[mk, P.S], mat_params[mk, P.GAMMA0],
-                      shear, cq, cl)
-    if hourglass or stiff:
-        HB.hourglass_block(buf, dt, bulk, shear)
+    HB.forces_block(buf, dt, int(mat_params[mk, P.EOS]), mat_params[mk, P.RHO0],
+                    mat_params[mk, P.K], mat_params[mk, P.C0], mat_params[mk, P.S],
+                    mat_params[mk, P.GAMMA0], shear, cq, cl)
     return HB.store_block(rows, sdev, pressure, q, eps_rate, energy, vol, hg, fext, e0, buf,
-                          hourglass or stiff, stiff)
+                          stiff)
 
 
 # nogil: the frame writer's thread runs while the kernel does (as element.element_update)
 @numba.njit(cache=True, parallel=True, nogil=True, error_model="numpy", fastmath=FAST)
 def hex_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                hard, thermal, energy, vol, elem_mass, hg, hg_visc, hg_stiff, mat_params, dt, cq,
-               cl, force, rows, fext, extra_ptr, extra_rows, part_chunks, chunk_out, threads):
+               cl, force, rows, fext, extra_ptr, extra_rows, part_chunks, chunk_out, threads,
+               assign):
     """Advance every hex of a block from n to n+1 and ADD its nodal forces to `force` (after
-    the tets' element update has written it). Per chunk of CHUNK hexes, chunk_out holds
+    the tets' element update has written it; with `assign` they are written instead, for the
+    first block of a model without tets). fext must be zero on entry and is left zero. Per chunk of CHUNK hexes, chunk_out holds
     [min stable dt, viscous work, inverted count, element of min dt, hourglass work].
     Parts of `part_chunks` chunks run one per thread (part t, t + T, ... on thread t of
     T = `threads`), every corner adds to its row of `fext` (`scatter.force_rows(conn, n_node,
@@ -365,15 +362,11 @@ def hex_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
     number of threads."""
     n_elem = conn.shape[0]
     half = 0.5 * dt
-    for i in numba.prange(fext.shape[0]):
-        fext[i, 0] = 0.0
-        fext[i, 1] = 0.0
-        fext[i, 2] = 0.0
     n_ch = (n_elem + CHUNK - 1) // CHUNK
     n_parts = (n_ch + part_chunks - 1) // part_chunks
     for t in numba.prange(threads):
         w = np.empty(SCRATCH)
-        buf = np.empty(HB.HROWS * B)  # the block buffer of the vector path
+        buf = E.aligned_empty(HB.HROWS * B)  # the block buffer of the vector path
         for part in range(t, n_parts, threads):
             for ch in range(part * part_chunks, min(n_ch, (part + 1) * part_chunks)):
                 dt_min = math.inf
@@ -413,15 +406,15 @@ def hex_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                 chunk_out[ch, OUT_WORST] = worst
                 chunk_out[ch, OUT_HGWORK] = hgwork
     for i in numba.prange(force.shape[0]):
-        fx, fy, fz = fext[i, 0], fext[i, 1], fext[i, 2]
-        for k in range(extra_ptr[i], extra_ptr[i + 1]):
-            r = extra_rows[k]
-            fx += fext[r, 0]
-            fy += fext[r, 1]
-            fz += fext[r, 2]
-        force[i, 0] += fx
-        force[i, 1] += fy
-        force[i, 2] += fz
+        fx, fy, fz = take_node(i, fext, extra_ptr, extra_rows)
+        if assign:
+            force[i, 0] = fx
+            force[i, 1] = fy
+            force[i, 2] = fz
+        else:
+            force[i, 0] += fx
+            force[i, 1] += fy
+            force[i, 2] += fz
 
 
 def hex_volume_gradient(points: np.ndarray) -> tuple[np.ndarray, float]:

@@ -161,9 +161,8 @@ class Simulation:
         if self.use_anp:
             element_volumes(m.x, m.conn, m.status, self.vol_now)
             nodal_volume_ratio(self.vol_now, m.vol0, m.status, m.n2e_ptr, m.n2e, self.jnode)
-        if m.n_elem == 0 and self.block_runners:
-            m.force[:] = 0.0  # hexes only: no tet kernel to run (nor to compile); blocks add
-        else:
+        hexes_only = m.n_elem == 0 and bool(self.block_runners)
+        if not hexes_only:  # hexes only: no tet kernel to run (nor to compile); blocks write
             E.element_update(
                 m.x, m.v, m.conn, m.elem_mat, m.status, m.sdev, m.pressure, m.q, m.eps_p,
                 m.eps_rate, m.temperature, self.hardening, self.thermal, m.energy, m.vol,
@@ -180,7 +179,7 @@ class Simulation:
             from impactsim.solver.blocks import update_blocks
 
             bdt, bworst, bq, bhg, binv = update_blocks(self.block_runners, m, dt, self.cq,
-                                                       self.cl)
+                                                       self.cl, hexes_only)
             if bdt < self.dt_stable or m.n_elem == 0:
                 self.dt_stable, self.worst_element = bdt, bworst
             m.energy_terms["viscous"] += bq

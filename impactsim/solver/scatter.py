@@ -11,7 +11,7 @@ row of its own in an extended force array `fext`:
   first of them and one extra row, after the n_node node rows, for each further part.
 
 A part is run by one thread, its elements in order, so every row has one writer and one order
-of summation. `gather_node` then sums each node's rows in part order. The result does not depend on
+of summation. `take_node` then sums each node's rows in part order. The result does not depend on
 which thread ran which part, nor on how many threads there are, and each thread walks its
 parts in element (and so, after the Morton renumbering, in spatial) order, which keeps the node
 data in cache: chunks coloured so that chunks of one colour share no node were 15-20 % slower
@@ -70,14 +70,20 @@ def force_rows(conn: np.ndarray, n_node: int, part_size: int) -> ForceRows:
 
 
 @numba.njit(cache=True, inline="always")
-def gather_node(i, fext, extra_ptr, extra_rows, force):
-    """force[i] = the sum of node i's rows of fext, its own row first, then in part order."""
+def take_node(i, fext, extra_ptr, extra_rows):
+    """The sum of node i's rows of fext, its own row first, then in part order; leaves those
+    rows zero for the next step (every row is one node's, so the kernels need no separate pass
+    zeroing fext, only a zero fext at the start)."""
     fx, fy, fz = fext[i, 0], fext[i, 1], fext[i, 2]
+    fext[i, 0] = 0.0
+    fext[i, 1] = 0.0
+    fext[i, 2] = 0.0
     for k in range(extra_ptr[i], extra_ptr[i + 1]):
         r = extra_rows[k]
         fx += fext[r, 0]
         fy += fext[r, 1]
         fz += fext[r, 2]
-    force[i, 0] = fx
-    force[i, 1] = fy
-    force[i, 2] = fz
+        fext[r, 0] = 0.0
+        fext[r, 1] = 0.0
+        fext[r, 2] = 0.0
+    return fx, fy, fz
