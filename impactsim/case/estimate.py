@@ -89,7 +89,9 @@ GMSH_ALTITUDE_RATIO = 0.35
 # Used when there is no measurement and IMPACTSIM_NO_CALIBRATE=1: what calibrate_speed measured
 # on the development machine (2 shared cores, numba 0.60, both threads), rounded up.
 DEFAULT_SPEED = {"ns_per_element_step": 500.0, "seconds_per_step": 1.0e-4, "source": "default"}
-SPEED_FILE_VERSION = 1
+# 2: one-thread calibrations timed in the thread's CPU time (a free core's figure); the
+# wall-time figures of version 1 mean something else and are not read
+SPEED_FILE_VERSION = 2
 # A calibration outside these bounds is noise (a busy machine, a timer glitch) and is discarded:
 # the element kernel costs 100-1000 ns per element-step on any x86 core of the last decade.
 PLAUSIBLE_NS = (30.0, 30_000.0)
