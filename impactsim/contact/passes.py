@@ -452,7 +452,10 @@ class ContactPass(Pass):
         if not self.skin.skin_rel > 0.0:  # no kept list: the broad phase afresh every step
             return self._fresh_pairs(model, dt, h, pad, hashed, queries)
         ents = (hashed[1],) if queries is None else (hashed[1], queries[1])
-        if not self.skin.valid(s, ctx.node_key, ents, model.x, model.v, dt, pad):
+        state = self.skin.state(s, ctx.node_key, ents, model.x, model.v, dt, pad)
+        if state == "changed":  # the surface changed: no list kept this step
+            return self._fresh_pairs(model, dt, h, pad, hashed, queries)
+        if state == "build":
             pad_b = pad + 0.5 * self.skin.skin_rel * h
             kept = self._fresh_pairs(model, 0.0, h, pad_b, hashed, queries)
             self.skin.keep(s, ctx.node_key, ents, model.x, kept, pad_b)

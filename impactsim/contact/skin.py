@@ -15,7 +15,8 @@ as a fresh broad phase's (by query row, then hashed row) and filtering keeps tha
 candidate pairs, and everything computed from them, are bit-identical to a broad phase run afresh
 every step, whenever the rebuilds happen (a resumed run rebuilds at its first step). The list is
 built again when a node has moved too far, the surface changes (erosion, separation) or the
-self-contact keys change. The penetration measure keeps its pairs the same way
+self-contact keys change; while the surface changes every step (erosion, particle
+conversion) the plain broad phase runs instead (``SkinList.state``). The penetration measure keeps its pairs the same way
 (``diagnostics.PenetrationMeter``).
 """
 
@@ -79,16 +80,30 @@ class SkinList:
         return ((surface, surface.version, node_key, surface.faces, surface.edges, surface.nodes)
                 + tuple(e.shape for e in ents))
 
-    def valid(self, surface, node_key, ents, x, v, tau, pad) -> bool:
-        """The kept list still holds every pair of this step (module docstring)."""
-        if self.pairs is None or self._key is None:
-            return False
+    def _same(self, key) -> bool:
+        old = self._key
+        return (old is not None and len(key) == len(old)
+                and all(a is b for a, b in zip(key[:6], old)) and key[1] == old[1]
+                and key[6:] == old[6:])
+
+    def state(self, surface, node_key, ents, x, v, tau, pad) -> str:
+        """"kept": the kept list still holds every pair of this step (module docstring);
+        "build": build it (none yet, or a node has moved too far); "changed": the surface or
+        the self-contact keys changed since the last step. A surface that changes every step
+        (erosion, particle conversion) would have the list built every step, at a larger cost
+        than the plain broad phase: the caller runs the plain broad phase then and builds the
+        list at the first step without a change."""
         key = self._key_of(surface, node_key, ents)
-        if len(key) != len(self._key) or any(a is not b for a, b in zip(key[:6], self._key)) \
-                or key[1] != self._key[1] or key[6:] != self._key[6:]:
-            return False
+        if not self._same(key):
+            first = self._key is None
+            self._key = key
+            self.pairs = None
+            return "build" if first else "changed"
+        if self.pairs is None:
+            return "build"
         limit = REACH * (self._pad_b - pad)
-        return limit > 0.0 and within_reach(x, v, tau, surface.nodes, self._xb, limit)
+        ok = limit > 0.0 and within_reach(x, v, tau, surface.nodes, self._xb, limit)
+        return "kept" if ok else "build"
 
     def keep(self, surface, node_key, ents, x, pairs, pad_b) -> None:
         """Keep ``pairs`` (the broad phase of static boxes at x padded by pad_b)."""
