@@ -3,11 +3,11 @@ PYTHON ?= python3
 VENV ?= .venv
 PY := $(VENV)/bin/python
 BIN := $(VENV)/bin
-CASES := elastic-bar-wall taylor-bar two-cubes two-cylinders elastic-bars hertz-spheres sphere-plate oblique-sphere elastic-bar-wall-hex taylor-bar-hex taylor-bar-42crmo4 two-cylinders-hex sphere-plate-hex
+CASES := elastic-bar-wall taylor-bar two-cubes two-cylinders elastic-bars hertz-spheres sphere-plate oblique-sphere elastic-bar-wall-hex taylor-bar-hex taylor-bar-42crmo4 two-cylinders-hex sphere-plate-hex three-plate-shield
 SWEEP ?= cases/sweeps/mesh-size.toml
 REV ?= HEAD
 
-.PHONY: setup test hard bench bench-quasistatic bench-peers compare accuracy validate sweep cases demo clean
+.PHONY: setup test hard bench bench-quasistatic bench-peers compare accuracy validate fracture-compare sweep cases demo clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -56,6 +56,11 @@ accuracy: setup
 # writes docs/validation.md, docs/validation/*.png, benchmarks/validation_reference.json
 validate: setup
 	$(BIN)/python benchmarks/validate.py
+
+# the three fracture methods on the three-plate shield (coarse, minutes): writes the table and
+# pictures of docs/fracture.md ("Comparing the fracture methods") and docs/fracture/*.png
+fracture-compare: setup
+	$(BIN)/python benchmarks/compare_fracture.py
 
 # the variants of a sweep file (docs/user-guide.md, Sweeps): make sweep SWEEP=cases/sweeps/x.toml
 sweep: setup

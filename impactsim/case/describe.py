@@ -111,16 +111,22 @@ def active_passes(case: Case) -> list[tuple[str, str]]:
         passes.append(("velocity", "boundary-conditions"))
     if case.walls:
         passes.append(("velocity", "walls"))
-    if any(f.active for f in fail):  # impactsim.fracture.make_fracture_passes (particles first)
+    separation = any(f.fracture_strain is not None for f in fail)
+    distortion = case.fracture.distortion_interval is not None
+    fracture = any(f.active for f in fail) or separation or distortion  # fracture_wanted
+    if fracture:  # impactsim.fracture.make_fracture_passes (particles first)
         passes.append(("velocity", "fracture.particles"))
     if has_contact(case):
         passes += [("velocity", f"contact.{name}") for name in case.contact.passes]
-    if any(f.active for f in fail):
+    if fracture:
         effects = [name for name, on in (
             ("spall", any(f.spall_strength is not None for f in fail)),
             ("loosening", any(f.loosening is not None for f in fail)),
-            ("erosion", any(f.erosion is not None for f in fail))) if on]
+            ("erosion", any(f.erosion is not None for f in fail)),
+            ("distortion erosion", distortion)) if on]
         passes.append(("fracture", "fracture (" + ", ".join(effects) + ")"))
+        if separation:
+            passes.append(("fracture", "fracture.separation"))
     return passes
 
 

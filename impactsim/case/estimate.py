@@ -11,15 +11,17 @@ since elements near the surface are smaller than inside. A body thinner than its
 one layer of elements (``THIN_PER_H2`` per h^2 of its mid-surface). Mesh files: unknown before
 reading, so not counted.
 
-Steps. M = end_time / (cfl · L_min / c): L_min the smallest element altitude (the element length
-of the time step, ALGORITHMS.md 1) and c the longitudinal wave speed sqrt((K + 4G/3)/rho) of the
-fastest material. Structured boxes: L_min exact, from the Kuhn split of one cell. gmsh:
-L_min = ``GMSH_ALTITUDE_RATIO`` · h, measured on the same meshes. Compression raises the sound
-speed, the artificial viscosity lowers the step (by sqrt(1 + C_l^2) - C_l, taken always) and
-each output frame costs about FRAME_STEPS steps; plastic flattening shrinks elements, so a
-Taylor-bar-like impact takes more steps than this (about 1.5 times: 3,509 against 2,300).
+Steps. M = F end_time / (cfl · min(L / c)): L a body's smallest element altitude (the element
+length of the time step, ALGORITHMS.md 1) and c its material's longitudinal wave speed
+sqrt((K + 4G/3)/rho), the smallest ratio over the bodies. Structured boxes: L exact, from the
+Kuhn split of one cell. gmsh: L = ``GMSH_ALTITUDE_RATIO`` · h, measured on the same meshes.
+Compression raises the sound speed, the artificial viscosity lowers the step (by
+sqrt(1 + C_l^2) - C_l, taken always) and each output frame inside the run costs about
+FRAME_STEPS steps. F, the crush factor, is the mean shrink of the step as plastic impacts
+flatten and shear the elements (case/crush.py: the Taylor bar 3.0, the tet two-cylinders 15,
+the elastic cases 1).
 
-Wall time. T = M (t_step + N · t_element), the loop's time per step, with the two constants
+Wall time. The element loop's time per step t_step + N · t_element, with the two constants
 measured on this machine by a short run of the element loop (a Johnson-Cook copper block on a
 rigid wall, with the per-step history accounting of a real run): ``calibrate_speed``, about two
 seconds, run by ``python -m impactsim.case.estimate`` or the first time an estimate is asked
@@ -30,10 +32,21 @@ The speed is measured and used for the thread count the run will use (``run_thre
 of solver.run.thread_count, one thread below 50,000 elements); a measurement outside
 PLAUSIBLE_NS / PLAUSIBLE_STEP_SECONDS is noise and is discarded (never stored).
 
-On top of the element loop: the contact passes (CONTACT_SECONDS_PER_FACE_STEP per boundary face
-and step), the fracture passes (FRACTURE_SHARE of the element loop), frame output (per element
-and frame), the run's per-step history row, watch and progress, setting up, and gmsh meshing of
-bodies not in the mesh cache: the constants are fitted to the bundled cases (docs/estimates.md).
+Every pass is counted in units of t_element (the calibration keeps its quietest moment: the
+speed of a free core) times the contention (``contention``: 1 / the share of a core this process
+gets now, measured by a 0.3 s busy loop, ``cpu_share``; on a machine shared with other jobs a
+run gets about that share on average): the element loop
+(ANP_COST for the averaged nodal pressure, HEX_COST for a hex, PARALLEL_COST on two threads),
+the node passes and the watch, the contact passes (per boundary face and step), the fracture
+passes (per element and step), frame output (per element and frame), the history rows (with
+contact, its max_penetration measure per boundary face), setting up (fixed and per element), and
+gmsh meshing of bodies not in the mesh cache: the constants are fitted to the bundled cases
+(docs/estimates.md, benchmarks/estimates.py).
+
+Re-estimate. After RE_ESTIMATE_SHARE of its simulated time or RE_ESTIMATE_SECONDS of stepping a
+run estimates itself again (``re_estimate``): the steps left at the step it takes now, shrunk
+further as the crush model says from there on, at the seconds per step it measured; printed, and
+kept in summary.json (``re_estimate``).
 
 Memory. BASE_BYTES + BYTES_PER_ELEMENT per element (peak RSS of the bundled runs: 300-350 MB up
 to 35k tets, 531 MB at 164k, 740 MB at 212k). ``check_fits`` refuses, before meshing, a case
@@ -56,6 +69,7 @@ from pathlib import Path
 
 import numpy as np
 
+from impactsim.case.crush import crushes, shrink_profile, step_factor
 from impactsim.case.schema import Body, Case
 
 # Measured with impactsim.mesh.mesh_body (gmsh 4.x, HXT mesher) on a unit box, a 1 x 0.5 x 0.25
@@ -80,28 +94,47 @@ SPEED_FILE_VERSION = 1
 # the element kernel costs 100-1000 ns per element-step on any x86 core of the last decade.
 PLAUSIBLE_NS = (30.0, 30_000.0)
 PLAUSIBLE_STEP_SECONDS = (0.0, 0.05)
-# Contact, fracture, output and the run's own per-step work, from the seconds per pass of the
-# bundled cases (benchmarks/estimates.py, docs/estimates.md; 2 shared cores): the contact passes
-# took 1,000-3,400 ns per boundary face and step (median about 2,200), the fracture passes 1.1-1.7
-# times the element loop (with the node work they add), frame output 5-25 us per element and
-# frame (zlib), the loop's history row, watch and progress 170-650 us per step; setting up a
-# run (imports, loading the compiled kernels) 1-8 s; gmsh about 250 us per tetrahedron when the
-# mesh is not in the cache (a 17k-tet sphere in 4.7 s).
-CONTACT_SECONDS_PER_FACE_STEP = 2.2e-6
-FRACTURE_SHARE = 1.5
-FRAME_SECONDS_PER_ELEMENT = {"zlib": 12e-6, "none": 3e-6}
-RUN_SECONDS_PER_STEP = 3e-4
-SETUP_SECONDS = 3.0
+# The run's passes in units of t_e, the calibrated seconds per element-step (the fastest chunk
+# of the calibration: a free core), for a run that has a core to itself; the wall time divides
+# them by the share of a core the run gets (contention()). Fitted to the seconds per pass of the
+# bundled runs times their share of a core (process CPU over wall; benchmarks/estimates.py,
+# docs/estimates.md):
+# - the element loop 0.9-1.7 t_e per tet-step with tet4 (the calibration's block is a best
+#   case; the small scenes pay a per-step overhead), ANP_COST times that with the averaged
+#   nodal pressure (Taylor bar), a hex HEX_COST tet-steps; on two threads PARALLEL_COST times
+#   the two-thread calibration (a thread waits for the other at every launch when the cores
+#   are shared);
+# - the node passes and the watch 0.1-0.3 t_e per element-step;
+# - the contact passes 2.6-9.4 t_e per boundary face and step;
+# - the fracture passes 0.8-2.0 t_e per element-step (oblique-sphere, sphere-plate);
+# - a frame 20-95 t_e per element (the large ones cheapest) and its own 10 ms; a history row
+#   with contact, its max_penetration measure, 2-4 t_e per boundary face in the crushing
+#   scenes, next to nothing in the elastic ones;
+# - setting up a run (imports, loading the compiled kernels, building the state) 0.55-0.7 s of
+#   CPU and about 12 us per element; gmsh about 250 us per tetrahedron when the mesh is not in
+#   the cache (a 17k-tet sphere in 4.7 s).
+ELEMENT_TE = 1.1
+ANP_COST = 1.4
+PARALLEL_COST = 1.65
+NODES_TE = 0.15
+CONTACT_TE_PER_FACE = 6.0
+FRACTURE_TE = 1.3
+FRAME_TE_PER_ELEMENT = {"zlib": 45.0, "none": 12.0}
+FRAME_SECONDS = 0.01  # a frame's own cost (files, the series' index), whatever its size
+ROW_TE_PER_FACE = 2.0
+RUN_SECONDS_PER_STEP = 3e-5
+SETUP_SECONDS = 0.6
+SETUP_SECONDS_PER_ELEMENT = 12e-6
 GMSH_SECONDS_PER_ELEMENT = 2.5e-4
 FACES_PER_H2 = 2.2  # boundary triangles per h^2 of surface (structured 2, gmsh about 2.3)
 # Peak memory: the interpreter with numpy, numba, gmsh and meshio loaded, and per element the
 # state, the integrator's buffers, the contact surface and the frames being written.
 BASE_BYTES = 400e6
 BYTES_PER_ELEMENT = 2000.0
-# A step clamped to land on an output time is a random fraction f of the stable one; growing back
-# by 10 % a step (solver.loop.DT_GROWTH) then costs ln(1/f)/ln 1.1 - 11 (1 - f) steps more than
-# at full size: 5 on average over f.
-FRAME_STEPS = 5
+# A step clamped to land on an output time inside the run: the loop reaches it in one or two
+# steps of at least half the stable one and grows back by 10 % a step (solver.loop.DT_GROWTH);
+# the bundled runs lose about one step per such frame (elastic-bar-wall: 7 for 11 frames).
+FRAME_STEPS = 1
 
 
 @dataclass
@@ -121,6 +154,19 @@ class Estimate:
     memory_bytes: float = 0.0  # peak memory of the run
     seconds: dict | None = None  # wall seconds per part: elements, contact, fracture, output
     steps_needed: int = 0  # steps to end_time (steps is this, capped at run.max_steps)
+    crush_factor: float = 1.0  # mean shrink of the step by crushing (case/crush.py)
+    contention: float = 1.0  # 1 / the share of a core the run gets (contention())
+    # the crush model behind crush_factor: (crushes, each body's first step l/c, the run's)
+    crush: tuple = ((), (), 0.0)
+
+    def shrink_ahead(self, time: float, end_time: float) -> float:
+        """How many times more steps [time, end_time] takes than at the step of `time`, by the
+        crush model: the mean over it of dt(time) / dt(t)."""
+        found, own, first = self.crush
+        if not found or not end_time > time:
+            return 1.0
+        now = float(shrink_profile(found, own, first, [time])[0])
+        return step_factor(found, own, first, end_time, start=time) / now
 
     def line(self) -> str:
         src = self.speed.get("source", "default")
@@ -137,6 +183,13 @@ class Estimate:
         """The wall time per part, and a warning when max_steps ends the run early."""
         parts = self.seconds or {}
         out = []
+        if self.crush_factor > 1.05:
+            found = self.crush[0]
+            worst = max(found, key=lambda c: c.shrink) if found else None
+            out.append(f"crushing: the step shrinks ≈ {self.crush_factor:.2g} times on average "
+                       "over the run" + (f" (crush number {worst.phi:.2g}: down to 1/"
+                                         f"{worst.shrink:.2g} of a body's first step)"
+                                         if worst else ""))
         if parts:
             out.append("wall time: " + ", ".join(f"{k} ≈ {format_seconds(v)}"
                                                  for k, v in parts.items()))
@@ -208,8 +261,9 @@ def _count(n: float) -> int:
 
 
 # a hex-step costs about this many tet-steps (docs/performance.md: 190 against 80 ns on one
-# thread, the Johnson-Cook bench of each, measured at the same time)
-HEX_COST = 2.4
+# thread, the Johnson-Cook bench of each, measured at the same time; in the bundled Taylor bar
+# with hexes 2.8 of the element loop's calibrated tet-steps, docs/estimates.md)
+HEX_COST = 2.8
 
 
 def _hex_mesh(body: Body):
@@ -325,7 +379,9 @@ normal = [0, 0, 1]
 def _seconds_per_step(cells: int, seconds: float, chunk: int) -> tuple[int, float]:
     """(elements, loop seconds per step) of the copper block run for about `seconds`: the fastest
     of the chunks of `chunk` steps, since other processes holding the cores only ever slow a
-    chunk down (the median of a busy minute measured 4x the quiet figure)."""
+    chunk down (the median of a busy minute measured 4x the quiet figure); on one thread in
+    the thread's CPU time (a chunk's wall time under a share of 0.4 of a core was 1.7 times
+    its CPU time even in the fastest chunk)."""
     from impactsim.mesh import mesh_body
     from impactsim.solver.build import build_model
     from impactsim.solver.loop import Simulation
@@ -337,13 +393,18 @@ def _seconds_per_step(cells: int, seconds: float, chunk: int) -> tuple[int, floa
     for _ in range(3):  # warm-up (loads the compiled kernels)
         sim.step()
         sim.energies(), sim.momentum()
+    # on one thread the kernels run in this thread: its CPU time is what a free core takes, even
+    # when other jobs hold the cores (a chunk's wall time then includes their turns)
+    import numba
+
+    clock = wallclock.thread_time if numba.get_num_threads() == 1 else wallclock.perf_counter
     rates, start = [], wallclock.perf_counter()
     while wallclock.perf_counter() - start < seconds or len(rates) < 3:
-        t0 = wallclock.perf_counter()
+        t0 = clock()
         for _ in range(chunk):
             sim.step()
             sim.energies(), sim.momentum()  # what a history row costs per step
-        rates.append((wallclock.perf_counter() - t0) / chunk)
+        rates.append((clock() - t0) / chunk)
     return model.n_elem, float(np.min(rates))
 
 
@@ -419,13 +480,41 @@ def machine_speed(threads: int | None = None, calibrate: bool | None = None) -> 
 
 
 # --- the estimate -----------------------------------------------------------------------------
-def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = None) -> Estimate:
+def cpu_share(seconds: float = 0.3) -> float:
+    """The share of a core this process gets now (0-1]: the thread's CPU time over the wall
+    time of a busy loop of `seconds`. On a machine shared with other jobs a one-thread run gets
+    about this share, so its wall time is its CPU time over it."""
+    t0, c0 = wallclock.perf_counter(), wallclock.thread_time()
+    x = 0
+    while wallclock.perf_counter() - t0 < seconds:
+        for i in range(2000):
+            x += i
+    wall = wallclock.perf_counter() - t0
+    return min(1.0, max((wallclock.thread_time() - c0) / wall, 0.01)) if wall > 0 else 1.0
+
+
+def contention(share: float | None = None) -> float:
+    """How much slower than on a free core a run goes now: 1 / the share of a core this process
+    gets (``cpu_share``, measured unless `share` is given; not measured, and 1, under
+    IMPACTSIM_NO_CALIBRATE=1)."""
+    if share is None:
+        if os.environ.get("IMPACTSIM_NO_CALIBRATE", "") in ("1", "true", "yes"):
+            return 1.0
+        share = cpu_share()
+    return 1.0 / min(max(float(share), 0.01), 1.0)
+
+
+def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = None,
+                  share: float | None = None) -> Estimate:
     """Elements, steps, memory and wall time of `case` (module docstring). `meshes`: the bodies'
-    (points, tets), or None per body not meshed yet; counts and lengths are then exact."""
+    (points, tets), or None per body not meshed yet; counts and lengths are then exact.
+    `share`: the share of a core the run will get (``cpu_share``); by default measured now when
+    the speed is this machine's (speed None), a whole core when a speed is given."""
     from impactsim.case.describe import has_contact
 
     per_body, unknown = {}, []
     l_min, c_max, faces = math.inf, 0.0, 0.0
+    own_steps = [math.inf] * len(case.bodies)  # each body's first step l / c [s] (cfl 1)
     for i, body in enumerate(case.bodies):
         mesh = meshes[i] if meshes is not None and i < len(meshes) else None
         if mesh is not None:
@@ -447,45 +536,120 @@ def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = N
         if n is None:
             unknown.append(body.name)
             continue
+        c = wave_speed(case, body)
         if length is not None:
             l_min = min(l_min, length)
-        c_max = max(c_max, wave_speed(case, body))
+            if c > 0.0:
+                own_steps[i] = length / c
+        c_max = max(c_max, c)
     elements = min(sum(n for n in per_body.values() if n), MAX_COUNT)
-    # the cost in tet-steps: a hex costs HEX_COST of them
-    work = min(sum(n * (HEX_COST if b.element == "hex8" else 1.0)
+    # the cost in tet-steps: a hex costs HEX_COST of them, a tet with the averaged nodal
+    # pressure ANP_COST
+    from impactsim.solver.formulation import resolve_element
+
+    tet = ANP_COST if resolve_element(case) == "anp" else 1.0
+    work = min(sum(n * (HEX_COST if b.element == "hex8" else tet)
                    for b, n in zip(case.bodies, per_body.values()) if n), float(MAX_COUNT))
     threads = run_threads(case, elements)
     frames = len(case.output.times) if case.output.times else case.output.frames + 1
+    crush_factor, crush = 1.0, ((), (), 0.0)
     if elements and c_max > 0.0 and 0.0 < l_min < math.inf:
-        dt = case.run.cfl * l_min / c_max
+        first = min(own_steps)  # the smallest l / c of the bodies (not l_min / c_max)
+        first = first if 0.0 < first < math.inf else l_min / c_max
+        dt = case.run.cfl * first
         # the linear viscosity's share of the step in compression, L / (Q + sqrt(Q^2 + c^2))
-        # with Q = C_l c (physics.md), and the steps lost landing on each output frame
+        # with Q = C_l c (physics.md), the step's shrink as impacts crush the elements
+        # (case/crush.py), and the steps lost landing on each output frame
         viscous = math.sqrt(1.0 + case.run.q_linear**2) - case.run.q_linear
-        wanted = case.run.end_time / (viscous * dt) + FRAME_STEPS * frames
+        crush = (crushes(case, meshes), own_steps, first)
+        crush_factor = step_factor(*crush, case.run.end_time)
+        wanted = (case.run.end_time * crush_factor / (viscous * dt)
+                  + FRAME_STEPS * inner_frames(case))
         steps_needed = int(min(wanted, 1e18)) + 1
         steps = min(case.run.max_steps, steps_needed)
     else:
         dt, steps, steps_needed = math.nan, 0, 0
     if speed is None:
         speed = machine_speed(threads)
+        slow = contention(share)
+    else:
+        slow = contention(share if share is not None else 1.0)
     t_elem = 1e-9 * speed["ns_per_element_step"]
-    parts = {"elements": steps * (speed["seconds_per_step"] + work * t_elem)}
-    if has_contact(case):
-        parts["contact"] = steps * faces * CONTACT_SECONDS_PER_FACE_STEP
+    parallel = PARALLEL_COST if threads > 1 else 1.0
+    parts = {"elements": steps * (speed["seconds_per_step"]
+                                  + (ELEMENT_TE * parallel * work + NODES_TE * elements)
+                                  * t_elem)}
+    contact = has_contact(case)
+    if contact:
+        parts["contact"] = steps * faces * CONTACT_TE_PER_FACE * t_elem
     if any(case.materials[b.material].failure.active for b in case.bodies):
-        parts["fracture"] = steps * elements * FRACTURE_SHARE * t_elem
-    per_frame = FRAME_SECONDS_PER_ELEMENT[case.output.compression]
-    parts["output"] = frames * elements * per_frame
-    parts["per-step output and checks"] = RUN_SECONDS_PER_STEP * steps
-    parts["setup"] = SETUP_SECONDS
+        parts["fracture"] = steps * elements * FRACTURE_TE * t_elem
+    per_frame = FRAME_TE_PER_ELEMENT[case.output.compression] * t_elem
+    parts["output"] = frames * (elements * per_frame + FRAME_SECONDS)
+    rows = steps / max(case.output.history_every, 1)
+    # the history row's max_penetration measure costs where bodies crush into each other
+    # (none in the elastic contacts, 2-4 t_e per face in the crushing ones)
+    crushing = min(1.0, crush_factor - 1.0)
+    parts["per-step output and checks"] = (RUN_SECONDS_PER_STEP * steps
+                                           + (rows * faces * ROW_TE_PER_FACE * crushing
+                                              * t_elem if contact else 0.0))
+    parts["setup"] = SETUP_SECONDS + SETUP_SECONDS_PER_ELEMENT * elements
     if meshes is None:
         parts["meshing"] = sum(GMSH_SECONDS_PER_ELEMENT * (n or 0) for b, n in zip(
             case.bodies, per_body.values()) if b.mesher == "gmsh" and b.shape != "file"
             and not _cached(b))
+    parts = {k: v * slow for k, v in parts.items()}  # what the run's share of a core makes them
     return Estimate(elements=elements, per_body=per_body, l_min=l_min, wave_speed=c_max, dt=dt,
+                    contention=slow,
                     steps=steps, wall_seconds=sum(parts.values()), speed=speed,
                     unknown_bodies=unknown, threads=threads, memory_bytes=memory_bytes(elements),
-                    seconds=parts, steps_needed=steps_needed)
+                    seconds=parts, steps_needed=steps_needed, crush_factor=crush_factor,
+                    crush=crush)
+
+
+# the run re-estimates itself once, after this share of its simulated time or these wall
+# seconds of stepping, whichever comes first (solver/run.py)
+RE_ESTIMATE_SHARE = 0.05
+RE_ESTIMATE_SECONDS = 20.0
+
+
+def re_estimate(est: Estimate, *, time: float, end_time: float, steps: int, dt: float,
+                loop_seconds: float, elapsed: float, frames_left: int = 0,
+                frames: int = 1) -> dict:
+    """The run's own estimate of itself after its first part: the steps left at the step it
+    takes now (`dt`, shrunk further from here on as the crush model says) at the seconds per
+    step it measured (`loop_seconds` over `steps`), the frames still to write at the
+    estimate's cost per frame, and the wall seconds `elapsed` so far. Returns the figures that
+    summary.json keeps under ``re_estimate``."""
+    per_step = loop_seconds / steps if steps > 0 else math.nan
+    left = max(end_time - time, 0.0)
+    ahead = est.shrink_ahead(time, end_time)
+    steps_left = left / dt * ahead if dt > 0.0 and math.isfinite(dt) else math.nan
+    per_frame = (est.seconds or {}).get("output", 0.0) / max(frames, 1)
+    wall = elapsed + steps_left * per_step + frames_left * per_frame
+    return {"time": time, "steps_so_far": steps, "elapsed_seconds": elapsed,
+            "seconds_per_step": per_step, "dt": dt, "shrink_ahead": ahead,
+            "steps": int(steps + steps_left) if math.isfinite(steps_left) else None,
+            "wall_seconds": wall}
+
+
+def re_estimate_line(r: dict) -> str:
+    """The line a run prints with its re-estimate."""
+    from impactsim.case.units import format_quantity
+
+    steps = f"≈ {r['steps']:,} steps" if r["steps"] is not None else "steps unknown"
+    return (f"re-estimate at t = {format_quantity(r['time'], 'time')} (step "
+            f"{r['steps_so_far']:,}): {steps}, ≈ {format_seconds(r['wall_seconds'])} wall in "
+            f"all (measured {1e3 * r['seconds_per_step']:.3g} ms/step at a step of "
+            f"{format_quantity(r['dt'], 'time')})")
+
+
+def inner_frames(case: Case) -> int:
+    """Output times strictly inside (0, end_time): the ones a step is clamped to land on."""
+    end = case.run.end_time
+    if case.output.times:
+        return sum(1 for t in set(case.output.times) if 0.0 < t < end)
+    return max(case.output.frames - 1, 0)
 
 
 def _cached(body: Body) -> bool:

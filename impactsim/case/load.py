@@ -252,4 +252,6 @@ def _checks(r: Reader) -> Checks:
         hourglass_share=positive(r.get("hourglass_share"), r.at("hourglass_share")),
         hourglass_share_action=r.get("hourglass_share_action"),
         unconverged_contact=r.get("unconverged_contact"),
+        unconverged_contact_share=non_negative(r.get("unconverged_contact_share"),
+                                               r.at("unconverged_contact_share")),
     )

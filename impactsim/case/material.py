@@ -19,7 +19,8 @@ def merge_library(raw: dict, path: KeyPath) -> tuple[dict, list[str]]:
 
     Keys given in the case replace the entry's; elastic constants as a set (giving any drops all
     of the entry's); strength and eos tables key by key unless the case changes the model, in
-    which case the case's table replaces the entry's; failure key by key.
+    which case the case's table replaces the entry's; failure key by key (a failure key set to
+    "none" switches off that mechanism of the entry).
     """
     name = raw["library"]
     if not isinstance(name, str):
@@ -41,6 +42,8 @@ def merge_library(raw: dict, path: KeyPath) -> tuple[dict, list[str]]:
                 and isinstance(old, dict):
             same_model = "model" not in value or value["model"] == old.get("model")
             merged[key] = {**old, **value} if same_model or key == "failure" else dict(value)
+            if key == "failure":  # "none" drops a mechanism the entry brings
+                merged[key] = {k: v for k, v in merged[key].items() if v != "none"}
             changed += [f"{key}.{k}" for k in value]
         else:
             merged[key] = value

@@ -191,6 +191,9 @@ class Checks:
     hourglass_share: float = 0.1  # hourglass energy / (kinetic + internal)
     hourglass_share_action: str = "warn"  # error | warn | ignore
     unconverged_contact: str = "warn"  # error | warn | ignore
+    # unconverged steps / steps in contact beyond which unconverged_contact acts (the bundled
+    # scenes: 0.5-11 %)
+    unconverged_contact_share: float = 0.25
 
 
 @dataclass

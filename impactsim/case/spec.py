@@ -186,7 +186,8 @@ EOS = Table("eos", "Pressure model. linear: p = K (1 - V/V0) with the bulk modul
 
 FAILURE = Table("failure", "Fracture and erosion data; a mechanism is off when its key is "
                 "absent. The string \"none\" in place of the table switches off everything a "
-                "library entry brings.", (
+                "library entry brings; a key set to \"none\" (e.g. `spall_strength = \"none\"`) "
+                "switches off that one mechanism of the library entry.", (
     Key("spall_strength", "quantity", "Spall: a cell whose maximum principal tensile stress "
         "exceeds this is damaged (> 0).", None, dim="pressure"),
     Key("loosening", "number", "Loosening chi*: a damaged cell with 1 - V0/V > chi* is fully "
@@ -423,8 +424,12 @@ CHECKS = Table("checks", "Conditions watched before and during a run, each with 
     Key("hourglass_share_action", "choice", "When the share exceeds hourglass_share.",
         _d(schema.Checks, "hourglass_share_action"), choices=CHECK_ACTIONS),
     Key("unconverged_contact", "choice", "Steps whose projected contact rounds did not converge "
-        "(summary.json unconverged_steps).", _d(schema.Checks, "unconverged_contact"),
-        choices=CHECK_ACTIONS),
+        "(summary.json contact.node-face.unconverged_steps), more than "
+        "unconverged_contact_share of the steps in contact.",
+        _d(schema.Checks, "unconverged_contact"), choices=CHECK_ACTIONS),
+    Key("unconverged_contact_share", "number", "Largest accepted share of the steps in "
+        "contact whose projected rounds did not converge (0 acts on any; the bundled scenes "
+        "have 0.5-11 %).", _d(schema.Checks, "unconverged_contact_share")),
 ))
 
 ROOT = Table("", "The case file.", (RUN, MATERIAL, BODY, WALL, OUTPUT, CONTACT, FRACTURE,

@@ -138,6 +138,17 @@ class ContactContext:
         self._h_key = None
         self.proxy = _proxy(model)
 
+    def reconnect_surface(self, model, changed) -> None:
+        """After node separation repointed the corners of the tets ``changed``: the surface
+        updated in place (``Surface.reconnect``: the same arrays as ``rebuild_surface``, in
+        proportion to the change); a surface with hexes is rebuilt."""
+        if type(self.surface) is not Surface:
+            self.rebuild_surface(model)
+            return
+        self.surface.reconnect(model.conn, changed)
+        self._conn_shape = model.conn.shape
+        self._h_key = None
+
     def prepare(self, model) -> float:
         """Follow erosion (status) and return the current mean surface edge length h [m]."""
         if model.conn.shape != self._conn_shape:

@@ -28,7 +28,8 @@ import numba
 import numpy as np
 
 from impactsim.contact.broadphase import mean_length
-from impactsim.mesh.topology import FACE_EDGES, LOCAL_FACES, face_adjacency, unique_edges
+from impactsim.mesh.topology import (FACE_EDGES, LOCAL_EDGES, LOCAL_FACES, face_adjacency,
+                                     unique_edges)
 
 ERODED = 3  # impactsim.model.ERODED (kept literal so this module stays free of the model)
 
@@ -94,6 +95,56 @@ def _remove_elements_kernel(ids, conn, adj, elem_edges, alive, face_flag, edge_c
             edge_count[elem_edges[e, face_edges[i, j]]] += step
             node_count[conn[e, local_faces[i, j]]] += step
     return removed
+
+
+@numba.njit(cache=True)
+def _face_counts(elems, conn, elem_edges, face_flag, edge_count, node_count, local_faces,
+                 face_edges, step):
+    """Add ``step`` (+1 / -1) to the edge and node counts of the free faces of ``elems``."""
+    for k in range(elems.shape[0]):
+        e = elems[k]
+        for i in range(4):
+            if face_flag[4 * e + i]:
+                for j in range(3):
+                    edge_count[elem_edges[e, face_edges[i, j]]] += step
+                    node_count[conn[e, local_faces[i, j]]] += step
+
+
+@numba.njit(cache=True)
+def _open_faces(changed, conn, adj, local_faces):
+    """Cut the adjacency across every face of the ``changed`` elements whose two sides no
+    longer share its three nodes (node separation repointed a corner): both sides become -1.
+    A release only ever opens faces (its new nodes are shared by the part that took them)."""
+    for k in range(changed.shape[0]):
+        e = changed[k]
+        for i in range(4):
+            nb = adj[e, i]
+            if nb < 0:
+                continue
+            a0, a1, a2 = conn[e, local_faces[i, 0]], conn[e, local_faces[i, 1]], \
+                conn[e, local_faces[i, 2]]
+            for jn in range(4):
+                if adj[nb, jn] != e:
+                    continue
+                same = 0
+                for j in range(3):
+                    c = conn[nb, local_faces[jn, j]]
+                    if c == a0 or c == a1 or c == a2:
+                        same += 1
+                if same < 3:
+                    adj[e, i] = -1
+                    adj[nb, jn] = -1
+                break
+
+
+@numba.njit(cache=True)
+def _reflag(elems, adj, alive, face_flag):
+    """face_flag of the faces of ``elems`` from the adjacency and ``alive`` (as ``rebuild``)."""
+    for k in range(elems.shape[0]):
+        e = elems[k]
+        for i in range(4):
+            nb = adj[e, i]
+            face_flag[4 * e + i] = alive[e] and not (nb >= 0 and alive[nb])
 
 
 @numba.njit(cache=True)
@@ -221,6 +272,49 @@ class Surface:
         if removed:
             self._compact()
         return int(removed)
+
+    def reconnect(self, conn, changed) -> None:
+        """Follow node separation (fracture/separation.py): the elements ``changed`` had corners
+        repointed to new nodes in ``conn``. Only they and their face neighbours are touched: the
+        faces a release opened become free faces of both sides, the edges of the new
+        connectivity join ``mesh_edges`` (kept sorted, so the compact arrays come out in the
+        order a rebuild gives; edges no element uses any more stay, with count 0, and are not
+        on the surface), and the counts of the touched faces are redone. The compact arrays
+        equal those of ``Surface.from_model`` on the new mesh (tests/unit/
+        test_contact_surface.py) at a cost in proportion to the changed elements plus one
+        O(mesh edges) remapping when edges are added."""
+        changed = np.unique(np.asarray(changed, dtype=np.int64))
+        if changed.shape[0] == 0:
+            return
+        nbs = self.adj[changed].reshape(-1)
+        touched = np.unique(np.concatenate([changed, nbs[nbs >= 0]]))
+        _face_counts(touched, self.conn, self.elem_edges, self.face_flag, self.edge_count,
+                     self.node_count, LOCAL_FACES, FACE_EDGES, -1)
+        self.conn[changed] = conn[changed]
+        # the edges of the changed elements, merged into the sorted mesh edges
+        pairs = self.conn[changed][:, LOCAL_EDGES].reshape(-1, 2).astype(np.int64)
+        pairs.sort(axis=1)
+        n = np.int64(max(self.n_node, 1))
+        keys = pairs[:, 0] * n + pairs[:, 1]
+        old = self.mesh_edges[:, 0].astype(np.int64) * n + self.mesh_edges[:, 1]
+        at = np.searchsorted(old, keys)
+        found = (at < old.shape[0]) & (old[np.minimum(at, old.shape[0] - 1)] == keys)
+        if not np.all(found):
+            add = np.unique(keys[~found])  # few: insert them, no sort of the whole list
+            merged = np.insert(old, np.searchsorted(old, add), add)
+            pos = np.arange(old.shape[0]) + np.searchsorted(add, old)
+            self.elem_edges = pos[self.elem_edges]
+            count = np.zeros(merged.shape[0], np.int32)
+            count[pos] = self.edge_count
+            self.edge_count = count
+            self.mesh_edges = np.stack([merged // n, merged % n], axis=1).astype(np.int32)
+            old = merged
+        self.elem_edges[changed] = np.searchsorted(old, keys).reshape(-1, 6)
+        _open_faces(changed, self.conn, self.adj, LOCAL_FACES)
+        _reflag(touched, self.adj, self.alive, self.face_flag)
+        _face_counts(touched, self.conn, self.elem_edges, self.face_flag, self.edge_count,
+                     self.node_count, LOCAL_FACES, FACE_EDGES, 1)
+        self._compact()
 
     def sync(self, status) -> bool:
         """Follow ``status`` (elements eroded since the last call); True when the surface changed.

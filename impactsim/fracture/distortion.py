@@ -141,58 +141,6 @@ class DistortionCheck:
         return np.flatnonzero(self.which).astype(np.int64)
 
 
-@numba.njit(cache=True)
-def erode_cells(ids, conn, status, elem_mass, energy, v, mass, node_live):
-    """Delete elements ``ids`` (any corner count; hexes) in order, as removal._erode does for
-    tets [R20]: a corner left without live elements (an orphan) passes its mass and momentum
-    equally to the element's remaining corners. When every corner is orphaned (a lone cell)
-    its nodes keep their mass and momentum and fly on as free mass points. Returns (energy that
-    leaves the model [J]: the element's internal energy and the kinetic energy lost in the
-    merges, elements removed)."""
-    out = 0.0
-    removed = 0
-    k = conn.shape[1]
-    for q in range(ids.shape[0]):
-        e = ids[q]
-        if status[e] == ERODED:
-            continue
-        status[e] = ERODED
-        removed += 1
-        out += elem_mass[e] * energy[e]
-        n_rem = 0
-        for j in range(k):
-            node_live[conn[e, j]] -= 1
-        for j in range(k):
-            if node_live[conn[e, j]] > 0:
-                n_rem += 1
-        if n_rem == 0:
-            continue
-        for j in range(k):
-            o = conn[e, j]
-            if node_live[o] > 0 or mass[o] == 0.0:
-                continue
-            give = mass[o] / n_rem
-            ke_before = 0.5 * mass[o] * (v[o, 0] ** 2 + v[o, 1] ** 2 + v[o, 2] ** 2)
-            ke_after = 0.0
-            for jj in range(k):
-                r = conn[e, jj]
-                if node_live[r] == 0:
-                    continue
-                mr = mass[r]
-                ke_before += 0.5 * mr * (v[r, 0] ** 2 + v[r, 1] ** 2 + v[r, 2] ** 2)
-                mn = mr + give
-                for d in range(3):
-                    v[r, d] = (mr * v[r, d] + give * v[o, d]) / mn
-                mass[r] = mn
-                ke_after += 0.5 * mn * (v[r, 0] ** 2 + v[r, 1] ** 2 + v[r, 2] ** 2)
-            out += ke_before - ke_after
-            mass[o] = 0.0
-            v[o, 0] = 0.0
-            v[o, 1] = 0.0
-            v[o, 2] = 0.0
-    return out, removed
-
-
 class Distortion:
     """Distortion erosion of a run: the checks of the tets and of every element block, the next
     check time, the counts per criterion (summary.json ``fracture.distortion``)."""
@@ -238,20 +186,6 @@ class Distortion:
                 self._count(chk.which, ids)
                 out.append((blk, ids))
         return tets, out
-
-    def erode_block(self, model, blk, ids, node_live, sim=None, dt: float = 0.0) -> float:
-        """Delete block elements ``ids`` (erode_cells); returns the energy that left [J]. With
-        the Simulation, their forces of the last element update are taken off their nodes
-        first, so that a deleted hex no longer pushes them at the next predictor (what
-        Simulation.refresh_forces does for tets)."""
-        ids = ids[blk.status[ids] != ERODED]
-        if sim is not None and ids.shape[0]:
-            runner = sim.block_runners[[b is blk for b in model.blocks].index(True)]
-            f = hex_corner_forces(model, blk, runner, ids, sim.cq, sim.cl, dt)
-            np.subtract.at(model.force, blk.conn[ids].reshape(-1), f.reshape(-1, 3))
-        out, _ = erode_cells(ids, blk.conn, blk.status, blk.elem_mass, blk.energy, model.v,
-                             model.mass, node_live)
-        return float(out)
 
     def summary(self) -> dict:
         return {"interval": self.interval, "checks": self.checks,

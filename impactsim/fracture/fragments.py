@@ -9,11 +9,13 @@ the impact direction; its statistics:
 - ``count``, ``largest_mass`` and the cumulative mass by fragment size (``mass_by_size``: for
   thresholds m_k, the mass in fragments of at most m_k, m_k a geometric series from the smallest
   to the largest fragment);
-- leading edge: the largest position of any node or particle along the direction ``axis``
+- the cloud: nodes, particles and fragments moving along ``axis`` at CLOUD_FRACTION (10 %) of
+  the fastest or more (plates at rest or ringing ahead of it are not part of it);
+- leading edge: the largest position of any node or particle of the cloud along ``axis``
   (history ``leading_edge``), its speed (the velocity component along the axis of that point);
 - spread angle: the half-angle of the cone around the axis that holds the velocities of the
-  cloud's fragments (the largest angle between a fragment's mean velocity and the axis, over
-  the fragments moving forward), in degrees.
+  cloud's fragments (the largest angle between a fragment's mean velocity and the axis), in
+  degrees.
 
 Connected components by scipy.sparse.csgraph over the element-node incidence (O(N)).
 """
@@ -82,22 +84,26 @@ def fragment_table(model, particles=None):
     return mass, cen, vel
 
 
+CLOUD_FRACTION = 0.1  # the cloud: what moves along the axis at >= this share of the fastest
+
+
 def leading_edge(model, axis, particles=None) -> tuple[float, float]:
     """(position along axis [m], its velocity along axis [m/s]) of the foremost node with mass
-    or particle."""
+    or particle of the cloud (moving along the axis at CLOUD_FRACTION of the fastest or more:
+    the plates ahead of the cloud, at rest or ringing, are not its edge)."""
     a = np.asarray(axis, float) / np.linalg.norm(axis)
     live = model.mass > 0
-    s = model.x[live] @ a
-    best, speed = -np.inf, 0.0
-    if s.size:
-        i = int(np.argmax(s))
-        best, speed = float(s[i]), float(model.v[live][i] @ a)
+    s, u = model.x[live] @ a, model.v[live] @ a
     if particles is not None and particles.n:
-        sp = particles.x[:particles.n] @ a
-        j = int(np.argmax(sp))
-        if sp[j] > best:
-            best, speed = float(sp[j]), float(particles.v[j] @ a)
-    return best, speed
+        s = np.concatenate([s, particles.x[:particles.n] @ a])
+        u = np.concatenate([u, particles.v[:particles.n] @ a])
+    if s.size == 0:
+        return -np.inf, 0.0
+    cloud = u >= CLOUD_FRACTION * max(float(u.max()), 0.0)
+    if not np.any(cloud & (u > 0.0)):  # nothing moves forward: the foremost material
+        cloud = np.ones(s.shape, bool)
+    i = int(np.flatnonzero(cloud)[np.argmax(s[cloud])])
+    return float(s[i]), float(u[i])
 
 
 def cloud_summary(model, axis, particles=None, bins: int = 12) -> dict:
@@ -126,7 +132,8 @@ def cloud_summary(model, axis, particles=None, bins: int = 12) -> dict:
     out["leading_edge"] = x
     out["leading_edge_speed"] = v
     speed = np.linalg.norm(vel, axis=1)
-    fwd = (vel @ a) > 0.0
+    ua = vel @ a
+    fwd = (ua > 0.0) & (ua >= CLOUD_FRACTION * max(float(ua.max()), 0.0))
     if np.any(fwd):
         cosang = np.clip((vel[fwd] @ a) / np.maximum(speed[fwd], 1e-300), -1, 1)
         out["spread_angle_deg"] = float(np.degrees(np.arccos(cosang.min())))

@@ -222,3 +222,29 @@ def body_measures(model, node_live=None, particles=None) -> dict:
             info["mean_velocity_all"] = (pall / mall).tolist() if mall > 0 else [0.0] * 3
         out[name] = info
     return out
+
+
+def shield_summary(model, bodies: dict, axis) -> dict | None:
+    """A multi-plate shield (two plates or more): the plates in the order the projectile meets
+    them (their initial centres along the cloud axis), each perforated or not (its largest hole
+    has an area) with its hole diameter (the circle of the hole's area), and d1, d2, ... those
+    diameters by plate number. None with fewer than two plates."""
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    plates = []
+    for b, name in enumerate(model.body_names):
+        hole = bodies.get(name, {}).get("hole")
+        if hole is None:
+            continue
+        ns = slice(model.node_start[b], model.node_start[b + 1])
+        plates.append((float(model.x0[ns].mean(axis=0) @ a), name, hole))
+    if len(plates) < 2:
+        return None
+    plates.sort()
+    out = {"plates": []}
+    for k, (_, name, hole) in enumerate(plates, 1):
+        d = float(hole["diameter_equivalent"])
+        out["plates"].append({"name": name, "perforated": bool(hole["area"] > 0.0),
+                              "hole_diameter": d, "hole_extent": hole["extent"]})
+        out[f"d{k}"] = d
+    out["perforated"] = [p["perforated"] for p in out["plates"]]
+    return out

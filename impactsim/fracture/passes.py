@@ -39,7 +39,7 @@ from impactsim.fracture.distortion import Distortion
 from impactsim.fracture.fragments import cloud_axis, cloud_summary, leading_edge
 from impactsim.fracture.distortion import hex_corner_forces
 from impactsim.fracture.hexes import HexFracture, pass_orphan_forces
-from impactsim.fracture.measures import body_measures
+from impactsim.fracture.measures import body_measures, shield_summary
 from impactsim.fracture.particles import (Particles, faces_near, move_particles, particle_boxes,
                                           particle_face_sweep, particle_particle_sweep,
                                           particle_walls)
@@ -149,13 +149,12 @@ class FracturePass(Pass):
             tets, blocks = s.distortion.check(model)
             if tets.shape[0]:
                 self._remove(model, tets, np.full(tets.shape[0], C.ERODE, np.int8))
-            for blk, ids in blocks:
-                model.energy_terms["eroded"] += s.distortion.erode_block(model, blk, ids,
-                                                                         s.node_live, self.sim,
-                                                                         dt)
-                for hf in s.hexes:
-                    if hf.blk is blk:
-                        hf.boundary.remove(ids)
+            for blk, ids in blocks:  # hexes: as the criteria's erosion (fracture/hexes.py)
+                hf = next(h for h in s.hexes if h.blk is blk)
+                ids = ids[blk.status[ids] != ERODED]
+                if ids.shape[0]:
+                    self._remove_hexes(model, hf, ids, np.full(ids.shape[0], C.ERODE, np.int8),
+                                       dt)
         # the particles' energy at the end of the step (contacts, motion, new particles)
         s.update_particle_energy(model)
 
@@ -222,7 +221,8 @@ class FracturePass(Pass):
         pa = s.particles
         mass_final = float(model.mass.sum()) + pa.mass()
         bodies = body_measures(model, s.node_live, pa)
-        return {"mass_initial": s.mass_initial, "mass_final": mass_final,
+        shield = shield_summary(model, bodies, s.axis)
+        return {**({"shield": shield} if shield is not None else {}),"mass_initial": s.mass_initial, "mass_final": mass_final,
                 "mass_error": (mass_final - s.mass_initial) / s.mass_initial,
                 "particles": int(pa.n), "eroded_elements": int(s.counts["eroded"]
                                                              + s.counts["converted"]),

@@ -25,7 +25,7 @@ CATEGORICAL = {"status", "body", "cell_id"}
 HISTORY_UNITS = {
     "time": "s", "step": "", "dt": "s", "kinetic_energy": "J", "internal_energy": "J",
     "viscous_energy": "J", "contact_dissipated": "J", "external_work": "J", "eroded_energy": "J",
-    "total_energy": "J", "momentum_x": "kg m/s", "momentum_y": "kg m/s", "momentum_z": "kg m/s",
+    "half_step_energy": "J", "total_energy": "J", "momentum_x": "kg m/s", "momentum_y": "kg m/s", "momentum_z": "kg m/s",
     "contact_impulse": "N s", "contact_pairs": "", "max_penetration": "m", "wall_force": "N",
     "wall_nodes": "", "particles": "", "particle_kinetic_energy": "J",
     "particle_energy": "J", "particle_momentum_x": "kg m/s", "particle_momentum_y": "kg m/s",

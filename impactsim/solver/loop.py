@@ -20,8 +20,8 @@ import numpy as np
 
 from impactsim.model import Model
 from impactsim.solver import element as E
-from impactsim.solver.nodal import (element_volumes, internal_energy, kinetic_energy, move,
-                                    nodal_volume_ratio, predict)
+from impactsim.solver.nodal import (element_volumes, force_power, internal_energy,
+                                    kinetic_energy, move, nodal_volume_ratio, predict)
 from impactsim.solver.passes import Pass
 from impactsim.solver.scatter import force_rows
 
@@ -219,17 +219,32 @@ class Simulation:
                       m.force)
 
     # --- accounting ----------------------------------------------------------------------------
-    def energies(self, ke: float | None = None, ie: float | None = None) -> dict[str, float]:
-        """Energy terms [J]; total = kinetic + internal + dissipated + eroded - external work.
-        `ke`, `ie`: the kinetic and internal energy when already summed (solver/watch.py)."""
+    def energies(self, ke: float | None = None, ie: float | None = None,
+                 power: float | None = None) -> dict[str, float]:
+        """Energy terms [J]; total = kinetic + internal + dissipated + eroded - external work
+        + half-step energy. `ke`, `ie`, `power`: the kinetic and internal energy and the force
+        power sum F . v when already summed (solver/watch.py).
+
+        The balance is time-centred. After a step the velocities are those of t^{n+1/2} and the
+        stresses, internal energy and forces those of t^{n+1}; the work of prescribed velocities
+        is booked up to t^{n+1/2} (constraints.py). ``half_step_energy`` = dtv/2 sum F^{n+1} .
+        U^{n+1/2} (dtv the coming velocity step) is what the forces add from t^{n+1/2} to
+        t^{n+1}: with it the kinetic energy is the leapfrog's time-centred one, 1/2 m
+        U^{n+1/2} . U^{n+3/2}, and at a prescribed node it is the reaction's work over that half
+        step. Without it a body driven from rest (a prescribed velocity, an initial strain-rate
+        field) books its first step's stress work a step before the kinetic energy or the
+        external work that pays for it (+14-18 % of the energy at step 1); the kinetic energy
+        reported stays 1/2 m |U^{n+1/2}|^2."""
         m = self.model
         ke = kinetic_energy(m.v, m.mass) if ke is None else ke
         ie = internal_energy(m.energy, m.elem_mass, m.status) if ie is None else ie
+        power = force_power(m.force, m.v, m.mass) if power is None else power
         if getattr(m, "blocks", None):
             from impactsim.solver.blocks import block_internal_energy
 
             ie += block_internal_energy(m)
         t = m.energy_terms
+        half = 0.5 * self.next_dtv() * power
         out = {"kinetic_energy": ke, "internal_energy": ie, "viscous_energy": t["viscous"],
                "contact_dissipated": t["contact_dissipated"], "external_work": t["external_work"],
                "eroded_energy": t["eroded"]}
@@ -237,12 +252,21 @@ class Simulation:
             if key not in ("viscous", "contact_dissipated", "external_work", "eroded",
                            "hourglass"):
                 out[key] = val
+        out["half_step_energy"] = half
         out["total_energy"] = (ke + ie + t["contact_dissipated"] + t["eroded"]
-                               + t.get("particles", 0.0) - t["external_work"])
+                               + t.get("particles", 0.0) - t["external_work"] + half)
         if "hourglass" in t:  # the hourglass forces' work (hex8 blocks)
             out["hourglass_energy"] = t["hourglass"]
             out["total_energy"] += t["hourglass"]
         return out
+
+    def next_dtv(self) -> float:
+        """The velocity step the next step's predictor will take (step() without a time limit);
+        0 when there is no stable step (no elements)."""
+        dt = self.next_dt()
+        if not (dt > 0.0 and math.isfinite(dt)):
+            return 0.0
+        return 0.5 * (self.dt + dt) if self.dt > 0.0 else 0.5 * dt
 
     def momentum(self) -> np.ndarray:
         m = self.model

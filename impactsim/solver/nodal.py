@@ -124,6 +124,23 @@ def kinetic_energy(v, mass):
 
 
 @numba.njit(cache=True)
+def force_power(force, v, mass):
+    """Sum of F . v [W] over the nodes with mass, in fixed chunks (thread-count independent):
+    with the velocities of t^{n+1/2} and the forces of t^{n+1}, half a velocity step of it is
+    what the kinetic energy gains (and a prescribed node's reaction works) from t^{n+1/2} to
+    t^{n+1} (Simulation.energies, the time-centred balance)."""
+    n = mass.shape[0]
+    total = 0.0
+    for c in range(0, n, CHUNK):
+        s = 0.0
+        for i in range(c, min(n, c + CHUNK)):
+            if mass[i] > 0.0:
+                s += force[i, 0] * v[i, 0] + force[i, 1] * v[i, 1] + force[i, 2] * v[i, 2]
+        total += s
+    return total
+
+
+@numba.njit(cache=True)
 def internal_energy(energy, elem_mass, status):
     """Sum of m_e e_e over live elements [J]."""
     s = 0.0

@@ -21,7 +21,8 @@ from impactsim.solver.loop import Simulation, SimulationStopped
 from impactsim.solver.pipeline import build_passes, mach_warnings
 
 CORE_COLUMNS = ["time", "step", "dt", "kinetic_energy", "internal_energy", "viscous_energy",
-                "contact_dissipated", "external_work", "eroded_energy", "total_energy",
+                "contact_dissipated", "external_work", "eroded_energy", "half_step_energy",
+                "total_energy",
                 "momentum_x", "momentum_y", "momentum_z"]
 
 
@@ -146,7 +147,8 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
     import numba
 
     from impactsim.case import case_to_dict
-    from impactsim.case.estimate import check_fits, estimate_cost
+    from impactsim.case.estimate import (RE_ESTIMATE_SECONDS, RE_ESTIMATE_SHARE, check_fits,
+                                         estimate_cost, re_estimate, re_estimate_line)
     from impactsim.checks import CheckFailed, CheckLog
     from impactsim.output.history import HistoryWriter
     from impactsim.output.progress import Progress
@@ -270,6 +272,9 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
     first_step_seconds = None
     t_out = 0.0
     watch = sim.watch
+    revised = None  # the run's re-estimate of itself (case/estimate.py re_estimate)
+    # its clock starts after the first steps, whose calls load the compiled kernels
+    loop_start, loop_step0 = None, model.step + 2
 
     def write_frame():
         nonlocal t_out
@@ -324,6 +329,8 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
                 stop_kind = "max_steps"
                 break
             target = times[next_frame] if next_frame < len(times) else end
+            if loop_start is None and model.step >= loop_step0:
+                loop_start = wallclock.perf_counter()
             sim.step(target - model.time)
             stops.urgent = False  # compiled and stepping: a signal waits for the step's end
             if abs(model.time - target) <= eps_t:
@@ -341,6 +348,15 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
                 write_frame()
                 next_frame += 1
             bar.update(model.time, model.step, sim.dt)
+            if revised is None and loop_start is not None and model.step > loop_step0 and (
+                    model.time >= RE_ESTIMATE_SHARE * end
+                    or wallclock.perf_counter() - loop_start >= RE_ESTIMATE_SECONDS):
+                now = wallclock.perf_counter()
+                revised = re_estimate(
+                    estimate, time=model.time, end_time=end, steps=model.step - loop_step0,
+                    dt=sim.next_dt(), loop_seconds=now - loop_start, elapsed=now - start,
+                    frames_left=len(times) - next_frame, frames=len(times))
+                info(re_estimate_line(revised))
             if schedule.due(model.step, model.time):
                 with stops.finishing():
                     ckpt.write_checkpoint(sim, out)
@@ -423,7 +439,9 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
     summary["estimate"] = {"elements": estimate.elements, "steps": estimate.steps,
                            "wall_seconds": estimate.wall_seconds,
                            "memory_bytes": estimate.memory_bytes, "threads": estimate.threads,
-                           "seconds": estimate.seconds}
+                           "seconds": estimate.seconds, "crush_factor": estimate.crush_factor}
+    if revised is not None:
+        summary["re_estimate"] = revised
     for p in passes:  # one level deep: a pass may add keys to an existing table ("bodies")
         for key, val in p.summary(model).items():
             if isinstance(val, dict) and isinstance(summary.get(key), dict):
@@ -434,12 +452,16 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
                         summary[key][k2] = v2
             else:
                 summary[key] = val
-    unconverged = summary.get("unconverged_steps") or 0
-    if unconverged and chk.unconverged_contact != "ignore":
+    unconverged, in_contact = unconverged_contact(summary)
+    share = unconverged / in_contact if in_contact else 0.0
+    if (unconverged and share > chk.unconverged_contact_share
+            and chk.unconverged_contact != "ignore"):
         try:
             checks.trigger("unconverged_contact", chk.unconverged_contact,
                            f"{unconverged} step(s) whose projected contact rounds did not "
-                           "converge", count=unconverged)
+                           f"converge, {100 * share:.3g} % of the {in_contact} step(s) in "
+                           f"contact (limit {100 * chk.unconverged_contact_share:g} %)",
+                           count=unconverged)
         except CheckFailed as err:
             if summary["stopped"] is None:
                 summary["stopped"] = str(err)
@@ -495,6 +517,18 @@ def _initial_checks(case: Case, meshes: list, checks) -> None:
         checks.trigger("initial_penetration", action,
                        f"at t = 0: {text} (deepest {worst.depth * 1e3:.4g} mm): move the "
                        "bodies apart", count=len(found))
+
+
+def unconverged_contact(summary: dict) -> tuple[int, int]:
+    """(steps whose projected contact rounds did not converge, steps in contact) from the
+    passes' tables of a summary: the contact passes report under "contact.<name>" (the shared
+    projection counts once, in the pass that reports it), another pass at the top level; steps
+    in contact default to the run's steps."""
+    tables = [summary] + [v for k, v in summary.items()
+                          if k.startswith("contact") and isinstance(v, dict)]
+    unconverged = sum(int(t.get("unconverged_steps") or 0) for t in tables)
+    in_contact = max([int(t.get("steps_in_contact") or 0) for t in tables] + [0])
+    return unconverged, in_contact or int(summary.get("steps") or 0)
 
 
 def _hourglass_check(row: dict, chk, checks) -> None:

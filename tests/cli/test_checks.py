@@ -197,7 +197,7 @@ def test_unconverged_contact_rounds_are_told(tmp_path, monkeypatch):
             pass
 
         def summary(self, model):
-            return {"unconverged_steps": 3}
+            return {"unconverged_steps": 3, "steps_in_contact": 5}
 
     case = load_case_text(BAR.format(z="10.01 mm"))
     real = run_module.build_passes
@@ -210,6 +210,92 @@ def test_unconverged_contact_rounds_are_told(tmp_path, monkeypatch):
     case.checks.unconverged_contact = "error"
     summary = run_module.run_case(case, tmp_path / "e", progress=False)
     assert "unconverged_contact" in summary["stopped"]
+
+
+BARS = """
+[run]
+name = "two-bars"
+end_time = "12 us"
+[[body]]
+name = "striker"
+material = "steel-elastic"
+shape = "box"
+size = ["5 mm", "5 mm", "20 mm"]
+position = [0, 0, "10.05 mm"]
+mesh_size = "2.5 mm"
+mesher = "structured"
+velocity = [0, 0, "-20 m/s"]
+[[body]]
+name = "target"
+material = "steel-elastic"
+shape = "box"
+size = ["5 mm", "5 mm", "20 mm"]
+position = [0, 0, "-10 mm"]
+mesh_size = "2.5 mm"
+mesher = "structured"
+[contact]
+passes = ["node-face", "edge-edge"]
+[checks]
+{checks}
+"""
+
+
+def test_unconverged_contact_rounds_of_a_real_contact_are_counted(tmp_path):
+    """The projected rounds' unconverged steps sit in the contact pass's table
+    (contact.node-face): a real contact run is told when their share of the steps in contact
+    exceeds the limit, and not below it."""
+    quiet = run_module.run_case(load_case_text(BARS.format(checks="")), tmp_path / "a",
+                                progress=False)
+    unconverged, in_contact = run_module.unconverged_contact(quiet)
+    assert in_contact > 0 and unconverged / in_contact <= 0.25
+    assert "unconverged_contact" not in quiet["checks"]
+    if unconverged == 0:
+        pytest.skip("no unconverged step in this contact")
+    told = run_module.run_case(load_case_text(BARS.format(
+        checks='unconverged_contact = "error"\nunconverged_contact_share = 0.0')),
+        tmp_path / "b", progress=False)
+    assert told["stop"]["kind"] == "check" and "unconverged_contact" in told["stopped"]
+    assert told["checks"]["unconverged_contact"]["count"] == unconverged
+
+
+DRAG_HEX = """
+[run]
+name = "drag-hex"
+end_time = "1 us"
+[[material]]
+name = "al"
+library = "al-ideal-plastic"
+[[body]]
+name = "block"
+material = "al"
+shape = "box"
+size = ["4 mm", "4 mm", "4 mm"]
+mesh_size = "1 mm"
+mesher = "structured"
+element = "hex8"
+[[body.constraint]]
+nodes = {{ box = {{ lo = ["1.9 mm", "1.9 mm", "1.9 mm"], hi = ["2.1 mm", "2.1 mm", "2.1 mm"] }} }}
+velocity = ["2000 m/s", "0 m/s", "0 m/s"]
+[checks]
+{checks}
+"""
+
+
+def test_hourglass_share_triggered_by_a_hand_made_hex_case(tmp_path):
+    """One node of a hex block dragged at 2 km/s: the one-point hexes around it deform in
+    hourglass modes, whose energy passes the default 10 % of kinetic + internal."""
+    s = run_module.run_case(load_case_text(DRAG_HEX.format(checks="")), tmp_path / "w",
+                            progress=False)
+    rec = s["checks"]["hourglass_share"]
+    assert rec["action"] == "warn" and rec["count"] >= 1 and s["stopped"] is None
+    assert s["energy"]["hourglass_energy"] > 0.1 * (s["energy"]["kinetic_energy"]
+                                                    + s["energy"]["internal_energy"])
+    e = run_module.run_case(load_case_text(DRAG_HEX.format(
+        checks='hourglass_share_action = "error"')), tmp_path / "e", progress=False)
+    assert e["stop"]["kind"] == "check" and "hourglass_share" in e["stopped"]
+    off = run_module.run_case(load_case_text(DRAG_HEX.format(checks="hourglass_share = 10.0")),
+                              tmp_path / "o", progress=False)
+    assert "hourglass_share" not in off["checks"]
 
 
 SMALL_BUNDLED = ["elastic-bar-wall", "taylor-bar", "two-cubes", "two-cylinders", "elastic-bars",

@@ -85,22 +85,28 @@ def test_signal_mid_run_stops_with_last_frame_summary_and_exit_3(tmp_path, sig):
     assert float(frames[-1].get("timestep")) == pytest.approx(summary["time"], rel=1e-12)
 
 
-@pytest.mark.parametrize("seed", range(3))
-def test_sigterm_at_a_random_moment_of_start_up(tmp_path, seed):
-    """During imports, meshing, numba compilation or the first steps."""
+@pytest.mark.parametrize("sig, seed", [(signal.SIGTERM, 0), (signal.SIGTERM, 1),
+                                       (signal.SIGTERM, 2), (signal.SIGINT, 3),
+                                       (signal.SIGINT, 4)])
+def test_signal_at_a_random_moment_of_start_up(tmp_path, sig, seed):
+    """During imports, meshing, numba compilation or the first steps: SIGTERM (a batch
+    scheduler's time limit) and SIGINT (Ctrl-C, which gave click's "Aborted!" and exit 1 with
+    nothing written) alike."""
     out = tmp_path / "run"
     proc = _start(out, ["--set", "run.name=\"random\""])
     delay = random.Random(seed).uniform(0.6, 6.0)
     time.sleep(delay)
-    proc.send_signal(signal.SIGTERM)
+    proc.send_signal(sig)
     try:
         _, err = proc.communicate(timeout=120)
     finally:
         proc.kill()
+    name = signal.Signals(sig).name
     assert proc.returncode == 3, err
-    assert "Traceback" not in err and "SIGTERM received" in err, err
+    assert "Traceback" not in err and "Aborted" not in err and f"{name} received" in err, err
     summary = json.loads((out / "summary.json").read_text())
-    assert "SIGTERM received" in summary["stopped"]
+    assert f"{name} received" in summary["stopped"]
+    assert summary["stop"]["signal"] == name
     assert_whole_files(out)
 
 

@@ -231,9 +231,7 @@ override_values = st.one_of(
     st.text(max_size=20))
 
 
-@settings(max_examples=FAST_EXAMPLES, **FUZZ)
-@given(st.lists(st.tuples(override_keys, override_values), min_size=1, max_size=3))
-def test_fuzzed_overrides_end_clean(pairs):
+def check_overrides(pairs):
     text = (ROOT / "cases" / "elastic-bar-wall.toml").read_text()
     try:
         case = load_case_text(text, source=SOURCE, overrides=[f"{k}={v}" for k, v in pairs])
@@ -242,3 +240,19 @@ def test_fuzzed_overrides_end_clean(pairs):
         assert str(err).startswith(str(SOURCE) + ": "), str(err)
         return
     sensible(case)
+
+
+overrides = st.lists(st.tuples(override_keys, override_values), min_size=1, max_size=3)
+
+
+@settings(max_examples=FAST_EXAMPLES, **FUZZ)
+@given(overrides)
+def test_fuzzed_overrides_end_clean(pairs):
+    check_overrides(pairs)
+
+
+@pytest.mark.slow
+@settings(max_examples=SLOW_EXAMPLES, **dict(FUZZ, derandomize=False))
+@given(overrides)
+def test_fuzzed_overrides_end_clean_many(pairs):
+    check_overrides(pairs)

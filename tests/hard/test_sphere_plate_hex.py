@@ -46,6 +46,10 @@ def test_hex_sphere_strikes_tet_plate_coarse(tmp_path):
 
 @pytest.mark.slow
 def test_sphere_plate_hex_full(tmp_path):
+    """The bundled case (0.5 mm hex plate, 25,600 hexes; about 30 s). max_penetration measured
+    3.7 and 8.3 um in two runs of this chaotic scene (other frame times; the tet plate's full
+    case: 3.65 um): bound 10 um = h / 50."""
     s, hist = _run(tmp_path, "sphere-plate-hex", ["output.history_every=1"])
-    _check_hex_scene(s, hist)
+    _check_hex_scene(s, hist, penetration=1e-5)
+    assert s["fracture"]["distortion"]["deleted"] > 0  # tangled hexes went (the case's note)
     assert (CASES / "sphere-plate-hex.toml").exists()

@@ -315,6 +315,22 @@ strength = { B = "300 MPa" }
     assert "Steinberg" in cu.source and "density" in cu.source and "strength.B" in cu.source
 
 
+def test_failure_key_none_switches_off_one_library_mechanism(tmp_path):
+    text = BASE + """
+[[material]]
+name = "plate"
+library = "al-6061-t6"
+failure = { fracture_strain = 1.0, spall_strength = "none", loosening = "none" }
+"""
+    case = load(tmp_path, text.replace('material = "al"', 'material = "plate"'))
+    f = case.materials["plate"].failure
+    assert f.spall_strength is None and f.loosening is None and f.fracture_strain == 1.0
+    assert f.jc_damage is not None  # what was not switched off stays
+    full = load(tmp_path, text.replace('material = "al"', 'material = "plate"').replace(
+        ', spall_strength = "none", loosening = "none"', ""))
+    assert full.materials["plate"].failure.spall_strength == 1.6e9
+
+
 def test_library_merge_model_change_and_elastic_set(tmp_path):
     text = BASE + """
 [[material]]

@@ -88,7 +88,11 @@ def test_default_speed_without_calibration_then_stored_measurement(tmp_path, mon
     assert any(k.endswith("threads=1") for k in stored["machines"])
     assert machine_speed(threads=1) == speed  # read back, not measured again
     est = estimate_cost(load_case_text(BAR.format(end="1 ms")), speed)
-    per_step = speed["seconds_per_step"] + est.elements * 1e-9 * speed["ns_per_element_step"]
+    from impactsim.case.estimate import ELEMENT_TE, NODES_TE
+
+    assert est.contention == 1.0  # a speed given: a whole core unless a share is given too
+    per_step = speed["seconds_per_step"] + (ELEMENT_TE + NODES_TE) * est.elements * 1e-9 * \
+        speed["ns_per_element_step"]
     assert est.seconds["elements"] == pytest.approx(est.steps * per_step)
     assert est.wall_seconds == pytest.approx(sum(est.seconds.values()))
     assert np.isfinite(DEFAULT_SPEED["ns_per_element_step"])

@@ -55,3 +55,14 @@ def test_size_histogram_and_png(tmp_path):
     assert sum(h["count"]) == 3 and sum(h["mass"]) == pytest.approx(13.5)
     assert write_fragment_histogram(tmp_path / "fragments.png", s, "t")
     assert (tmp_path / "fragments.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_the_cloud_is_what_moves_forward():
+    """A plate at rest ahead of the debris is not the leading edge, and a piece drifting
+    sideways at 1 % of the cloud's speed does not set the spread angle."""
+    m = _model()
+    m.x[5:, 2] += 20.0  # the second piece far ahead ...
+    m.v[5:] = [5.0, 0.0, 1.0]  # ... nearly at rest, drifting sideways
+    s = cloud_summary(m, [0, 0, 1])
+    assert s["leading_edge"] == 1.0 and s["leading_edge_speed"] == 100.0
+    assert s["spread_angle_deg"] == pytest.approx(0.0)

@@ -151,7 +151,7 @@ def test_cost_estimate_counts_hexes():
     """`impactsim check`'s estimate meshes a hex body to count it (exact), takes its smallest
     V / face area for the step, and weighs a hex-step as HEX_COST tet-steps."""
     from impactsim.case import load_case
-    from impactsim.case.estimate import HEX_COST, estimate_cost
+    from impactsim.case.estimate import ELEMENT_TE, HEX_COST, NODES_TE, estimate_cost
 
     case = load_case(Path(__file__).parents[2] / "cases" / "taylor-bar-hex.toml")
     pts, hexes = mesh_body(case.bodies[0])
@@ -161,4 +161,5 @@ def test_cost_estimate_counts_hexes():
     from impactsim.mesh.hexes import hex_report
 
     assert e.l_min == pytest.approx(hex_report(pts, hexes, 1.0, 1.0)["length_min"], rel=1e-9)
-    assert e.seconds["elements"] == pytest.approx(e.steps * len(hexes) * HEX_COST * 1e-7)
+    assert e.seconds["elements"] == pytest.approx(
+        e.steps * len(hexes) * (ELEMENT_TE * HEX_COST + NODES_TE) * 1e-7)

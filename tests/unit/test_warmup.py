@@ -39,6 +39,13 @@ def test_warmup_scenes_cover_the_pipeline_and_leave_a_cache_a_later_process_uses
     assert hexf["fracture"]["eroded"] > 0 and "hole" in hexf["bodies"]["plate"]
     assert hexf["fracture.particles"]["particle_face_impacts"] > 0
     assert hexf["contact.edge-edge"]["candidate_pairs"] > 0
+    # node separation released (tets: the surface reconnected in place; hexes: their corner
+    # forces re-run), distortion erosion deleted cells
+    assert s["separation"]["fracture"]["separation"]["new_nodes"] > 0
+    assert s["separation-contact"]["fracture"]["separation"]["release_steps"] > 0
+    assert "contact.node-face" in s["separation-contact"]["passes"]
+    assert s["separation"]["fracture"]["distortion"]["deleted"] > 0
+    assert s["separation-hex"]["fracture"]["separation"]["new_nodes"] > 0
     # a fresh interpreter (same cache folder) loads every kernel and compiles none
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     p = subprocess.run([sys.executable, "-c", _SECOND], cwd=ROOT, env=env, check=True,

@@ -1,0 +1,247 @@
+"""How much crushing will shrink the time step of a run: the crush factor of the cost estimate.
+
+The first time step of a run is C_cfl L_min / c (case/estimate.py). A plastic impact flattens
+and shears the elements at the contact (a Taylor bar's foot, the rim of a striker punching into
+a target, the rim of a hole) and their smallest altitude, with it the step, falls during the run:
+the bundled Taylor bar starts at 40 ns and runs at 11 ns from 45 us on, the tet two-cylinders
+falls from 31 to 1.2 ns. The estimate multiplies the steps of an unchanging step by the mean over
+the run of dt_first / dt(t), the *step factor* (``step_factor``), from this model of dt(t):
+
+Impacts (``impacts``). Every pair of bodies that approach each other, and every body moving
+towards a rigid wall, meet at t_c = gap / v_n: the gap between their bounding boxes along the
+axis that separates them (the wall's normal), v_n the approach speed along it. A pair that
+separates, or meets after end_time, does not count.
+
+Crush (``Crush``). Each plastic body of an impact is crushed by the dynamic pressure of the
+impact against its initial flow stress Y0 (ideal-plastic Y0, Johnson-Cook A): the crush number
+Phi = rho v^2 / Y0, v the relative speed (all of it: an oblique impact gouges as it presses; a
+target, the body with the larger cross-section, is indented at half of it) and rho the smaller
+of the two bodies' densities (a light target cannot press a dense striker harder than its own
+dynamic pressure). Its elements' step shrinks by s = SHRINK[element](Phi)
+once the crushing has run its course, approached as 1 + (s - 1)(1 - exp(-(t - t_c) / tau)) with
+the crush time tau = CRUSH_LENGTHS h / v (h the body's mesh size: the flattening takes the
+approach of a few element lengths). Elastic bodies are not crushed. A body whose material erodes
+or breaks into particles loses its crushed cells before they flatten further: its shrink is at
+most FAILURE_SHRINK. A body's step is its own first step (its L_min / c, which may be larger than
+the run's) divided by its shrink; the run's step the smallest of them (``shrink_profile``).
+
+The constants are fitted to the bundled cases (docs/estimates.md gives real against estimated
+steps for each); the model knows nothing of the mesh beyond its size and element type, so a case
+unlike them (a sliver in a mesh, a mesh-tangling shear band) can take more steps than it says.
+A run re-estimates itself from its own step after its first part (solver/run.py).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from impactsim.case.schema import Body, Case, Material
+
+# The shrink of a body's step once crushed, s(Phi) = max(1, K Phi^P), at most the cap, and the
+# crush time tau = CRUSH_LENGTHS x mesh size / approach speed, by element type: tets shear into
+# slivers at a striker's rim (Taylor bar Phi = 3.6: s = 3.7, tau = 19 us; the tet
+# two-cylinders Phi = 8.1: s = 25, tau = 4.5 us); hexes flatten more evenly and for longer
+# (Taylor bar s = 5.8, two-cylinders' hex striker still shrinking at the end).
+TET_SHRINK = (0.18, 2.36, 25.0)  # (K, P, cap)
+HEX_SHRINK = (1.5, 1.0, 25.0)
+CRUSH_LENGTHS = {"tet": 4.5, "hex8": 8.0}
+# a material that fails (spall, loosening, erosion): crushed cells break off or erode first
+# (sphere-plate: the step falls about 6.5 times within a microsecond and stays there)
+FAILURE_SHRINK = 6.5
+STEP_GRID = 400
+
+
+@dataclass
+class Impact:
+    """Two bodies (or a body and wall[k]) meeting at `time` with approach speed `speed`."""
+
+    bodies: tuple  # body names; a wall is "wall[k]"
+    speed: float  # [m/s] approach speed along the impact axis
+    time: float  # [s] when they meet
+    # per body: True for a striker (its cross-section across the axis no larger than the
+    # other's, or any body meeting a wall), False for the target it punches into
+    strikers: tuple = (True, True)
+    relative_speed: float = 0.0  # [m/s] |v_a - v_b| (an oblique impact slides as it presses)
+
+
+@dataclass
+class Crush:
+    """A body crushed by an impact: its step shrinks by `shrink` from `time` over `duration`."""
+
+    body: int  # index into case.bodies
+    shrink: float  # dt_first / dt of the body once crushed
+    time: float  # [s] t_c
+    duration: float  # [s] tau
+    phi: float  # the crush number
+
+    def shrink_at(self, t):
+        """dt_first / dt of the body at time(s) t."""
+        t = np.asarray(t, dtype=float)
+        x = np.clip((t - self.time) / max(self.duration, 1e-300), 0.0, 700.0)
+        return 1.0 + (self.shrink - 1.0) * np.where(t > self.time, 1.0 - np.exp(-x), 0.0)
+
+
+def flow_stress(mat: Material) -> float | None:
+    """Initial flow stress Y0 [Pa] of a plastic material; None when it is elastic."""
+    s = mat.strength
+    if s.model == "ideal-plastic" and s.yield_stress > 0.0:
+        return s.yield_stress
+    if s.model == "johnson-cook" and s.A > 0.0:
+        return s.A
+    if s.model == "johnson-cook" and s.B > 0.0:
+        return s.B
+    return None
+
+
+def crush_number(mat: Material, speed: float, density: float | None = None) -> float:
+    """Phi = rho v^2 / Y0 of a plastic material met at `speed`, rho the smaller of its own
+    density and the other body's (`density`: a light target cannot press a dense striker
+    harder than its own dynamic pressure); 0 for an elastic material."""
+    y0 = flow_stress(mat)
+    if y0 is None or not speed > 0.0:
+        return 0.0
+    rho = mat.density if density is None else min(mat.density, density)
+    return rho * speed * speed / y0
+
+
+def shrink_of(phi: float, element: str = "tet", fails: bool = False) -> float:
+    """The shrink s of a body's step once crushed at crush number phi (module docstring)."""
+    k, p, cap = HEX_SHRINK if element == "hex8" else TET_SHRINK
+    phi = min(phi, 1e6)  # far beyond any cap (and no overflow of the power for 1e300 m/s)
+    s = k * phi ** p if phi > 0.0 else 1.0
+    s = min(max(1.0, s), cap)
+    return min(s, FAILURE_SHRINK) if fails else s
+
+
+def crushes(case: Case, meshes: list | None = None) -> list[Crush]:
+    """Every body crushed by an impact before end_time."""
+    names = {b.name: i for i, b in enumerate(case.bodies)}
+    out = []
+    for imp in impacts(case, meshes):
+        density = [case.materials[case.bodies[names[n]].material].density if n in names
+                   else None for n in imp.bodies]  # None: a wall
+        for k, (name, striker) in enumerate(zip(imp.bodies, imp.strikers)):
+            i = names.get(name)
+            if i is None:  # a wall
+                continue
+            body = case.bodies[i]
+            mat = case.materials[body.material]
+            # a target is indented at the striker's speed into it, about half the approach
+            speed = imp.relative_speed or imp.speed
+            phi = crush_number(mat, speed if striker else 0.5 * speed, density[1 - k])
+            s = shrink_of(phi, body.element, mat.failure.active)
+            if s > 1.0:
+                h = body.mesh_size if body.mesh_size > 0.0 else 0.0
+                lengths = CRUSH_LENGTHS.get(body.element, CRUSH_LENGTHS["tet"])
+                out.append(Crush(i, s, imp.time, lengths * h / speed, phi))
+    return out
+
+
+def body_box(body: Body, mesh=None) -> tuple[np.ndarray, np.ndarray] | None:
+    """(lo, hi) [m] of the placed body: from its mesh when given, else from the primitive
+    (a rotated primitive by its bounding sphere); None for a mesh file not read yet."""
+    if mesh is not None and len(mesh[0]):
+        return mesh[0].min(axis=0), mesh[0].max(axis=0)
+    c = np.asarray(body.position, dtype=float)
+    d = body.dimensions
+    if body.shape in ("box", "plate"):
+        half = 0.5 * np.asarray(d["size"], dtype=float)
+    elif body.shape == "cube12":
+        half = np.full(3, 0.5 * d["size"])
+    elif body.shape == "sphere":
+        half = np.full(3, d["radius"])
+    elif body.shape == "cylinder":
+        axis = np.asarray(d.get("axis", (0.0, 0.0, 1.0)), dtype=float)
+        axis = axis / (np.linalg.norm(axis) or 1.0)
+        r, h = d["radius"], d["height"]
+        # the box of a disc of radius r along `axis` extended by h/2 either way
+        half = 0.5 * h * np.abs(axis) + r * np.sqrt(np.clip(1.0 - axis * axis, 0.0, 1.0))
+    else:
+        return None
+    if any(abs(a) > 0.0 for a in body.rotation) and body.shape != "sphere":
+        half = np.full(3, float(np.linalg.norm(half)))
+    return c - half, c + half
+
+
+def impacts(case: Case, meshes: list | None = None) -> list[Impact]:
+    """The impacts of the case before end_time (module docstring)."""
+    boxes = []
+    for i, body in enumerate(case.bodies):
+        mesh = meshes[i] if meshes is not None and i < len(meshes) else None
+        boxes.append(body_box(body, mesh))
+    end = case.run.end_time
+    out = []
+    for a, body in enumerate(case.bodies):
+        if boxes[a] is None:
+            continue
+        for b in range(a + 1, len(case.bodies)):
+            if boxes[b] is None:
+                continue
+            v_rel = np.subtract(body.velocity, case.bodies[b].velocity)
+            hit = _pair(boxes[a], boxes[b], v_rel)
+            if hit is not None and hit[1] < end:
+                out.append(Impact((body.name, case.bodies[b].name), *hit,
+                                  relative_speed=float(np.linalg.norm(v_rel))))
+        for k, wall in enumerate(case.walls):
+            hit = _wall(boxes[a], np.asarray(body.velocity, dtype=float), wall)
+            if hit is not None and hit[1] < end:
+                out.append(Impact((body.name, f"wall[{k}]"), *hit, (True, True),
+                                  float(np.linalg.norm(body.velocity))))
+    return out
+
+
+def _pair(box_a, box_b, v_rel) -> tuple[float, float, tuple] | None:
+    """(approach speed, meeting time, strikers) of two boxes along the axis that separates
+    them most, with a's velocity relative to b; None when they do not approach."""
+    (lo_a, hi_a), (lo_b, hi_b) = box_a, box_b
+    # gap along each axis: positive when separated, with the side of b seen from a
+    gaps = np.maximum(lo_b - hi_a, lo_a - hi_b)
+    axis = int(np.argmax(gaps))
+    sign = 1.0 if lo_b[axis] - hi_a[axis] >= lo_a[axis] - hi_b[axis] else -1.0
+    speed = float(v_rel[axis]) * sign  # a moves towards b along +sign
+    if not speed > 0.0:
+        return None
+    others = [k for k in range(3) if k != axis]
+    area_a = float(np.prod([hi_a[k] - lo_a[k] for k in others]))
+    area_b = float(np.prod([hi_b[k] - lo_b[k] for k in others]))
+    return speed, max(float(gaps[axis]), 0.0) / speed, (area_a <= area_b, area_b <= area_a)
+
+
+def _wall(box, velocity, wall) -> tuple[float, float] | None:
+    """(approach speed, meeting time) of a box moving towards a wall."""
+    n = np.asarray(wall.normal, dtype=float)
+    n = n / (np.linalg.norm(n) or 1.0)
+    lo, hi = box
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                        for z in (lo[2], hi[2])])
+    dist = (corners - np.asarray(wall.point, dtype=float)) @ n
+    speed = -float(velocity @ n)
+    if not speed > 0.0:
+        return None
+    return speed, max(float(dist.min()), 0.0) / speed
+
+
+def shrink_profile(found: list[Crush], first_steps, dt_first: float, t) -> np.ndarray:
+    """dt_first / dt(t) of the run: each crushed body's step is its own first step
+    first_steps[body] divided by its shrink; the run's step the smallest of them and dt_first."""
+    t = np.asarray(t, dtype=float)
+    out = np.ones_like(t)
+    for c in found:
+        own = first_steps[c.body]
+        if own > 0.0 and math.isfinite(own):
+            out = np.maximum(out, dt_first / own * c.shrink_at(t))
+    return out
+
+
+def step_factor(found: list[Crush], first_steps, dt_first: float, end_time: float,
+                start: float = 0.0) -> float:
+    """The mean of dt_first / dt(t) over [start, end_time]: the steps of the run are this many
+    times those of an unchanging first step."""
+    if not found or not end_time > start:
+        return 1.0
+    t = np.linspace(start, end_time, STEP_GRID + 1)
+    g = shrink_profile(found, first_steps, dt_first, t)
+    return float(0.5 * np.sum((g[1:] + g[:-1]) * np.diff(t)) / (end_time - start))
