@@ -203,7 +203,7 @@ class ContactContext:
 
     def all_boxes(self, name, model, dt, ent, body, pad):
         """(lo, hi): the swept, padded boxes of every row of ``ent`` (the arithmetic of
-        ``select``)."""
+        ``select``; ``body`` is not read)."""
         n = ent.shape[0]
         sel = self.buffer(name + ".all", n, np.int64)
         lo = self.buffer(name + ".alo", (n, 3))
@@ -473,13 +473,14 @@ class ContactPass(Pass):
         kept = self.skin.pairs
         if kept.shape[0] == 0:
             return _NO_PAIRS
-        name, ent, body = hashed[:3]
-        elo, ehi = ctx.all_boxes(name, model, dt, ent, body, pad)
+        sk = self.skin
+        name, _, body = hashed[:3]
+        elo, ehi = ctx.all_boxes(name, model, dt, sk.e_ent, body, pad)
         qlo, qhi = elo, ehi
         if queries is not None:
-            qlo, qhi = ctx.all_boxes(queries[0], model, dt, queries[1], queries[2], pad)
+            qlo, qhi = ctx.all_boxes(queries[0], model, dt, sk.q_ent, queries[2], pad)
         out = ctx.buffer(self.name + ".pairs", (kept.shape[0], 2), np.int64)
-        n = overlapping_pairs(kept, qlo, qhi, elo, ehi, out)
+        n = overlapping_pairs(sk.local, qlo, qhi, elo, ehi, sk.q_map, sk.e_map, out)
         return out[:n]
 
     def _fresh_pairs(self, model, dt, h, pad, hashed, queries) -> np.ndarray:

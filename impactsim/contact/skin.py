@@ -44,10 +44,11 @@ def within_reach(x, v, tau, nodes, xb, limit):
 
 
 @numba.njit(cache=True)
-def overlapping_pairs(pairs, qlo, qhi, elo, ehi, out):
-    """The rows of ``pairs (k, 2)`` (query row, hashed row) whose boxes (qlo, qhi)[query] and
-    (elo, ehi)[hashed] overlap (closed boxes, the comparisons of the hash query), in order, into
-    ``out``; returns their number."""
+def overlapping_pairs(pairs, qlo, qhi, elo, ehi, qmap, emap, out):
+    """The rows of ``pairs (k, 2)`` (query row, hashed row: rows of the boxes) whose boxes
+    (qlo, qhi)[query] and (elo, ehi)[hashed] overlap (closed boxes, the comparisons of the hash
+    query), in order, into ``out`` as entity rows (qmap[query], emap[hashed]); returns their
+    number."""
     n = 0
     for k in range(pairs.shape[0]):
         i = pairs[k, 0]
@@ -55,8 +56,8 @@ def overlapping_pairs(pairs, qlo, qhi, elo, ehi, out):
         if (qlo[i, 0] <= ehi[j, 0] and elo[j, 0] <= qhi[i, 0]
                 and qlo[i, 1] <= ehi[j, 1] and elo[j, 1] <= qhi[i, 1]
                 and qlo[i, 2] <= ehi[j, 2] and elo[j, 2] <= qhi[i, 2]):
-            out[n, 0] = i
-            out[n, 1] = j
+            out[n, 0] = qmap[i]
+            out[n, 1] = emap[j]
             n += 1
     return n
 
@@ -106,8 +107,23 @@ class SkinList:
         return "kept" if ok else "build"
 
     def keep(self, surface, node_key, ents, x, pairs, pad_b) -> None:
-        """Keep ``pairs`` (the broad phase of static boxes at x padded by pad_b)."""
+        """Keep ``pairs`` (the broad phase of static boxes at x padded by pad_b). Only the
+        entities in kept pairs have their boxes made each step: ``hashed`` (rows ``ents[0]``)
+        and ``queries`` (``ents[1]``, or the same as hashed), with ``pairs`` in their positions
+        (``local``) and the maps back to entity rows (increasing: the order is kept)."""
         self.pairs = np.array(pairs, dtype=np.int64, copy=True)
+        if len(ents) == 1:
+            used = np.unique(self.pairs)
+            self.e_map = self.q_map = used
+            self.e_ent = self.q_ent = np.ascontiguousarray(ents[0][used])
+            self.local = np.searchsorted(used, self.pairs)
+        else:
+            self.e_map = np.unique(self.pairs[:, 1])
+            self.q_map = np.unique(self.pairs[:, 0])
+            self.e_ent = np.ascontiguousarray(ents[0][self.e_map])
+            self.q_ent = np.ascontiguousarray(ents[1][self.q_map])
+            self.local = np.stack([np.searchsorted(self.q_map, self.pairs[:, 0]),
+                                   np.searchsorted(self.e_map, self.pairs[:, 1])], axis=1)
         self._key = self._key_of(surface, node_key, ents)
         self._xb = np.ascontiguousarray(x[surface.nodes])
         self._pad_b = float(pad_b)
