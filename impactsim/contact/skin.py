@@ -15,8 +15,9 @@ as a fresh broad phase's (by query row, then hashed row) and filtering keeps tha
 candidate pairs, and everything computed from them, are bit-identical to a broad phase run afresh
 every step, whenever the rebuilds happen (a resumed run rebuilds at its first step). The list is
 built again when a node has moved too far, the surface changes (erosion, separation) or the
-self-contact keys change; while the surface changes every step (erosion, particle
-conversion) the plain broad phase runs instead (``SkinList.state``). The penetration measure keeps its pairs the same way
+self-contact keys change; while the surface changes every step (erosion, particle conversion)
+the plain broad phase runs instead (``SkinList.state``). Each step's boxes are made only for
+the entities in kept pairs. The penetration measure keeps its pairs the same way
 (``diagnostics.PenetrationMeter``).
 """
 
