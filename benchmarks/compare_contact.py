@@ -6,7 +6,8 @@ of REV, each loaded as a module of its own) and the broad phase run afresh every
 candidate list, contact/skin.py; --old-skin keeps it on the old side too). The timed steps
 alternate between the two in short runs, so both see the same (shared, noisy) machine. Prints
 process CPU ns per boundary node per step of each contact pass (broad phase, sweeps,
-projection: the pass's whole run) for both, their ratio, and whether the two end states are bit-identical (the changes do not change the arithmetic).
+projection: the pass's whole run) for both, their ratio, and whether the two end states are
+bit-identical (the changes do not change the arithmetic).
 
     python benchmarks/compare_contact.py [REV] [--h 0.001] [--warm 30] [--steps 40] [--run 5]
         [--old-skin]
