@@ -56,6 +56,7 @@ PARALLEL_SIN = 1e-6  # edges closer to parallel than this (sine of the angle) ar
 SEGMENT_EPS = 1e-9  # tolerance of 0 <= alpha, beta <= 1
 NU_RELIABLE = 0.2  # nu orients n only when |n . nu| >= this * |nu|
 GEO_COLS = 7  # a constraint row: lam, alpha, beta, nx, ny, nz, gap / tau
+APART_MARGIN = 1e-3  # stay_apart: the margin beyond band, a share of the segments' half-lengths
 
 
 @numba.njit(cache=True)
@@ -215,6 +216,78 @@ def _edge_edge_at(t, force_nu, band, restore, ia, ib, ie, jf, x, v, mass, tau, m
     return J
 
 
+@numba.njit(cache=True, inline="always")
+def _apart(p0, p1, p2, p3, q0, q1, q2, q3, tol):
+    """Intervals [min p, max p] and [min q, max q] more than tol apart."""
+    return (min(min(p0, p1), min(p2, p3)) > max(max(q0, q1), max(q2, q3)) + tol
+            or min(min(q0, q1), min(q2, q3)) > max(max(p0, p1), max(p2, p3)) + tol)
+
+
+@numba.njit(cache=True)
+def stay_apart(ia, ib, ie, jf, x, v, tau, band):
+    """True when segments [ia, ib] and [ie, jf], moving linearly over [0, tau], stay farther
+    apart than ``band`` (plus a margin) the whole step: then ``edge_edge_detect`` finds neither a
+    touching pair at t = 0 nor a crossing, and the cubic need not be solved.
+
+    A separating axis: over the step each segment lies in the hull of its end points at 0 and
+    tau, so two intervals of projections that are apart by more than the tolerance on some unit
+    axis keep the segments apart. The axes tried: the segments' common normal at t = 0, which
+    separates the near-coplanar pairs of a flat contact that lie one above the other, then x,
+    y, z (tighter than the broad phase's boxes, padded by BOX_PAD of h). The tolerance is band
+    plus APART_MARGIN of the longer segment: the segments extended by SEGMENT_EPS, and a root of
+    the cubic accepted within round-off, whose lines miss by far less."""
+    ax = x[ia, 0]
+    ay = x[ia, 1]
+    az = x[ia, 2]
+    bx = x[ib, 0]
+    by = x[ib, 1]
+    bz = x[ib, 2]
+    ex = x[ie, 0]
+    ey = x[ie, 1]
+    ez = x[ie, 2]
+    fx = x[jf, 0]
+    fy = x[jf, 1]
+    fz = x[jf, 2]
+    # the end points at tau
+    Ax = ax + tau * v[ia, 0]
+    Ay = ay + tau * v[ia, 1]
+    Az = az + tau * v[ia, 2]
+    Bx = bx + tau * v[ib, 0]
+    By = by + tau * v[ib, 1]
+    Bz = bz + tau * v[ib, 2]
+    Ex = ex + tau * v[ie, 0]
+    Ey = ey + tau * v[ie, 1]
+    Ez = ez + tau * v[ie, 2]
+    Fx = fx + tau * v[jf, 0]
+    Fy = fy + tau * v[jf, 1]
+    Fz = fz + tau * v[jf, 2]
+    d1x = bx - ax
+    d1y = by - ay
+    d1z = bz - az
+    d2x = fx - ex
+    d2y = fy - ey
+    d2z = fz - ez
+    ll = max(d1x * d1x + d1y * d1y + d1z * d1z, d2x * d2x + d2y * d2y + d2z * d2z)
+    tol = band + APART_MARGIN * math.sqrt(ll)
+    nx = d1y * d2z - d1z * d2y
+    ny = d1z * d2x - d1x * d2z
+    nz = d1x * d2y - d1y * d2x
+    nn = nx * nx + ny * ny + nz * nz
+    if nn > 0.0:
+        inv = 1.0 / math.sqrt(nn)
+        nx *= inv
+        ny *= inv
+        nz *= inv
+        if _apart(ax * nx + ay * ny + az * nz, bx * nx + by * ny + bz * nz,
+                  Ax * nx + Ay * ny + Az * nz, Bx * nx + By * ny + Bz * nz,
+                  ex * nx + ey * ny + ez * nz, fx * nx + fy * ny + fz * nz,
+                  Ex * nx + Ey * ny + Ez * nz, Fx * nx + Fy * ny + Fz * nz, tol):
+            return True
+    return (_apart(ax, bx, Ax, Bx, ex, fx, Ex, Fx, tol)
+            or _apart(ay, by, Ay, By, ey, fy, Ey, Fy, tol)
+            or _apart(az, bz, Az, Bz, ez, fz, Ez, Fz, tol))
+
+
 @numba.njit(cache=True)
 def edge_edge_correct(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, nu_y, nu_z,
                       lock=NO_LOCK):
@@ -357,6 +430,8 @@ def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band, restore, a
             continue
         if active[k]:
             J = edge_edge_relax(ia, ib, ie, jf, v, mass, mu, geo, k, slack, lock)
+        elif stay_apart(ia, ib, ie, jf, x, v, tau, band):
+            J = 0.0  # what edge_edge_detect would find, without the cubic
         else:
             J = first_visit(edge_edge_detect(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore,
                                              normals[g1, 0] - normals[g2, 0],

@@ -68,6 +68,7 @@ from impactsim.contact.energy import impulse_work
 from impactsim.contact.impulse import NO_LOCK as _NO_LOCK
 from impactsim.contact.nodeface import GEO_COLS as NF_GEO_COLS
 from impactsim.contact.nodeface import node_face_sweep
+from impactsim.contact.skin import SkinList, overlapping_pairs
 from impactsim.contact.rows import (gather_edge_edge, gather_node_face, row_partners,
                                    rows_round)
 from impactsim.contact.surface import Surface
@@ -200,6 +201,17 @@ class ContactContext:
                          _NO_SKIP, sel, lo, hi)
         return sel[:k], lo[:k], hi[:k]
 
+    def all_boxes(self, name, model, dt, ent, body, pad):
+        """(lo, hi): the swept, padded boxes of every row of ``ent`` (the arithmetic of
+        ``select``; ``body`` is not read)."""
+        n = ent.shape[0]
+        sel = self.buffer(name + ".all", n, np.int64)
+        lo = self.buffer(name + ".alo", (n, 3))
+        hi = self.buffer(name + ".ahi", (n, 3))
+        select_boxes(model.x, model.v, dt, ent, pad, body, _NO_BOUNDS, _NO_BOUNDS, True,
+                     _NO_SKIP, sel, lo, hi)
+        return lo, hi
+
     def grid(self, blo, bhi, h):
         live = blo[:, 0] <= bhi[:, 0]
         return grid_from_bounds(blo[live].min(axis=0), bhi[live].max(axis=0), h)
@@ -272,6 +284,7 @@ def _books_energy(model) -> bool:
 
 _NO_SKIP = np.zeros(0, np.uint8)
 _NO_PAIRS = np.zeros((0, 2), dtype=np.int64)
+_NO_BOUNDS = np.zeros((0, 3))
 
 
 def _first_sweep(model, dt, p) -> None:
@@ -382,6 +395,7 @@ class ContactPass(Pass):
     def __init__(self, ctx: ContactContext):
         self.ctx = ctx
         self.hash = SpatialHash()
+        self.skin = SkinList()
         self.reports_history = False
         self.totals = {"pairs": 0, "impulse": 0.0, "candidates": 0, "sweeps": 0, "rounds": 0,
                        "steps_in_contact": 0}
@@ -438,9 +452,41 @@ class ContactPass(Pass):
         [, keys (k, w')]), only rows near another body take part (all with self-contact), and
         without ``queries`` the hashed rows are queried against themselves (each pair once,
         i < j). The self-contact exclusion compares the rows' keys (default: the rows; a hex
-        surface's triangles and creases give their whole quad, contact/hexes.py)."""
+        surface's triangles and creases give their whole quad, contact/hexes.py).
+
+        The pairs come from a list kept over steps with a skin (``contact.skin``): built with
+        static boxes padded by the skin when a node has moved too far, and filtered each step
+        with this step's boxes; the same pairs, in the same order, as a fresh broad phase."""
         ctx = self.ctx
+        s = ctx.surface
         pad = BOX_PAD * h
+        if not self.skin.skin_rel > 0.0:  # no kept list: the broad phase afresh every step
+            return self._fresh_pairs(model, dt, h, pad, hashed, queries)
+        ents = (hashed[1],) if queries is None else (hashed[1], queries[1])
+        state = self.skin.state(s, ctx.node_key, ents, model.x, model.v, dt, pad)
+        if state == "changed":  # the surface changed: no list kept this step
+            return self._fresh_pairs(model, dt, h, pad, hashed, queries)
+        if state == "build":
+            pad_b = pad + 0.5 * self.skin.skin_rel * h
+            kept = self._fresh_pairs(model, 0.0, h, pad_b, hashed, queries)
+            self.skin.keep(s, ctx.node_key, ents, model.x, kept, pad_b)
+        kept = self.skin.pairs
+        if kept.shape[0] == 0:
+            return _NO_PAIRS
+        sk = self.skin
+        name, _, body = hashed[:3]
+        elo, ehi = ctx.all_boxes(name, model, dt, sk.e_ent, body, pad)
+        qlo, qhi = elo, ehi
+        if queries is not None:
+            qlo, qhi = ctx.all_boxes(queries[0], model, dt, sk.q_ent, queries[2], pad)
+        out = ctx.buffer(self.name + ".pairs", (kept.shape[0], 2), np.int64)
+        n = overlapping_pairs(sk.local, qlo, qhi, elo, ehi, sk.q_map, sk.e_map, out)
+        return out[:n]
+
+    def _fresh_pairs(self, model, dt, h, pad, hashed, queries) -> np.ndarray:
+        """The broad phase of ``_broad_phase`` run afresh with boxes swept over dt (0: static
+        boxes) and padded by ``pad``."""
+        ctx = self.ctx
         blo, bhi = ctx.bounds(model, dt, pad)
         name, ent, body = hashed[:3]
         ekey = hashed[3] if len(hashed) > 3 else ent
@@ -492,7 +538,8 @@ class ContactPass(Pass):
         out = {"candidate_pairs": int(t["candidates"]), "corrected_pairs": int(t["pairs"]),
                "impulse": float(t["impulse"]), "sweeps": int(t["sweeps"]),
                "projected_rounds": int(t["rounds"]),
-               "steps_in_contact": int(t["steps_in_contact"]), "hash_grows": int(self.hash.grows)}
+               "steps_in_contact": int(t["steps_in_contact"]), "hash_grows": int(self.hash.grows),
+               "candidate_list_builds": int(self.skin.builds)}
         if self.reports_history:
             out["max_penetration_seen"] = float(self.max_penetration_seen)
             out["unconverged_steps"] = int(self.ctx.unconverged)

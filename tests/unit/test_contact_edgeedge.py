@@ -186,3 +186,30 @@ def test_edge_normals_of_a_closed_tet():
     centroid = x.mean(axis=0)
     mid = x[edges].mean(axis=1)
     assert np.all(np.einsum("ij,ij->i", out, mid - centroid) > 0)  # outward
+
+
+def test_stay_apart_only_skips_pairs_the_full_test_leaves_alone():
+    """stay_apart (the sweep's test before the cubic) is conservative: whenever it says two
+    moving segments stay apart, edge_edge_detect gives no impulse, touching band included; and
+    it does skip pairs (near misses within the broad phase's pad would not be skipped)."""
+    from impactsim.contact.edgeedge import GEO_COLS, edge_edge_detect, stay_apart
+
+    rng = np.random.default_rng(7)
+    band = 1e-3
+    skipped = hits = 0
+    for trial in range(4000):
+        x = rng.uniform(-1.0, 1.0, (4, 3))
+        if trial % 2:  # near-coplanar pairs in a thin slab, as in a flat contact
+            x[:, 2] *= rng.choice([1e-4, 1e-3, 1e-2])
+        v = rng.normal(0.0, 300.0, (4, 3))
+        m = rng.uniform(0.5, 2.0, 4)
+        nu = rng.normal(size=3)
+        apart = stay_apart(0, 1, 2, 3, x, v, TAU, band)
+        v1 = v.copy()
+        J = edge_edge_detect(0, 1, 2, 3, x, v1, m, TAU, 0.0, band, 1.0, *nu,
+                             np.zeros((1, GEO_COLS)), 0, np.zeros((0, 3)))
+        hits += J > 0.0
+        if apart:
+            skipped += 1
+            assert J == 0.0 and np.array_equal(v1, v), trial
+    assert skipped > 400 and hits > 100  # both kinds of pairs occur

@@ -306,3 +306,30 @@ def test_point_passing_straight_through_a_thin_tet_within_one_step():
     assert (x1[4] - x1[top[0]]) @ n / np.linalg.norm(n) >= -1e-12
     np.testing.assert_allclose(momentum(model.v, model.mass), momentum(v, model.mass),
                                atol=1e-12)
+
+
+def test_node_face_apart_only_skips_pairs_the_full_test_leaves_alone():
+    """node_face_apart (the sweep's test before the cubic) is conservative: whenever it says a
+    moving node and face stay apart, node_face_detect gives no impulse, touching band included;
+    and it does skip pairs."""
+    from impactsim.contact.nodeface import GEO_COLS, node_face_apart, node_face_detect
+
+    rng = np.random.default_rng(11)
+    band = 1e-3
+    tau = 1e-3
+    skipped = hits = 0
+    for trial in range(4000):
+        x = rng.uniform(-1.0, 1.0, (4, 3))
+        if trial % 2:  # the node near the face's plane (z = 0), as in a flat contact
+            x[:, 2] *= rng.choice([1e-4, 1e-3, 1e-2])
+        v = rng.normal(0.0, 300.0, (4, 3))
+        m = rng.uniform(0.5, 2.0, 4)
+        apart = node_face_apart(0, 1, 2, 3, x, v, tau, band)
+        v1 = v.copy()
+        J = node_face_detect(0, 1, 2, 3, x, v1, m, tau, 0.0, band, 1e-6, 1.0,
+                             np.zeros((1, GEO_COLS)), 0, np.zeros((0, 3)))
+        hits += J > 0.0
+        if apart:
+            skipped += 1
+            assert J == 0.0 and np.array_equal(v1, v), trial
+    assert skipped > 400 and hits > 50  # both kinds of pairs occur

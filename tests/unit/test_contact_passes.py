@@ -209,3 +209,33 @@ def test_projected_rounds_keep_results_bit_identical():
                                    atol=1e-15)
         results.append(m.v.copy())
     assert np.array_equal(results[0], results[1])
+
+
+@pytest.mark.parametrize("self_contact", [False, True])
+def test_kept_candidate_lists_give_the_pairs_of_a_fresh_broad_phase(self_contact):
+    """Candidate pairs kept over steps with a skin (contact/skin.py), filtered each step, are
+    those of the broad phase run afresh, in the same order, so the velocities are bit-identical;
+    the list is kept over several steps and built again when nodes have moved, and an element
+    eroded in between (a new surface) is followed."""
+    runs = []
+    for skin in (0.2, 0.0):
+        a = structured_box((0.02, 0.02, 0.01), 0.004)
+        b = structured_box((0.01, 0.01, 0.01), 0.003)
+        b = (b[0] @ rot(2, 17).T + [0.001, 0.002, 0.0103], b[1])
+        m = make_model([a, b], [(0, 0, 0), (30.0, -20.0, -300.0)])
+        passes = make_contact_passes(case_with(self_contact=self_contact), m)
+        for p in passes:
+            p.skin.skin_rel = skin
+        pairs = []
+        for k in range(30):
+            if k == 15:
+                m.status[len(a[1]) + 1] = 3  # erode an element of the upper block
+            step(m, passes, 2e-7)
+            pairs.append([p._pairs.copy() for p in passes])
+        runs.append((m.v.copy(), pairs, [p.skin.builds for p in passes]))
+    (v0, pairs0, builds), (v1, pairs1, _) = runs
+    for a_, b_ in zip(pairs0, pairs1):
+        for pa, pb in zip(a_, b_):
+            assert np.array_equal(pa, pb)
+    assert sum(p.shape[0] for p in pairs0[-1]) > 0 and np.array_equal(v0, v1)
+    assert all(2 <= n < 30 for n in builds), builds  # kept over steps, built again as nodes move

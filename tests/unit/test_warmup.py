@@ -25,6 +25,9 @@ def test_warmup_scenes_cover_the_pipeline_and_leave_a_cache_a_later_process_uses
     contact = s["contact"]
     assert contact["contact.node-face"]["corrected_pairs"] > 0
     assert contact["contact.edge-edge"]["candidate_pairs"] > 0
+    # candidate lists kept over steps (contact/skin.py): built, then kept and filtered
+    for name in ("contact.node-face", "contact.edge-edge"):
+        assert 0 < contact[name]["candidate_list_builds"] < contact["steps"], name
     frac = s["fracture"]
     assert frac["particles"] > 0 and frac["fracture"]["eroded"] > 0
     assert frac["fracture.particles"]["particle_face_impacts"] > 0
