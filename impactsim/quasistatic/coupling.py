@@ -46,6 +46,8 @@ class Interface:
     M_a: sp.csr_matrix
     G_b: sp.csr_matrix
     tied: bool = False
+    points: np.ndarray | None = None  # (n, 3) A's contact node positions
+    resultant: np.ndarray | None = None  # (6, n): force and moment (about the origin) on B
     anchor: bool = False  # A is anchored on B (interfaces.setup): the coarse correction
     heat_a: tuple | None = None  # (H_a, L_a, P_b): A's exchange matrix, load from values at
     heat_b: tuple | None = None  # A's quadrature points, B's interpolation there (and conversely)
@@ -191,11 +193,22 @@ def build(a: int, b: int, sa: Space, sb: Space, facets_a: np.ndarray, facets_b: 
     G_b = transfer_matrix(sa, facets_a, nodes, sb, facets_b, h)
     itf = Interface(a, b, sa.order, friction, conductance, nodes, normals, gap, matched, C_a, I_b,
                     M_a, G_b, facets_a=np.asarray(facets_a), facets_b=np.asarray(facets_b),
-                    tied=tied)
+                    tied=tied, points=xm, resultant=resultant(G_b, sb.doflocs))
     if conductance > 0:
         itf.heat_a = _exchange(sa, facets_a, sb, facets_b, conductance)
         itf.heat_b = _exchange(sb, facets_b, sa, facets_a, conductance)
     return itf
+
+
+def resultant(G: sp.spmatrix, doflocs: np.ndarray) -> np.ndarray:
+    """(6, n): the force and the moment about the origin of B's nodal forces G @ p."""
+    G = G.tocsr()
+    f = [G[k::3] for k in range(3)]  # (N_B, n) per component
+    x = doflocs  # (3, N_B)
+    force = np.stack([np.asarray(fk.sum(axis=0)).ravel() for k, fk in enumerate(f)])
+    moment = np.stack([np.asarray((f[k].T @ x[j] - f[j].T @ x[k])).ravel()
+                       for j, k in ((1, 2), (2, 0), (0, 1))])
+    return np.vstack([force, moment])
 
 
 def _quadrature(space: Space, facets: np.ndarray, vector: bool, intorder: int | None = None):
