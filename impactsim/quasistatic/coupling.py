@@ -55,6 +55,30 @@ class Interface:
     facets_b: np.ndarray | None = None
 
 
+def faceting(space: Space, facets: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """(n,): how far the smooth surface through the facets' vertices lies beyond the facet at
+    the closest points of `points`, along the facet's outward normal (a Nagata-type quadratic
+    patch: each edge (i, j) bends by b_i b_j (x_j - x_i) . (n_j - n_i) / 2, n the vertex
+    normals averaged over these facets; its midpoint by the sagitta of a circle through both
+    ends). Zero on flat patches (equal normals), positive where the surface is convex."""
+    facets = np.asarray(facets)
+    x, nf = space.facet_geometry(facets)
+    verts = space.mesh.facets[:, facets]  # (3, nf)
+    area = 0.5 * np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1)
+    vn = np.zeros((space.mesh.p.shape[1], 3))
+    for r in range(3):
+        np.add.at(vn, verts[r], nf * area[:, None])
+    vn /= np.maximum(np.linalg.norm(vn, axis=1), 1e-300)[:, None]
+    f, bary, _ = locate(points, x)
+    xv = x[f]  # (n, 3, 3)
+    nv = vn[verts[:, f].T]  # (n, 3, 3)
+    out = np.zeros(len(points))
+    for i, j in ((0, 1), (1, 2), (0, 2)):
+        k = 0.5 * np.einsum("nc,nc->n", xv[:, j] - xv[:, i], nv[:, j] - nv[:, i])
+        out += bary[:, i] * bary[:, j] * k
+    return out
+
+
 def surface_interpolation(space: Space, facets: np.ndarray, points: np.ndarray):
     """(sparse (n_points x N) interpolation of the scalar field at the closest points of
     `points` (n, 3) on the facets, closest points (n, 3), facet normals there (n, 3))."""
@@ -175,7 +199,11 @@ def build(a: int, b: int, sa: Space, sb: Space, facets_a: np.ndarray, facets_b: 
     Pb, xs, nb = surface_interpolation(sb, facets_b, xm)
     d = xs - xm
     gap = np.einsum("ij,ij->i", d, normals)
-    lateral = np.linalg.norm(d - gap[:, None] * normals, axis=1)
+    lateral_gap = gap.copy()
+    # B's curved surface, not its facets: A's nodes lie on the true surface, B's facets are
+    # chords of it (on a coarse cylinder their sagitta exceeds a fuel rod's 85 um gap)
+    gap = gap + faceting(sb, facets_b, xm) * np.einsum("ij,ij->i", nb, normals)
+    lateral = np.linalg.norm(d - lateral_gap[:, None] * normals, axis=1)
     h = np.sqrt(area.mean())
     # a node faces B when its closest point there lies along its normal (to within the angle
     # between facets of curved, faceted surfaces) on a facet turned towards it
