@@ -91,7 +91,7 @@ def problem(case) -> Problem:
             bodies.append(model)
     s = case.settings
     settings = Settings(times=case.times, heat_transient=s["heat"] == "transient",
-                        relaxation=s["relaxation"], aitken=s["aitken"],
+                        relaxation=s["relaxation"], aitken=s["aitken"], coarse=s["coarse"],
                         max_iterations=s["max_iterations"], gap_tolerance=s["gap_tolerance"],
                         pressure_tolerance=s["pressure_tolerance"],
                         heat_tolerance=s["heat_tolerance"],

@@ -34,7 +34,7 @@ ACTIVATE = 10.0  # a node is activated when it penetrates by ACTIVATE x gap tole
 RELEASE = 1e-3  # a node is released when its (smoothed) pressure is below -RELEASE p_max
 
 
-ROTATIONS = False  # tried: the 10- and 20-pellet stacks diverge (docstring of _coarse_shifts)
+ROTATIONS = False  # bodies with no other closed kinematic contact could turn: tried, diverges
 
 
 class NotConverged(Exception):
@@ -75,8 +75,9 @@ def update_active(itf: Interface, act: np.ndarray, p: np.ndarray, penetration: n
 
 
 def _anchor_tree(interfaces, active) -> tuple[dict, list]:
-    """({body: its anchor interface}, those bodies ordered leaves first). Only anchors with
-    active nodes count (an open anchor carries nothing)."""
+    """({body: its anchor interface}, those bodies ordered leaves first, the bodies that may
+    turn in the coarse step). Only anchors with active nodes count (an open anchor carries
+    nothing)."""
     parent = {}
     for c, itf in enumerate(interfaces):
         if itf.anchor and active[c].any():
@@ -91,7 +92,12 @@ def _anchor_tree(interfaces, active) -> tuple[dict, list]:
         for y in reversed(chain):
             d += 1
             depth[y] = d
-    return parent, sorted(parent, key=lambda x: -depth[x])
+    # bodies whose anchor is their only closed kinematic contact: what they carry goes to
+    # the anchor alone, moments included (elsewhere the side contacts share it by stiffness)
+    others = {itf.a for c, itf in enumerate(interfaces)
+              if not itf.anchor and active[c].any()}
+    turn = {b for b in parent if b not in others} if ROTATIONS else set()
+    return parent, sorted(parent, key=lambda x: -depth[x]), turn
 
 
 def _rigid_rows(points: np.ndarray, normals: np.ndarray, centre: np.ndarray) -> np.ndarray:
@@ -121,7 +127,7 @@ def _coarse_shifts(interfaces, residuals, active, omega, tree=None) -> dict:
     its stiffness decides and a tree sum cannot know; with rotations (and moments) in the
     coarse step the 10- and 20-pellet stacks diverged. Along the anchor normal frictionless
     side contacts carry nothing, so the translation part is exact there."""
-    parent, order = tree or _anchor_tree(interfaces, active)
+    parent, order, turn = tree or _anchor_tree(interfaces, active)
     own = {}
     for body, c in parent.items():
         itf, act = interfaces[c], active[c]
@@ -130,7 +136,7 @@ def _coarse_shifts(interfaces, residuals, active, omega, tree=None) -> dict:
         A = _rigid_rows(x, n, centre)
         scale = np.sqrt((np.linalg.norm(x - centre, axis=1) ** 2).mean()) or 1.0
         A[:, 3:] /= scale
-        if not ROTATIONS:
+        if body not in turn:
             A[:, 3:] = 0.0  # translations only (see the docstring)
         m = np.linalg.lstsq(A, omega * residuals[c][act], rcond=1e-8)[0]
         m[3:] /= scale
@@ -157,7 +163,7 @@ def _coarse_forces(interfaces, p_old, p_new, active, tree=None) -> dict:
     iteration shapes the rest; moments are left out for the reason given in _coarse_shifts).
     At a converged iterate p_new = p_old everywhere, every D is zero: the fixed point is that
     of the plain iteration."""
-    parent, order = tree or _anchor_tree(interfaces, active)
+    parent, order, turn = tree or _anchor_tree(interfaces, active)
     children: dict = {}
     for c, itf in enumerate(interfaces):
         children.setdefault(itf.b, []).append(c)
@@ -180,7 +186,7 @@ def _coarse_forces(interfaces, p_old, p_new, active, tree=None) -> dict:
         W[3:] = (W[3:] - np.cross(centre, W[:3].T).T) / scale
         t = D.copy()
         t[3:] = (t[3:] - np.cross(centre, t[:3])) / scale
-        if not ROTATIONS:
+        if body not in turn:
             W, t, phi = W[:3, :1], t[:3], phi[:, :1]
         q = np.linalg.lstsq(W, t, rcond=1e-8)[0]
         d = np.zeros(len(act))
