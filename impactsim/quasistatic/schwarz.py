@@ -75,8 +75,8 @@ def update_active(itf: Interface, act: np.ndarray, p: np.ndarray, penetration: n
 
 
 def _anchor_tree(interfaces, active) -> tuple[dict, list]:
-    """({body: its anchor interface}, those bodies ordered leaves first, the bodies that may
-    turn in the coarse step). Only anchors with active nodes count (an open anchor carries
+    """({body: its anchor interface}, those bodies ordered leaves first, the bodies whose
+    anchor is their only closed kinematic contact). Only anchors with active nodes count (an open anchor carries
     nothing)."""
     parent = {}
     for c, itf in enumerate(interfaces):
@@ -96,8 +96,8 @@ def _anchor_tree(interfaces, active) -> tuple[dict, list]:
     # the anchor alone, moments included (elsewhere the side contacts share it by stiffness)
     others = {itf.a for c, itf in enumerate(interfaces)
               if not itf.anchor and active[c].any()}
-    turn = {b for b in parent if b not in others} if ROTATIONS else set()
-    return parent, sorted(parent, key=lambda x: -depth[x]), turn
+    alone = {b for b in parent if b not in others}
+    return parent, sorted(parent, key=lambda x: -depth[x]), alone
 
 
 def _rigid_rows(points: np.ndarray, normals: np.ndarray, centre: np.ndarray) -> np.ndarray:
@@ -127,7 +127,7 @@ def _coarse_shifts(interfaces, residuals, active, omega, tree=None) -> dict:
     its stiffness decides and a tree sum cannot know; with rotations (and moments) in the
     coarse step the 10- and 20-pellet stacks diverged. Along the anchor normal frictionless
     side contacts carry nothing, so the translation part is exact there."""
-    parent, order, turn = tree or _anchor_tree(interfaces, active)
+    parent, order, alone = tree or _anchor_tree(interfaces, active)
     own = {}
     for body, c in parent.items():
         itf, act = interfaces[c], active[c]
@@ -136,7 +136,7 @@ def _coarse_shifts(interfaces, residuals, active, omega, tree=None) -> dict:
         A = _rigid_rows(x, n, centre)
         scale = np.sqrt((np.linalg.norm(x - centre, axis=1) ** 2).mean()) or 1.0
         A[:, 3:] /= scale
-        if body not in turn:
+        if not (ROTATIONS and body in alone):
             A[:, 3:] = 0.0  # translations only (see the docstring)
         m = np.linalg.lstsq(A, omega * residuals[c][act], rcond=1e-8)[0]
         m[3:] /= scale
@@ -163,12 +163,14 @@ def _coarse_forces(interfaces, p_old, p_new, active, tree=None) -> dict:
     iteration shapes the rest; moments are left out for the reason given in _coarse_shifts).
     At a converged iterate p_new = p_old everywhere, every D is zero: the fixed point is that
     of the plain iteration."""
-    parent, order, turn = tree or _anchor_tree(interfaces, active)
+    parent, order, alone = tree or _anchor_tree(interfaces, active)
     children: dict = {}
     for c, itf in enumerate(interfaces):
         children.setdefault(itf.b, []).append(c)
     dp: dict = {}
     for body in order:
+        if body not in alone:
+            continue  # its other contacts take their share of the change: not a tree sum
         D = np.zeros(6)
         for c in children.get(body, ()):
             R = interfaces[c].resultant
@@ -186,7 +188,7 @@ def _coarse_forces(interfaces, p_old, p_new, active, tree=None) -> dict:
         W[3:] = (W[3:] - np.cross(centre, W[:3].T).T) / scale
         t = D.copy()
         t[3:] = (t[3:] - np.cross(centre, t[:3])) / scale
-        if body not in turn:
+        if not ROTATIONS:
             W, t, phi = W[:3, :1], t[:3], phi[:, :1]
         q = np.linalg.lstsq(W, t, rcond=1e-8)[0]
         d = np.zeros(len(act))
