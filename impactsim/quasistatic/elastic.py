@@ -114,7 +114,12 @@ class ElasticBody:
         mask[self.D] = False
         self.F = np.nonzero(mask)[0]
         Kff = self.K[self.F][:, self.F].tocsc()
-        self.spring = regularization * Kff.diagonal()
+        # springs only where the conditions leave a rigid-body mode: on a held body they would
+        # only slow its soft modes down (a thin tube held at one end bends as a cantilever
+        # whose stiffness is a thousandth of the springs': 0.998 per iteration, measured)
+        held = len(self.D) and np.linalg.matrix_rank(rigid_modes(space.doflocs)[self.D],
+                                                     tol=1e-9 * np.ptp(space.doflocs)) == 6
+        self.spring = (0.0 if held else regularization) * Kff.diagonal()
         A = Kff + sp.diags(self.spring)
         if solver == "amg":
             self.lu = AMGSolver(A.tocsr(), rigid_modes(space.doflocs)[self.F])

@@ -138,7 +138,7 @@ def _coarse_shifts(interfaces, residuals, active, omega, tree=None) -> dict:
         A[:, 3:] /= scale
         if not (ROTATIONS and body in alone):
             A[:, 3:] = 0.0  # translations only (see the docstring)
-        m = np.linalg.lstsq(A, omega * residuals[c][act], rcond=1e-8)[0]
+        m = np.linalg.lstsq(A, omega[c] * residuals[c][act], rcond=1e-8)[0]
         m[3:] /= scale
         own[body] = _to_origin(m, centre)
     shift: dict = {}
@@ -238,6 +238,7 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
     pool.call("mech_begin", scale)
     n_b = len(interfaces)
     omega = settings.relaxation
+    om = np.full(n_b, omega)  # per interface (one value today)
     r_old = None
     last_change = 0
     result = {"iterations": 0, "gap_residual": np.inf, "pressure_residual": np.inf}
@@ -301,6 +302,7 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
                 omega = float(np.clip(-omega * float(r_old @ dr) / den, 0.05, 1.5))
         elif changed:
             omega = settings.relaxation
+        om[:] = omega
         log.append({"phase": "mechanics", "step": step, "iteration": it,
                     "gap_residual": gap_res, "pressure_residual": p_change,
                     "relaxation": omega, "active": int(sum(a.sum() for a in new_active)),
@@ -309,7 +311,7 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
         shift, dp = {}, {}
         if settings.coarse:
             tree = _anchor_tree(interfaces, new_active)
-            shift = _coarse_shifts(interfaces, residuals, new_active, omega, tree)
+            shift = _coarse_shifts(interfaces, residuals, new_active, om, tree)
             dp = _coarse_forces(interfaces, state.p, p_new, new_active, tree)
         for c in range(n_b):
             itf = interfaces[c]
@@ -318,7 +320,7 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
                 m = shift[itf.b]
                 pred = itf.normals @ m[:3] + np.einsum("ij,ij->i", itf.normals,
                                                        np.cross(m[3:], itf.points))
-            state.g[c] = np.where(new_active[c], state.g[c] + omega * residuals[c] + pred,
+            state.g[c] = np.where(new_active[c], state.g[c] + om[c] * residuals[c] + pred,
                                   ub_all[c] + interfaces[c].gap)
             state.p[c] = p_new[c] + dp.get(c, 0.0)
         if changed:
