@@ -153,7 +153,7 @@ def _build(raw: dict, source: Path | None) -> QSCase:
     for k in ("gap_tolerance", "pressure_tolerance", "heat_tolerance", "relaxation"):
         positive(settings[k], q.at(k))
     non_negative(settings["regularization"], q.at("regularization"))
-    for k in ("max_iterations", "max_heat_iterations"):
+    for k in ("max_iterations", "max_heat_iterations", "direct_limit"):
         positive(settings[k], q.at(k))
     if settings["relaxation"] >= 2:
         raise q.error("relaxation", f"must be in (0, 2), got {settings['relaxation']:g}")

@@ -32,6 +32,15 @@ QUASISTATIC = Table("quasistatic", "Solver settings of the quasi-static analysis
     Key("relaxation", "number", "Relaxation omega of eq. 7 of [G15], in (0, 2) (Aitken's "
         "first value when aitken = true).", 0.5),
     Key("aitken", "bool", "Adapt omega by Aitken's delta-squared (Irons-Tuck).", True),
+    Key("coarse", "bool", "Coarse step along the anchor tree after each Schwarz iteration: "
+        "each body held by its contacts moves with its support and passes on at once the "
+        "force its subtree carries (columns of bodies).", True),
+    Key("solver", "choice", "Elastic solver of each body: direct (SuperLU, factorised once), "
+        "amg (pyamg smoothed aggregation + conjugate gradients, for bodies too large to "
+        "factorise), auto (amg above direct_limit free dofs).", "auto",
+        choices=("auto", "direct", "amg")),
+    Key("direct_limit", "int", "auto: bodies with more displacement dofs than this use amg.",
+        300000),
     Key("max_iterations", "int", "Schwarz iterations per load step before giving up (>= 1).",
         500),
     Key("gap_tolerance", "number", "Stop when the gap mismatch, relative to the largest "

@@ -33,6 +33,7 @@ class BodySpec:
     heat: list = field(default_factory=list)  # (link id, H, L, P_other_for_neighbour)
     heat_send: list = field(default_factory=list)  # (link id, P): values the neighbour needs
     thermal: bool = False  # solve heat (else the temperature stays the initial one)
+    solver: str = "direct"  # the elastic solver: direct or amg (interfaces.setup decides)
 
 
 class BodyState:
@@ -44,7 +45,8 @@ class BodyState:
         for _, H, _ in spec.heat:
             robin = H if robin is None else robin + H
         self.heat = HeatBody(spec.model, self.space, robin)
-        self.elastic = ElasticBody(spec.model, self.space, spec.regularization)
+        self.elastic = ElasticBody(spec.model, self.space, spec.regularization,
+                                   solver=spec.solver)
         self.C = sp.vstack([c for _, c, _ in spec.kin]).tocsr() if spec.kin else None
         self.rows = np.cumsum([0] + [c.shape[0] for _, c, _ in spec.kin])
         self.f = np.zeros(self.elastic.ndof)

@@ -91,7 +91,8 @@ def problem(case) -> Problem:
             bodies.append(model)
     s = case.settings
     settings = Settings(times=case.times, heat_transient=s["heat"] == "transient",
-                        relaxation=s["relaxation"], aitken=s["aitken"],
+                        relaxation=s["relaxation"], aitken=s["aitken"], coarse=s["coarse"],
+                        solver=s["solver"], direct_limit=s["direct_limit"],
                         max_iterations=s["max_iterations"], gap_tolerance=s["gap_tolerance"],
                         pressure_tolerance=s["pressure_tolerance"],
                         heat_tolerance=s["heat_tolerance"],

@@ -46,11 +46,37 @@ class Interface:
     M_a: sp.csr_matrix
     G_b: sp.csr_matrix
     tied: bool = False
+    points: np.ndarray | None = None  # (n, 3) A's contact node positions
+    resultant: np.ndarray | None = None  # (6, n): force and moment (about the origin) on B
     anchor: bool = False  # A is anchored on B (interfaces.setup): the coarse correction
     heat_a: tuple | None = None  # (H_a, L_a, P_b): A's exchange matrix, load from values at
     heat_b: tuple | None = None  # A's quadrature points, B's interpolation there (and conversely)
     facets_a: np.ndarray | None = None
     facets_b: np.ndarray | None = None
+
+
+def faceting(space: Space, facets: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """(n,): how far the smooth surface through the facets' vertices lies beyond the facet at
+    the closest points of `points`, along the facet's outward normal (a Nagata-type quadratic
+    patch: each edge (i, j) bends by b_i b_j (x_j - x_i) . (n_j - n_i) / 2, n the vertex
+    normals averaged over these facets; its midpoint by the sagitta of a circle through both
+    ends). Zero on flat patches (equal normals), positive where the surface is convex."""
+    facets = np.asarray(facets)
+    x, nf = space.facet_geometry(facets)
+    verts = space.mesh.facets[:, facets]  # (3, nf)
+    area = 0.5 * np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1)
+    vn = np.zeros((space.mesh.p.shape[1], 3))
+    for r in range(3):
+        np.add.at(vn, verts[r], nf * area[:, None])
+    vn /= np.maximum(np.linalg.norm(vn, axis=1), 1e-300)[:, None]
+    f, bary, _ = locate(points, x)
+    xv = x[f]  # (n, 3, 3)
+    nv = vn[verts[:, f].T]  # (n, 3, 3)
+    out = np.zeros(len(points))
+    for i, j in ((0, 1), (1, 2), (0, 2)):
+        k = 0.5 * np.einsum("nc,nc->n", xv[:, j] - xv[:, i], nv[:, j] - nv[:, i])
+        out += bary[:, i] * bary[:, j] * k
+    return out
 
 
 def surface_interpolation(space: Space, facets: np.ndarray, points: np.ndarray):
@@ -173,7 +199,11 @@ def build(a: int, b: int, sa: Space, sb: Space, facets_a: np.ndarray, facets_b: 
     Pb, xs, nb = surface_interpolation(sb, facets_b, xm)
     d = xs - xm
     gap = np.einsum("ij,ij->i", d, normals)
-    lateral = np.linalg.norm(d - gap[:, None] * normals, axis=1)
+    lateral_gap = gap.copy()
+    # B's curved surface, not its facets: A's nodes lie on the true surface, B's facets are
+    # chords of it (on a coarse cylinder their sagitta exceeds a fuel rod's 85 um gap)
+    gap = gap + faceting(sb, facets_b, xm) * np.einsum("ij,ij->i", nb, normals)
+    lateral = np.linalg.norm(d - lateral_gap[:, None] * normals, axis=1)
     h = np.sqrt(area.mean())
     # a node faces B when its closest point there lies along its normal (to within the angle
     # between facets of curved, faceted surfaces) on a facet turned towards it
@@ -191,11 +221,22 @@ def build(a: int, b: int, sa: Space, sb: Space, facets_a: np.ndarray, facets_b: 
     G_b = transfer_matrix(sa, facets_a, nodes, sb, facets_b, h)
     itf = Interface(a, b, sa.order, friction, conductance, nodes, normals, gap, matched, C_a, I_b,
                     M_a, G_b, facets_a=np.asarray(facets_a), facets_b=np.asarray(facets_b),
-                    tied=tied)
+                    tied=tied, points=xm, resultant=resultant(G_b, sb.doflocs))
     if conductance > 0:
         itf.heat_a = _exchange(sa, facets_a, sb, facets_b, conductance)
         itf.heat_b = _exchange(sb, facets_b, sa, facets_a, conductance)
     return itf
+
+
+def resultant(G: sp.spmatrix, doflocs: np.ndarray) -> np.ndarray:
+    """(6, n): the force and the moment about the origin of B's nodal forces G @ p."""
+    G = G.tocsr()
+    f = [G[k::3] for k in range(3)]  # (N_B, n) per component
+    x = doflocs  # (3, N_B)
+    force = np.stack([np.asarray(fk.sum(axis=0)).ravel() for k, fk in enumerate(f)])
+    moment = np.stack([np.asarray((f[k].T @ x[j] - f[j].T @ x[k])).ravel()
+                       for j, k in ((1, 2), (2, 0), (0, 1))])
+    return np.vstack([force, moment])
 
 
 def _quadrature(space: Space, facets: np.ndarray, vector: bool, intorder: int | None = None):

@@ -52,8 +52,43 @@ def _pressure(v, w):
     return -w.p * dot(w.n, v)
 
 
+def rigid_modes(doflocs: np.ndarray) -> np.ndarray:
+    """(3 N, 6): the rigid-body modes of the vector dofs (interleaved x y z per node)."""
+    x = doflocs.T - doflocs.mean(axis=1)
+    n = len(x)
+    B = np.zeros((n, 3, 6))
+    for k in range(3):
+        B[:, k, k] = 1.0
+    # theta x r: rotation about x moves (0, -z, y), about y (z, 0, -x), about z (-y, x, 0)
+    B[:, 1, 3], B[:, 2, 3] = -x[:, 2], x[:, 1]
+    B[:, 0, 4], B[:, 2, 4] = x[:, 2], -x[:, 0]
+    B[:, 0, 5], B[:, 1, 5] = -x[:, 1], x[:, 0]
+    return B.reshape(3 * n, 6)
+
+
+class AMGSolver:
+    """For bodies too large to factorise: smoothed-aggregation algebraic multigrid (pyamg)
+    with the rigid-body modes as near-null space, as the preconditioner of conjugate
+    gradients, set up once; `solve` has the interface of SuperLU's (relative residual
+    `tolerance`)."""
+
+    def __init__(self, A: sp.csr_matrix, modes: np.ndarray, tolerance: float = 1e-10):
+        import pyamg
+
+        self.A = A
+        self.ml = pyamg.smoothed_aggregation_solver(A, B=modes, symmetry="symmetric",
+                                                    max_coarse=500)
+        self.tolerance = tolerance
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        if not np.any(b):
+            return np.zeros_like(b)
+        return self.ml.solve(b, tol=self.tolerance, accel="cg", maxiter=1000)
+
+
 class ElasticBody:
-    def __init__(self, model: BodyModel, space: Space, regularization: float = 1e-6):
+    def __init__(self, model: BodyModel, space: Space, regularization: float = 1e-6,
+                 solver: str = "direct"):
         self.model = model
         self.space = space
         mat = model.material
@@ -79,8 +114,17 @@ class ElasticBody:
         mask[self.D] = False
         self.F = np.nonzero(mask)[0]
         Kff = self.K[self.F][:, self.F].tocsc()
-        self.spring = regularization * Kff.diagonal()
-        self.lu = sla.splu((Kff + sp.diags(self.spring)).tocsc())
+        # springs only where the conditions leave a rigid-body mode: on a held body they would
+        # only slow its soft modes down (a thin tube held at one end bends as a cantilever
+        # whose stiffness is a thousandth of the springs': 0.998 per iteration, measured)
+        held = len(self.D) and np.linalg.matrix_rank(rigid_modes(space.doflocs)[self.D],
+                                                     tol=1e-9 * np.ptp(space.doflocs)) == 6
+        self.spring = (0.0 if held else regularization) * Kff.diagonal()
+        A = Kff + sp.diags(self.spring)
+        if solver == "amg":
+            self.lu = AMGSolver(A.tocsr(), rigid_modes(space.doflocs)[self.F])
+        else:
+            self.lu = sla.splu(A.tocsc())
         self.KfD = self.K[self.F][:, self.D]
         self._schur_key = None
         self.u_prev = np.zeros(self.ndof)

@@ -104,6 +104,18 @@ def _support_distance(n: int, fixed: list[bool], pairs) -> list[int]:
     return [d if d >= 0 else 10**9 for d in dist]
 
 
+def _solver(settings, ndof: int, held: bool) -> str:
+    """direct or amg. A body held only by its contacts is always factorised: its stiffness
+    plus the 1e-6 springs has a condition number of 1e6 and more, and its Schur complement
+    C K^-1 C^T is dominated by the rigid modes; iterative solves to 1e-10 lose its elastic
+    part (measured: an indefinite Schur complement on the upper block of blocks-pressed)."""
+    if not held:
+        return "direct"
+    if settings.solver != "auto":
+        return settings.solver
+    return "amg" if ndof > settings.direct_limit else "direct"
+
+
 def setup(problem: Problem):
     """(spaces, interfaces, specs, heat routing {key: receiving body}, seconds)."""
     t0 = time.perf_counter()
@@ -139,7 +151,9 @@ def setup(problem: Problem):
     thermal_bodies = any(c.kind in ("temperature", "flux", "exchange", "source")
                          for b in bodies for c in b.conditions)
     thermal = thermal_bodies or any(itf.conductance > 0 for itf in interfaces)
-    specs = [BodySpec(i, b, problem.settings.regularization, thermal=thermal)
+    s = problem.settings
+    specs = [BodySpec(i, b, s.regularization, thermal=thermal,
+                      solver=_solver(s, 3 * spaces[i].n, b.fixed))
              for i, b in enumerate(bodies)]
     route = {}
     for c, itf in enumerate(interfaces):

@@ -109,6 +109,8 @@ class Settings:
     regularization: float = 1e-6  # weak springs, relative to diag(K) (floating bodies)
     detect: bool = True
     coarse: bool = True  # rigid shifts passed down the anchor tree in one iteration
+    solver: str = "auto"  # direct (SuperLU), amg (pyamg + CG), auto: amg above direct_limit
+    direct_limit: int = 300_000  # free dofs of a body above which auto uses amg
 
 
 @dataclass
