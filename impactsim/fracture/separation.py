@@ -40,6 +40,10 @@ Akantu's cohesive inserter, with the copies made at build time so that no node a
   fragments when ``contact.self_contact``) at the next velocity stage. The other refreshes
   rebuild whole structures (O(N log N)); they run only on steps with releases
   (docs/fracture.md: cost).
+- Every step the stable step is lowered to that of the tets with a corner in a split family,
+  from the masses their corners carry (``_released_step``, ``SeparationPass.limit_step``): the
+  kernel's L / c holds for a connected mesh, not for a tet cut loose (its critical step is
+  0.67 L / c), whose breathing mode otherwise rang up at cfl 0.6 until it inverted (issue 12).
 """
 
 from __future__ import annotations
