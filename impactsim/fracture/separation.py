@@ -40,6 +40,10 @@ Akantu's cohesive inserter, with the copies made at build time so that no node a
   fragments when ``contact.self_contact``) at the next velocity stage. The other refreshes
   rebuild whole structures (O(N log N)); they run only on steps with releases
   (docs/fracture.md: cost).
+- Every step the stable step is lowered to that of the tets with a corner in a split family,
+  from the masses their corners carry (``_released_step``, ``SeparationPass.limit_step``): the
+  kernel's L / c holds for a connected mesh, not for a tet cut loose (its critical step is
+  0.67 L / c), whose breathing mode otherwise rang up at cfl 0.6 until it inverted (issue 12).
 """
 
 from __future__ import annotations
@@ -47,11 +51,15 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+import math
+
+from impactsim.materials import params as P
+from impactsim.materials.laws import eos_linear_part
 from impactsim.materials.params import FRACTURE_STRAIN
-from impactsim.solver.element import FAST, _corner_forces, _tet_gradients
+from impactsim.solver.element import FAST, _char_length, _corner_forces, _tet_gradients
 from impactsim.mesh.topology import LOCAL_FACES as TET_FACES
 from impactsim.mesh.split import split_points  # noqa: F401 (build time, here for readers)
-from impactsim.model import ERODED
+from impactsim.model import ERODED, FRACTURED
 
 # the quad faces of a hex in VTK order, outward
 HEX_FACES = np.array([[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6],
@@ -331,6 +339,71 @@ def _move_corner_forces(old, new, f, force):
             force[new[k], d] += f[k, d]
 
 
+@numba.njit(cache=True, error_model="numpy")
+def _released_step(x, v, conn, status, elem_mat, mat_params, pressure, elem_mass, mass, ids,
+                   cq, cl):
+    """(stable step, element) of the tets ``ids`` (those with a corner in a split family) with
+    the masses their corners now carry: the element kernel's step L / (qq + sqrt(qq^2 + c^2))
+    (element._element_scalar) with L replaced by min(L, l_m), l_m = 1 / sqrt(sum_a s_a
+    |grad N_a|^2), s_a = (m_e / 4) / m_a the element's share of the mass of its corner a. With
+    these masses the element alone has omega^2 <= c^2 rho V sum_a |grad N_a|^2 / m_a = 4 c^2 /
+    l_m^2 (the Flanagan-Belytschko bound, weighted; checked on random tets and masses), so
+    l_m / c is at most its critical step. In a connected mesh the corners are shared and the
+    kernel's L / c binds (the 3 mm block of 1 mm Kuhn tets: min l_m = min L; its critical step
+    is 0.94 L / c); a lone tet
+    (s_a = 1) has l_m = 0.577 L (Kuhn tets; its critical step is 0.67 L / c), fragments of 2, 3,
+    6, 12 tets 0.71 .. 0.93 L: critical step / (l_m / c) 0.94 .. 1.16, the connected mesh's
+    margin (docs/fracture.md: time step of fragments)."""
+    best, worst = np.inf, -1
+    for k in range(ids.shape[0]):
+        e = ids[k]
+        st = status[e]
+        if st == ERODED or st == FRACTURED:
+            continue  # no stress, no force, no limit (as in the kernel)
+        i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
+        det, b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z = _tet_gradients(
+            x[i0, 0], x[i0, 1], x[i0, 2], x[i1, 0], x[i1, 1], x[i1, 2],
+            x[i2, 0], x[i2, 1], x[i2, 2], x[i3, 0], x[i3, 1], x[i3, 2])
+        if not det > 0.0:
+            continue
+        length = _char_length(det, b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z)
+        b0x, b0y, b0z = -(b1x + b2x + b3x), -(b1y + b2y + b3y), -(b1z + b2z + b3z)
+        share = 0.25 * elem_mass[e]
+        s0 = 1.0 if not mass[i0] > share else share / mass[i0]
+        s1 = 1.0 if not mass[i1] > share else share / mass[i1]
+        s2 = 1.0 if not mass[i2] > share else share / mass[i2]
+        s3 = 1.0 if not mass[i3] > share else share / mass[i3]
+        g = (s0 * (b0x * b0x + b0y * b0y + b0z * b0z) + s1 * (b1x * b1x + b1y * b1y + b1z * b1z)
+             + s2 * (b2x * b2x + b2y * b2y + b2z * b2z)
+             + s3 * (b3x * b3x + b3y * b3y + b3z * b3z))
+        lm = min(length, det / math.sqrt(g))
+        mk = elem_mat[e]
+        rho = 6.0 * elem_mass[e] / det
+        _, _, c2a, c2b = eos_linear_part(int(mat_params[mk, P.EOS]), rho, mat_params[mk, P.RHO0],
+                                         mat_params[mk, P.K], mat_params[mk, P.C0],
+                                         mat_params[mk, P.S], mat_params[mk, P.GAMMA0])
+        c2 = c2a + c2b * max(pressure[e], 0.0)
+        if c2 < 0.0:
+            c2 = 0.0
+        if st == 0:  # intact (as the kernel): the shear modulus stiffens it
+            c2 += 4.0 * mat_params[mk, P.G] / (3.0 * rho)
+        # the volume rate of the corners' velocities (the kernel's on the mid-step geometry)
+        trd = (b1x * (v[i1, 0] - v[i0, 0]) + b2x * (v[i2, 0] - v[i0, 0])
+               + b3x * (v[i3, 0] - v[i0, 0])
+               + b1y * (v[i1, 1] - v[i0, 1]) + b2y * (v[i2, 1] - v[i0, 1])
+               + b3y * (v[i3, 1] - v[i0, 1])
+               + b1z * (v[i1, 2] - v[i0, 2]) + b2z * (v[i2, 2] - v[i0, 2])
+               + b3z * (v[i3, 2] - v[i0, 2]))
+        trd /= det
+        qq = cl * math.sqrt(c2) + cq * cq * length * (-trd) if trd < 0.0 else 0.0
+        if not (c2 > 0.0 or qq > 0.0):
+            continue
+        dte = lm / (qq + math.sqrt(qq * qq + c2))
+        if dte < best:
+            best, worst = dte, e
+    return best, worst
+
+
 class SeparableSet:
     """The separable elements of one element set (the tets, or a hex block) and their state."""
 
@@ -360,6 +433,8 @@ class SeparableSet:
             self.copy_corner[copies] = np.tile(np.arange(k), e1 - e0)
         self.adj = face_adjacency_k(conn, self.faces)
         self.failed = np.zeros((n, nf), bool)
+        # the elements with a corner in a split family (their step: _released_step)
+        self.loose = np.zeros(0, np.int64)
 
     @property
     def n_sep(self) -> int:
@@ -397,6 +472,7 @@ class Separation:
         self.fam_ptr = np.zeros(reps.shape[0] + 1, np.int64)
         np.cumsum(np.bincount(self.fam[members], minlength=reps.shape[0]), out=self.fam_ptr[1:])
         self.released = np.zeros(reps.shape[0], bool)
+        self.split = np.zeros(reps.shape[0], bool)  # families split at least once
         self.touched = np.zeros(reps.shape[0], bool)
         self.parent = np.zeros(nn, np.int64)
         dormant = is_copy & (model.mass == 0.0)
@@ -435,6 +511,10 @@ class Separation:
                 e, j = np.nonzero(before != h.conn)
                 self.moved.append((s, e.astype(np.int64), j.astype(np.int64),
                                    before[e, j].astype(np.int64), h.conn[e, j].astype(np.int64)))
+                self.split[self.fam[before[e, j]]] = True
+                fam = np.where(s.ecopy >= 0, self.fam[s.ecopy], 0)
+                s.loose = np.flatnonzero(s.sep & np.any(self.split[fam] & (s.ecopy >= 0),
+                                                        axis=1)).astype(np.int64)
                 h.conn = h.conn.copy()  # a new array: caches keyed on conn see the change
                 changed = True
         if changed:
@@ -481,6 +561,27 @@ class SeparationPass:
         if self.sep.release(model):
             self.move_forces(model)
             self.refresh(model)
+        self.limit_step(model)
+
+    def limit_step(self, model) -> None:
+        """Lower the integrator's stable step (set by the element update just before) to that
+        of the tets with a corner in a split family, with the masses their corners now carry
+        (``_released_step``). The kernel's L / c assumes corners shared with neighbours; a tet
+        cut loose has corners of a quarter of its own mass and its highest mode 1.5 times
+        faster: at cfl 0.6 such tets rang in their breathing mode at 0.9 of their critical step,
+        pumped by the bulk viscosity and by the step they set themselves (docs/fracture.md)."""
+        sim = self.sim
+        if sim is None:
+            return
+        for s in self.sep.sets:
+            if s.k != 4 or not s.loose.shape[0]:
+                continue
+            h = s.holder
+            dte, worst = _released_step(model.x, model.v, h.conn, h.status, h.elem_mat,
+                                        model.mat_params, h.pressure, h.elem_mass, model.mass,
+                                        s.loose, sim.cq, sim.cl)
+            if dte < sim.dt_stable:
+                sim.dt_stable, sim.worst_element = float(dte), int(worst)
 
     def move_forces(self, model) -> None:
         """Each moved corner takes the force its element added at the last element update from
