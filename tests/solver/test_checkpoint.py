@@ -111,6 +111,17 @@ def test_resumed_hex_plate_is_bit_identical(tmp_path):
     assert s["bodies"]["plate"]["debris"]["particles"] > 0
 
 
+def test_resumed_separating_plate_is_bit_identical(tmp_path):
+    """The plate with node separation [Z] and distortion erosion instead of spall: the node
+    families, the split sets and the released tets' step limit, the contact surface reconnected
+    in place, all come back."""
+    text = PLATE.replace('failure = { spall_strength = "1.6 GPa", loosening = 0.03 }',
+                         "failure = { fracture_strain = 0.3 }", 1).replace(
+        "[fracture]\n", '[fracture]\ndistortion_interval = "20 ns"\n')
+    s = _resume_from_an_early_checkpoint(text, tmp_path, 1)
+    assert s["fracture"]["separation"]["release_steps"] > 0
+
+
 def test_state_walk_saves_everything_but_configuration(tmp_path):
     from impactsim.mesh import mesh_body
     from impactsim.solver.build import build_model
