@@ -28,8 +28,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 CASES = ["elastic-bar-wall", "taylor-bar", "two-cubes", "two-cylinders", "elastic-bars",
-         "hertz-spheres", "elastic-bar-wall-hex", "taylor-bar-hex", "two-cylinders-hex",
-         "sphere-plate", "oblique-sphere"]
+         "hertz-spheres", "elastic-bar-wall-hex", "taylor-bar-hex", "taylor-bar-42crmo4",
+         "two-cylinders-hex", "sphere-plate", "sphere-plate-hex", "oblique-sphere",
+         "three-plate-shield"]
 STORE = ROOT / "benchmarks" / "estimates.json"
 DOC = ROOT / "docs" / "estimates.md"
 
