@@ -236,8 +236,9 @@ def body_elements(body: Body) -> int | None:
         return 12
     if body.shape == "file":
         return None
-    if body.element == "hex8":  # hexes (mesh/hexes.py): meshed here, it takes milliseconds
-        return len(_hex_mesh(body)[1])
+    if body.element == "hex8":  # hexes (mesh/hexes.py): meshed here while that is cheap
+        n = _hex_count(body)
+        return len(_hex_mesh(body)[1]) if n <= HEX_MESH_LIMIT else _count(n)
     h = body.mesh_size
     if body.mesher == "structured":
         n = 6.0
@@ -266,6 +267,32 @@ def _count(n: float) -> int:
 # thread, the Johnson-Cook bench of each, measured at the same time; in the bundled Taylor bar
 # with hexes 2.8 of the element loop's calibrated tet-steps, docs/estimates.md)
 HEX_COST = 2.8
+
+
+# above this many hexes (about a second of meshing) the count is not made by meshing: a case
+# with a huge body (a fuzzed size, a typo in the mesh size) must not allocate the mesh just to
+# be told it does not fit
+HEX_MESH_LIMIT = 1_000_000
+# the smallest V / largest face of O-grid cylinders and cube-spheres over their mesh size (the
+# corner cells; 0.61-0.74 on the bundled cylinders, 0.41-0.47 on cube-spheres), for bodies
+# above that limit
+HEX_CURVED_LENGTH = 0.4
+
+
+def _hex_count(body: Body) -> float:
+    """The hexes of a primitive's mesh without making it: exact cells per axis for boxes and
+    plates, the volume over h^3 (the O-grid and cube-sphere cells are about h wide) for
+    cylinders and spheres."""
+    from impactsim.case.describe import body_volume
+
+    h = body.mesh_size
+    if body.shape in ("box", "plate"):
+        n = 1.0
+        for length in body.dimensions["size"]:
+            k = length / h
+            n *= max(1.0, float(round(k)) if k < MAX_COUNT else k)
+        return n
+    return body_volume(body) / h / h / h
 
 
 def _hex_mesh(body: Body):
@@ -302,7 +329,12 @@ def body_min_length(body: Body) -> float | None:
     if body.element == "hex8":  # the hex kernel's V / largest face area
         from impactsim.mesh.hexes import hex_report
 
-        return hex_report(*_hex_mesh(body), 1.0, 1.0)["length_min"]
+        if _hex_count(body) <= HEX_MESH_LIMIT:
+            return hex_report(*_hex_mesh(body), 1.0, 1.0)["length_min"]
+        if body.shape in ("box", "plate"):  # a box cell's V / largest face: its least side
+            return min(length / max(1.0, round(length / body.mesh_size))
+                       for length in d["size"])
+        return HEX_CURVED_LENGTH * body.mesh_size
     if body.shape == "cube12":
         from impactsim.mesh.quality import altitudes
         from impactsim.mesh.structured import cube12

@@ -113,6 +113,29 @@ def test_case_that_would_not_fit_in_memory_is_refused_with_the_figure(monkeypatc
         describe_case(case)
 
 
+@pytest.mark.parametrize("shape", ["box", "cylinder"])
+def test_huge_hex_body_is_counted_without_meshing_and_refused(shape, monkeypatch):
+    """A hex body's count is made by meshing it only while that is cheap: a fuzzed case (a box
+    of 81 x 78,896 x 5 cells) allocated memory until the machine killed `make hard`. Now a
+    huge hex body is counted from its dimensions (about 5e11 hexes here) and refused for
+    memory before anything is allocated."""
+    from impactsim.case import CaseError
+    from impactsim.case import estimate as E
+    from impactsim.case.describe import describe_case
+
+    monkeypatch.setattr(E, "_hex_mesh", lambda body: pytest.fail("meshed a huge hex body"))
+    text = BAR.format(end="20 us").replace('"2.5 mm"', '"1 um"').replace(
+        'mesher = "structured"', 'mesher = "structured"\nelement = "hex8"')
+    if shape == "cylinder":
+        text = text.replace('shape = "box"\nsize = ["10 mm", "10 mm", "60 mm"]',
+                            'shape = "cylinder"\nradius = "5 mm"\nheight = "60 mm"').replace(
+            'mesher = "structured"\n', "")
+    case = load_case_text(text)
+    assert body_elements(case.bodies[0]) > 1e11
+    with pytest.raises(CaseError, match="would need"):
+        describe_case(case)
+
+
 def test_implausible_calibration_is_discarded(tmp_path, monkeypatch):
     from impactsim.case import estimate as E
 
