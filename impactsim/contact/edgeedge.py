@@ -249,18 +249,10 @@ def stay_apart(ia, ib, ie, jf, x, v, tau, band):
     fy = x[jf, 1]
     fz = x[jf, 2]
     # the end points at tau
-    Ax = ax + tau * v[ia, 0]
-    Ay = ay + tau * v[ia, 1]
-    Az = az + tau * v[ia, 2]
-    Bx = bx + tau * v[ib, 0]
-    By = by + tau * v[ib, 1]
-    Bz = bz + tau * v[ib, 2]
-    Ex = ex + tau * v[ie, 0]
-    Ey = ey + tau * v[ie, 1]
-    Ez = ez + tau * v[ie, 2]
-    Fx = fx + tau * v[jf, 0]
-    Fy = fy + tau * v[jf, 1]
-    Fz = fz + tau * v[jf, 2]
+    Ax, Ay, Az = point_at(x, v, tau, ia)
+    Bx, By, Bz = point_at(x, v, tau, ib)
+    Ex, Ey, Ez = point_at(x, v, tau, ie)
+    Fx, Fy, Fz = point_at(x, v, tau, jf)
     d1x = bx - ax
     d1y = by - ay
     d1z = bz - az

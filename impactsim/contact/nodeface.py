@@ -209,33 +209,17 @@ def node_face_apart(p, ia, ib, ic, x, v, tau, band):
     cx = x[ic, 0]
     cy = x[ic, 1]
     cz = x[ic, 2]
-    Px = px + tau * v[p, 0]
-    Py = py + tau * v[p, 1]
-    Pz = pz + tau * v[p, 2]
-    Ax = ax + tau * v[ia, 0]
-    Ay = ay + tau * v[ia, 1]
-    Az = az + tau * v[ia, 2]
-    Bx = bx + tau * v[ib, 0]
-    By = by + tau * v[ib, 1]
-    Bz = bz + tau * v[ib, 2]
-    Cx = cx + tau * v[ic, 0]
-    Cy = cy + tau * v[ic, 1]
-    Cz = cz + tau * v[ic, 2]
-    e1x = bx - ax
-    e1y = by - ay
-    e1z = bz - az
-    e2x = cx - ax
-    e2y = cy - ay
-    e2z = cz - az
+    Px, Py, Pz = point_at(x, v, tau, p)
+    Ax, Ay, Az = point_at(x, v, tau, ia)
+    Bx, By, Bz = point_at(x, v, tau, ib)
+    Cx, Cy, Cz = point_at(x, v, tau, ic)
+    e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz, nn = triangle_normal(ax, ay, az, bx, by, bz,
+                                                                    cx, cy, cz)
     ll = max(e1x * e1x + e1y * e1y + e1z * e1z, e2x * e2x + e2y * e2y + e2z * e2z)
     tol = band + APART_MARGIN * math.sqrt(ll)
     if (_apart(px, Px, ax, bx, cx, Ax, Bx, Cx, tol) or _apart(py, Py, ay, by, cy, Ay, By, Cy, tol)
             or _apart(pz, Pz, az, bz, cz, Az, Bz, Cz, tol)):
         return True
-    nx = e1y * e2z - e1z * e2y
-    ny = e1z * e2x - e1x * e2z
-    nz = e1x * e2y - e1y * e2x
-    nn = nx * nx + ny * ny + nz * nz
     if not nn > 0.0:
         return False
     inv = 1.0 / math.sqrt(nn)
