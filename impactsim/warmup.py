@@ -138,7 +138,7 @@ energy_balance_action = "warn"
     # with self-contact: the contact surface follows the releases in place (Surface.reconnect)
     out.append(("separation-contact", sep + "[contact]\nself_contact = true\n", 12))
     # the same block of hexes: the released corners' forces by the hex kernel re-run at dt = 0
-    # (SeparationPass.move_forces, distortion.hex_corner_forces)
+    # (SeparationPass.move_forces, solver.blocks.hex_corner_forces)
     sep_hex = sep.replace('mesher = "structured"',
                           'mesher = "structured"\nelement = "hex8"\nhourglass = "stiffness"'
                           )

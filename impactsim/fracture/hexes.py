@@ -18,7 +18,7 @@ damage, ...):
   corners are all orphaned, or a fractured surface hex, becomes particles with the mass its
   corners give (m_e / 8 each, an orphan all it has), its momentum and energy. Mass is conserved
   to round-off, momentum exactly up to it. Before the removal, the corner forces the hex added
-  at the last element update are taken off its nodes (``distortion.hex_corner_forces``), so it
+  at the last element update are taken off its nodes (``solver.blocks.hex_corner_forces``), so it
   no longer pushes them at the next predictor (what Simulation.refresh_forces does for tets).
 - ``HexBoundary``: the free quads of a block, each as two triangles split along the diagonal
   through the quad's smallest node (the split of the contact surface, contact/hexes.py), in

@@ -37,7 +37,7 @@ from impactsim.fracture import criteria as C
 from impactsim.fracture.boundary import Boundary
 from impactsim.fracture.distortion import Distortion
 from impactsim.fracture.fragments import cloud_axis, cloud_summary, leading_edge
-from impactsim.fracture.distortion import hex_corner_forces
+from impactsim.solver.blocks import hex_corner_forces
 from impactsim.fracture.hexes import HexFracture, pass_orphan_forces
 from impactsim.fracture.measures import body_measures, shield_summary
 from impactsim.fracture.particles import (Particles, faces_near, move_particles, particle_boxes,

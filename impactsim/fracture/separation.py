@@ -58,7 +58,6 @@ from impactsim.materials.laws import eos_linear_part
 from impactsim.materials.params import FRACTURE_STRAIN
 from impactsim.solver.element import FAST, _char_length, _corner_forces, _tet_gradients
 from impactsim.mesh.topology import LOCAL_FACES as TET_FACES
-from impactsim.mesh.split import split_points  # noqa: F401 (build time, here for readers)
 from impactsim.model import ERODED, FRACTURED
 
 # the quad faces of a hex in VTK order, outward
@@ -599,8 +598,8 @@ class SeparationPass:
 
     def _hex_forces(self, model, blk, e, j) -> np.ndarray:
         """The corner forces (e, j) hexes added at the last element update (the hex kernel
-        re-run at dt = 0 on copies of their state: fracture.distortion.hex_corner_forces)."""
-        from impactsim.fracture.distortion import hex_corner_forces
+        re-run at dt = 0 on copies of their state: solver.blocks.hex_corner_forces)."""
+        from impactsim.solver.blocks import hex_corner_forces
 
         sim = self.sim
         if sim is None:

@@ -82,3 +82,37 @@ def hourglass_warning(energies: dict) -> str:
                 f"({ie:.4g} J): refine the hex mesh or raise body.hourglass_coefficient (the "
                 "stiffness form holds large plastic flow better)")
     return ""
+
+
+@numba.njit(cache=True)
+def _hex_forces(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
+                hard, thermal, energy, vol, elem_mass, hg, hg_visc, hg_stiff, mat_params, cq,
+                cl, rows, fext, half):
+    w = np.empty(H.SCRATCH)
+    for e in range(conn.shape[0]):
+        H._hex_element(e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+                     temperature, hard, thermal, energy, vol, elem_mass, hg, hg_visc, hg_stiff,
+                     mat_params, half, 0.0, cq, cl, rows, fext, w)
+
+
+def hex_corner_forces(model, blk, runner, ids, cq: float, cl: float, dt: float = 0.0,
+                      status=None) -> np.ndarray:
+    """(len(ids), 8, 3) the corner forces hexes ``ids`` added to model.force at the last element
+    update of step ``dt``: the kernel re-run with no increment on copies of their state (the
+    same stress, bulk viscosity and hourglass resultants at the same positions and velocities,
+    the velocity gradient on the same mid-step geometry x - dt/2 v: the forces the update added,
+    to round-off, so that a deleted hex's orphaned corners take no force with them and momentum
+    is conserved)."""
+    n = ids.shape[0]
+    rows = np.arange(8 * n, dtype=np.int32).reshape(n, 8)
+    fext = np.zeros((8 * n, 3))
+    # still live: called before the deletion; ``status`` the hexes' status at that update
+    # (the fracture criteria may have damaged them since)
+    st = (blk.status if status is None else status)[ids].copy()
+    _hex_forces(model.x, model.v, np.ascontiguousarray(blk.conn[ids]), blk.elem_mat[ids], st,
+                blk.sdev[ids], blk.pressure[ids], blk.q[ids], blk.eps_p[ids],
+                blk.eps_rate[ids], blk.temperature[ids], runner.hard[ids], runner.thermal[ids],
+                blk.energy[ids], blk.vol[ids], blk.elem_mass[ids], blk.hg[ids],
+                blk.hg_visc[ids], blk.hg_stiff[ids], model.mat_params, cq, cl, rows, fext,
+                0.5 * dt)
+    return fext.reshape(n, 8, 3)

@@ -210,8 +210,8 @@ self_contact = true
 def _live_forces(model, sim):
     """The nodal forces of the current connectivity assembled afresh from the stresses of the
     last element update (tets: element.node_forces; hexes: their corner forces re-run at
-    dt = 0, fracture.distortion.hex_corner_forces)."""
-    from impactsim.fracture.distortion import hex_corner_forces
+    dt = 0, solver.blocks.hex_corner_forces)."""
+    from impactsim.solver.blocks import hex_corner_forces
     from impactsim.solver import element as E
 
     f = np.zeros_like(model.force)
