@@ -143,11 +143,46 @@ def transfer_matrix(sa: Space, facets_a, nodes, sb: Space, facets_b, h: float) -
 
 
 def _on_patch(sa: Space, facets_a, points: np.ndarray, normals: np.ndarray, h: float):
-    """Whether each point lies over A's patch (its closest point there is along the normal)."""
-    _, xc, _ = surface_interpolation(sa, facets_a, points)
-    dq = xc - points
-    off = np.linalg.norm(dq - np.einsum("ij,ij->i", dq, normals)[:, None] * normals, axis=1)
-    return off <= 1e-6 * h
+    """Whether each point lies over A's patch (the line through it along `normals` meets it)."""
+    return project_along(sa, facets_a, points, normals)[2]
+
+
+RAY_CANDIDATES = 16  # facets of A (nearest centroids) tried for each ray
+
+
+def project_along(space: Space, facets, points: np.ndarray, directions: np.ndarray):
+    """Where the lines through `points` along `directions` meet the facets: (facet index into
+    `facets` (n,), barycentrics (n, 3), hit (n,) bool). B's side of a contact is projected
+    along its own normal onto A's patch: on flat parallel patches this is the closest point,
+    on a curved A (a sphere over a block) the closest point of A lies along A's normal and
+    not over the point (off the patch beyond a few elements from the pole), the line along
+    B's normal does."""
+    from scipy.spatial import cKDTree
+
+    x, _ = space.facet_geometry(np.asarray(facets))
+    k = min(RAY_CANDIDATES, len(x))
+    _, cand = cKDTree(x.mean(axis=1)).query(points, k=k)
+    cand = cand.reshape(len(points), k)
+    a, b, c = (x[cand, i] for i in range(3))  # (n, k, 3)
+    d = directions[:, None, :]
+    e1, e2 = b - a, c - a
+    pv = np.cross(np.broadcast_to(d, e2.shape), e2)
+    det = np.einsum("nkc,nkc->nk", e1, pv)
+    det = np.where(np.abs(det) > 1e-300, det, 1e-300)
+    tv = points[:, None, :] - a
+    u = np.einsum("nkc,nkc->nk", tv, pv) / det
+    qv = np.cross(tv, e1)
+    v = np.einsum("nkc,nkc->nk", np.broadcast_to(d, qv.shape), qv) / det
+    t = np.einsum("nkc,nkc->nk", e2, qv) / det
+    eps = 1e-9
+    inside = (u >= -eps) & (v >= -eps) & (u + v <= 1 + eps)
+    score = np.where(inside, np.abs(t), np.inf)
+    j = np.argmin(score, axis=1)
+    rows = np.arange(len(points))
+    hit = np.isfinite(score[rows, j])
+    uu, vv = np.clip(u[rows, j], 0, 1), np.clip(v[rows, j], 0, 1)
+    bary = np.stack([1 - uu - vv, uu, vv], axis=1)
+    return cand[rows, j], bary, hit
 
 
 def _transfer(sa: Space, facets_a, nodes, sb: Space, facets_b, h: float, level: int):
@@ -155,16 +190,18 @@ def _transfer(sa: Space, facets_a, nodes, sb: Space, facets_b, h: float, level: 
     xb, nb = sb.facet_geometry(facets_b)  # (nf, 3, 3), (nf, 3)
     area = 0.5 * np.linalg.norm(np.cross(xb[:, 1] - xb[:, 0], xb[:, 2] - xb[:, 0]), axis=1)
     xq = np.einsum("qv,fvc->fqc", bary, xb).reshape(-1, 3)
-    Pa, xc, _ = surface_interpolation(sa, facets_a, xq)
+    nf, nq = len(facets_b), len(w)
+    nrep = np.repeat(nb, nq, axis=0)
+    # A's pressure where B's normal through the quadrature point meets A's patch
+    fa, ba, inside = project_along(sa, facets_a, xq, nrep)
+    fda = sa.facet_dofs(np.asarray(facets_a))[:, fa]  # (k, n)
+    sv = shape_values(sa.order, ba)  # (n, k)
+    Pa = sp.csr_matrix((sv.ravel(), (np.repeat(np.arange(len(xq)), fda.shape[0]),
+                                     fda.T.ravel())), shape=(len(xq), sa.n))
     col = np.full(sa.n, -1)
     col[nodes] = np.arange(len(nodes))
     Pa = Pa.tocoo()
     keep = col[Pa.col] >= 0
-    nf, nq = len(facets_b), len(w)
-    dq = xc - xq
-    nrep = np.repeat(nb, nq, axis=0)
-    off = np.linalg.norm(dq - np.einsum("ij,ij->i", dq, nrep)[:, None] * nrep, axis=1)
-    inside = off <= 1e-6 * h
     wq = (area[:, None] * w[None, :]).ravel() * inside  # (nf nq)
     vals = shape_values(sb.order, np.tile(bary, (nf, 1)))  # (nf nq, k)
     fd = sb.facet_dofs(facets_b)  # (k, nf)

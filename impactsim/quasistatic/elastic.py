@@ -52,9 +52,10 @@ def _pressure(v, w):
     return -w.p * dot(w.n, v)
 
 
-def rigid_modes(doflocs: np.ndarray) -> np.ndarray:
-    """(3 N, 6): the rigid-body modes of the vector dofs (interleaved x y z per node)."""
-    x = doflocs.T - doflocs.mean(axis=1)
+def rigid_modes(doflocs: np.ndarray, centred: bool = True) -> np.ndarray:
+    """(3 N, 6): the rigid-body modes of the vector dofs (interleaved x y z per node), the
+    rotations about the points' mean (or, `centred=False`, about the origin)."""
+    x = doflocs.T - (doflocs.mean(axis=1) if centred else 0.0)
     n = len(x)
     B = np.zeros((n, 3, 6))
     for k in range(3):

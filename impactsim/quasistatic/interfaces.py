@@ -22,6 +22,7 @@ import numpy as np
 
 from impactsim.quasistatic import coupling
 from impactsim.quasistatic.body import BodySpec
+from impactsim.quasistatic.elastic import rigid_modes
 from impactsim.quasistatic.matching import boxes_overlap, detect, locate
 from impactsim.quasistatic.model import ContactRule, Problem
 from impactsim.quasistatic.space import Space
@@ -116,13 +117,55 @@ def _solver(settings, ndof: int, held: bool) -> str:
     return "amg" if ndof > settings.direct_limit else "direct"
 
 
+def _held(body, space: Space, closed_facets: list) -> bool:
+    """Whether the body's displacement conditions hold it against its closed contacts: every
+    rigid-body mode they leave free (all six for a body without any) moves none of its
+    closed contact facets along their normal. A pellet held in z on its end plug is held (its
+    free modes, sideways and about its axis, slide along its flat ends); a quarter sphere
+    held on its symmetry planes but free along the axis it is pressed along is not, and must
+    be kinematic on its contact (a force side would get forces alone and drift)."""
+    x = space.mesh.p
+    centre = x.mean(axis=1, keepdims=True)
+    size = float(np.ptp(x)) or 1.0
+    rows = []
+    for c in body.conditions:
+        if c.kind != "displacement" or c.facets is None or not len(c.facets):
+            continue
+        v = np.unique(space.mesh.facets[:, c.facets])
+        R = rigid_modes(x[:, v] - centre, centred=False).reshape(len(v), 3, 6)
+        for k, val in enumerate(c.vector):
+            if val is not None:
+                rows.append(R[:, k] / np.array([1, 1, 1, size, size, size]))
+    if not rows:
+        return False
+    A = np.vstack(rows)
+    _, sv, vt = np.linalg.svd(A, full_matrices=True)
+    rank = int((sv > 1e-9 * sv.max()).sum()) if sv.size else 0
+    free = vt[rank:]  # (k, 6) in scaled coordinates
+    if not len(free):
+        return True
+    for facets in closed_facets:
+        xf, nf = space.facet_geometry(np.asarray(facets))
+        xc = xf.mean(axis=1) - centre.T
+        modes = free * np.array([1, 1, 1, 1 / size, 1 / size, 1 / size])
+        t, th = modes[:, :3], modes[:, 3:]
+        # n . (t + theta x r) for every free mode and facet
+        normal = nf @ t.T + np.einsum("fc,kfc->fk", nf, np.cross(th[:, None, :], xc[None]))
+        if np.abs(normal).max() > 1e-3:
+            return False
+    return True
+
+
 def setup(problem: Problem):
     """(spaces, interfaces, specs, heat routing {key: receiving body}, seconds)."""
     t0 = time.perf_counter()
     bodies = problem.bodies
     spaces = [Space(b.mesh(), b.order) for b in bodies]
     pairs = find_pairs(problem, spaces)
-    dist = _support_distance(len(bodies), [b.fixed for b in bodies], pairs)
+    held = [_held(b, spaces[i], [(fi if x == i else fj) for x, y, fi, fj, _, closed in pairs
+                                 if closed and i in (x, y)])
+            for i, b in enumerate(bodies)]
+    dist = _support_distance(len(bodies), held, pairs)
     stiffness = [b.material.youngs_modulus * np.cbrt(np.prod(np.ptp(b.points, axis=1)))
                  for b in bodies]
     anchor = {}
@@ -130,7 +173,7 @@ def setup(problem: Problem):
         if not closed:
             continue
         for x, y in ((i, j), (j, i)):
-            if not bodies[x].fixed and dist[y] < dist[x]:
+            if not held[x] and dist[y] < dist[x]:
                 best = anchor.get(x)
                 if best is None or stiffness[y] > stiffness[best[1]]:
                     anchor[x] = (k, y)
