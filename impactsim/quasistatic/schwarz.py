@@ -128,8 +128,9 @@ def _coarse_shifts(interfaces, residuals, active, omega, tree=None) -> dict:
     coarse step the 10- and 20-pellet stacks diverged. Along the anchor normal frictionless
     side contacts carry nothing, so the translation part is exact there."""
     parent, order, alone = tree or _anchor_tree(interfaces, active)
-    own = {}
-    for body, c in parent.items():
+    shift: dict = {}
+    for body in reversed(order):  # supports first
+        c = parent[body]
         itf, act = interfaces[c], active[c]
         x, n = itf.points[act], itf.normals[act]
         centre = x.mean(axis=0)
@@ -138,13 +139,16 @@ def _coarse_shifts(interfaces, residuals, active, omega, tree=None) -> dict:
         A[:, 3:] /= scale
         if not (ROTATIONS and body in alone):
             A[:, 3:] = 0.0  # translations only (see the docstring)
-        m = np.linalg.lstsq(A, omega[c] * residuals[c][act], rcond=1e-8)[0]
+        rhs = omega[c] * residuals[c][act]
+        support = shift.get(itf.b)
+        if support is not None:
+            # the support's motion as the anchor passes it on: only what moves the contact
+            # along its normal (a tilt, the normal translation); a frictionless face passes
+            # no sideways translation, so the lever arm of a tilt is not passed up the column
+            rhs = rhs + n @ support[:3] + np.einsum("ij,ij->i", n, np.cross(support[3:], x))
+        m = np.linalg.lstsq(A, rhs, rcond=1e-8)[0]
         m[3:] /= scale
-        own[body] = _to_origin(m, centre)
-    shift: dict = {}
-    for body in reversed(order):  # supports first
-        b = interfaces[parent[body]].b
-        shift[body] = shift.get(b, 0.0) + own[body]
+        shift[body] = _to_origin(m, centre)
     return shift
 
 
