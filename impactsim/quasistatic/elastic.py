@@ -195,14 +195,15 @@ class ElasticBody:
         self.u_prev = u
         return u, lam
 
-    def _anchor(self) -> np.ndarray:
+    def _anchor(self, u_prev: np.ndarray | None = None) -> np.ndarray:
         """Where the weak springs pull: the previous iterate, or (with a centering axis) its
         component along the axis only: across it, the reference position."""
+        u_prev = self.u_prev if u_prev is None else u_prev
         a = self.model.centering_axis
         if a is None:
-            return self.u_prev
+            return u_prev
         a = np.asarray(a, float) / np.linalg.norm(a)
-        u = self.u_prev.reshape(-1, 3)
+        u = u_prev.reshape(-1, 3)
         return ((u @ a)[:, None] * a[None, :]).ravel()
 
     # --- post-processing ---
