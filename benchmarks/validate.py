@@ -217,21 +217,27 @@ def run_plate(element: str) -> dict:
             "damaged": int(np.count_nonzero(model.status > 0))}
 
 
-def run_perforation(element: str) -> dict:
+def run_perforation(element: str, default_spall: bool = False) -> dict:
+    """The bundled oblique-sphere case at the coarse test mesh; default_spall: with the default
+    spall criterion instead of the case's [D19] one (rung oblique-sphere-1001-default-spall)."""
     from impactsim.case import load_case
     from impactsim.solver.run import run_case
 
     over = ['body.0.mesh_size="1.8 mm"', 'body.1.mesh_size="1.4 mm"', 'run.end_time="30 us"',
             'output.frames=1', f'run.element="{element}"']
+    rung = "oblique-sphere-1001"
+    if default_spall:
+        over += ['fracture.spall_criterion="tuler-butcher"', 'fracture.spall_pressure="lesser"']
+        rung += "-default-spall"
     case = load_case(ROOT / "cases" / "oblique-sphere.toml", over)
-    out = OUT / f"oblique-sphere-{element}"
+    out = OUT / f"{rung}-{element}"
     t0 = time.perf_counter()
     s = run_case(case, out, progress=False)
     wall = time.perf_counter() - t0
     b = s["bodies"]
     v = b["sphere"]["residual_velocity"]
     hole = b["plate"].get("hole", {})
-    return {"rung": "oblique-sphere-1001", "element": element, "h_mm": 1.4,
+    return {"rung": rung, "element": element, "h_mm": 1.4,
             "elements": s["elements"], "steps": s["steps"], "wall_s": wall,
             "residual_speed": float(np.linalg.norm(v)),
             "angle_deg": math.degrees(math.atan2(math.hypot(v[0], v[1]), -v[2])),
@@ -260,6 +266,8 @@ def run_all(rungs=None) -> list[dict]:
             add(run_plate(element))
         if wanted("oblique-sphere-1001"):
             add(run_perforation(element))
+            if element == "tet4":
+                add(run_perforation(element, default_spall=True))
     for formulation in CRMO_FORMULATIONS:
         for h in CRMO_SIZES:
             if wanted("taylor-42crmo4-287"):
@@ -530,16 +538,29 @@ def report(results: list[dict]) -> str:
               "degrees from the normal, into a 4.9 mm D16T plate) at the coarse mesh of the "
               "test suite (sphere 1.8 mm, plate 1.4 mm), 30 us. [R20] report hole and residual "
               "velocity within about 1 % of their experiment; the measured values are not in "
-              "our sources, so the rung compares the formulations only.", "",
-              "| element | elements | steps | wall s | residual speed [m/s] | angle [deg] | "
-              "hole diameter [mm] | energy balance |", "|---|---|---|---|---|---|---|---|"]
+              "our sources, so the rung compares the formulations only. The case applies the "
+              "plate's spall as [D19] do (`spall_criterion = \"instant\"` on the cell's own "
+              "pressure); the last row runs it with the default spall criterion instead.", "",
+              "| element | spall | elements | steps | wall s | residual speed [m/s] | angle "
+              "[deg] | hole diameter [mm] | energy balance |",
+              "|---|---|---|---|---|---|---|---|---|"]
     for r in results:
-        if r["rung"] != "oblique-sphere-1001":
+        if not r["rung"].startswith("oblique-sphere-1001"):
             continue
-        lines.append(f"| {r['element']} | {r['elements']:,} | {r['steps']:,} | "
+        spall = "default" if r["rung"].endswith("default-spall") else "[D19]"
+        lines.append(f"| {r['element']} | {spall} | {r['elements']:,} | {r['steps']:,} | "
                      f"{r['wall_s']:.1f} | {r['residual_speed']:.1f} | {r['angle_deg']:.1f} | "
                      f"{r['hole_diameter_mm']:.1f} | {r['energy_balance_error']:+.1e} |")
     per = {r["element"]: r for r in results if r["rung"] == "oblique-sphere-1001"}
+    dflt = next((r for r in results if r["rung"] == "oblique-sphere-1001-default-spall"), None)
+    if dflt is not None and "tet4" in per:
+        d = (dflt["residual_speed"] - per["tet4"]["residual_speed"]) / per["tet4"]["residual_speed"]
+        lines += ["", f"**The spall criterion matters here.** With the default criterion the "
+                  f"tet4 sphere leaves {100 * d:+.1f} % faster than with [D19]'s (the default "
+                  "spalls less of the plate, which then resists longer): larger than the element's "
+                  "effect and the 1 % [R20] claim. Which is closer to the experiment needs "
+                  "[R20]'s measured residual speed, which is not in our sources; the case keeps "
+                  "the criterion it was checked with."]
     if len(per) == 2:
         d = (per["anp"]["residual_speed"] - per["tet4"]["residual_speed"]) \
             / per["tet4"]["residual_speed"]
