@@ -169,10 +169,11 @@ def run_crmo(h: float, formulation: str) -> dict:
     return res
 
 
-def run_plate(element: str) -> dict:
+def run_plate(element: str, d19: bool = False) -> dict:
     """Symmetric 6061-T6 plate impact in uniaxial strain: flyer F = 2 mm, target T = 4 mm,
     500 m/s closing speed, h = 0.1 mm, one column of cells held in x and y; the target's rear
-    free-surface velocity every step."""
+    free-surface velocity every step. d19: with the instantaneous cell criterion of [D19]
+    instead of the default spall (rung plate-6061-500-d19)."""
     from impactsim.case.material import library_material
     from impactsim.case.schema import Constraint, NodeSelector
     from impactsim.mesh.structured import structured_box
@@ -185,6 +186,10 @@ def run_plate(element: str) -> dict:
     mat = library_material("al-6061-t6")
     case = box_case(mat, size=(h, h, F + T), h=h)
     case.bodies[0].constraints = [Constraint(NodeSelector("all"), (0.0, 0.0, None))]
+    rung = "plate-6061-500"
+    if d19:
+        case.fracture.spall_criterion, case.fracture.spall_pressure = "instant", "cell"
+        rung += "-d19"
     pts, tets = structured_box((h, h, F + T), h)
     model = build_model(case, [(pts, tets)])
     z = model.x[:, 2]
@@ -208,8 +213,8 @@ def run_plate(element: str) -> dict:
     peak = float(np.median(rel[max(peak_i - 5, 0):peak_i + 6]))
     after = rel[peak_i:]
     pull = float(peak - after.min()) if after.size else 0.0
-    np.savez(OUT / f"plate-{element}.npz", t=ts, u=rel)
-    return {"rung": "plate-6061-500", "element": element, "h_mm": 0.1,
+    np.savez(OUT / f"{rung}-{element}.npz".replace("plate-6061-500", "plate"), t=ts, u=rel)
+    return {"rung": rung, "element": element, "h_mm": 0.1,
             "elements": model.n_elem, "steps": model.step, "wall_s": wall,
             "free_surface_plateau": peak, "impact_speed": u, "pullback": pull,
             "spall_estimate_gpa": 0.5 * mat.density * c0 * pull / 1e9,
@@ -264,6 +269,7 @@ def run_all(rungs=None) -> list[dict]:
                 add(run_taylor(*args, element))
         if wanted("plate-6061-500"):
             add(run_plate(element))
+            add(run_plate(element, d19=True))
         if wanted("oblique-sphere-1001"):
             add(run_perforation(element))
             if element == "tet4":
@@ -297,10 +303,11 @@ def plots(results: list[dict]) -> None:
     FIG.mkdir(parents=True, exist_ok=True)
     fig, ax = plt.subplots(figsize=(6, 3.5))
     for element in ELEMENTS:
-        f = OUT / f"plate-{element}.npz"
-        if f.exists():
-            d = np.load(f)
-            ax.plot(1e6 * d["t"], d["u"], label=element)
+        for tag, label in (("", ""), ("-d19", ", [D19] spall")):
+            f = OUT / f"plate{tag}-{element}.npz"
+            if f.exists():
+                d = np.load(f)
+                ax.plot(1e6 * d["t"], d["u"], label=element + label, ls="--" if tag else "-")
     ax.axhline(500.0, color="grey", lw=0.8, ls="--", label="impact speed = 2 u_p")
     ax.set_xlabel("t [us]")
     ax.set_ylabel("free-surface velocity [m/s]")
@@ -518,21 +525,31 @@ def report(results: list[dict]) -> str:
               "acoustic estimate rho0 c0 du / 2 of the tension at spall against the strength "
               "given. The estimate is only an estimate (it assumes a gradual loss of strength "
               "and an acoustic release; here a cell loses all tension at once when it spalls), "
-              "so it is reported, not required to match; with the time-integrated criterion the "
-              "cell spalls after its tension has exceeded the threshold for a while, so the "
-              "estimate lies above the threshold given.", "",
-              "| element | elements | steps | wall s | plateau [m/s] | 2 u_p [m/s] | error | "
-              "pull-back [m/s] | spall estimate [GPa] | given [GPa] |",
-              "|---|---|---|---|---|---|---|---|---|---|"]
+              "so it is reported, not required to match. Rows `[D19]` run the instantaneous "
+              "cell criterion instead of the default.", "",
+              "| element | spall | elements | steps | wall s | plateau [m/s] | 2 u_p [m/s] | "
+              "error | pull-back [m/s] | spall estimate [GPa] | given [GPa] |",
+              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in results:
-        if r["rung"] != "plate-6061-500":
+        if not r["rung"].startswith("plate-6061-500"):
             continue
         err = 100 * (r["free_surface_plateau"] - r["impact_speed"]) / r["impact_speed"]
-        lines.append(f"| {r['element']} | {r['elements']:,} | {r['steps']:,} | "
+        spall = "[D19]" if r["rung"].endswith("-d19") else "default"
+        lines.append(f"| {r['element']} | {spall} | {r['elements']:,} | {r['steps']:,} | "
                      f"{r['wall_s']:.1f} | {r['free_surface_plateau']:.1f} | "
                      f"{r['impact_speed']:.0f} | {err:+.1f} % | {r['pullback']:.1f} | "
                      f"{r['spall_estimate_gpa']:.2f} | {r['spall_given_gpa']:.2f} |")
-    lines += ["", "![free-surface velocity](validation/plate-free-surface.png)", ""]
+    lines += ["", "**The default spalls this plate late.** With the time integral the cells "
+              "spall once the tension has stayed above 1.6 GPa for a while, near the full "
+              "tension of the pulse (about 3.6 GPa), so the free surface releases almost to "
+              "rest before the pull-back and the acoustic estimate of the spall tension is "
+              "about twice the threshold; with [D19]'s criterion it is below it. Plate-impact "
+              "measurements of 6061-T6 and 2024 give spall strengths of about 1.0-1.6 GPa "
+              "(Antoun et al., Spall Fracture, 2003, as quoted in the library), which neither "
+              "reproduces exactly, and which the default overshoots. docs/fracture.md says why "
+              "the Taylor bars bound the spall time from below, and why no (sigma_0, tau) of the "
+              "impulse form satisfies both at this resolution.", "",
+              "![free-surface velocity](validation/plate-free-surface.png)", ""]
     lines += ["## Perforation: oblique sphere [R20]", "",
               "The bundled `cases/oblique-sphere.toml` (52100 sphere 12.7 mm at 1001 m/s, 60 "
               "degrees from the normal, into a 4.9 mm D16T plate) at the coarse mesh of the "
