@@ -361,15 +361,17 @@ distortion_interval = "20 ns"
 """
 
 
-@pytest.mark.parametrize("element,bound", [("tet4", 0.02), ("anp", 0.06)])
+@pytest.mark.parametrize("element,bound", [("tet4", 0.01), ("anp", 0.01)])
 def test_dragged_block_at_the_default_cfl_keeps_the_balance(element, bound):
     """The warm-up's separation scene at 200 m/s and the default cfl 0.6 (issue 12): the block
     comes apart into single tets. Their step was the kernel's L / c, 1.49 times a lone tet's
     critical step: they rang up, the balance grew from 0.25 J to 2 J (external work 1.5 J) and
     then to 1e5 J until tets inverted (step ~30 with "anp", the formulation the run picks, ~55
     with "tet4"). With the step of released tets from their corner masses it runs to the end:
-    the total energy within 1.1 % ("tet4") and 4.6 % ("anp") of the largest energy from t = 0,
-    mass and momentum exact through every release, no inverted tet."""
+    the total energy within 0.66 % ("tet4") and 0.60 % ("anp") of the largest energy from
+    t = 0, mass and momentum exact through every release, no inverted tet. (1.06 % and 4.6 %
+    with the released tets' viscous heat booked as the kernels do, -q^{n+1} dV: the rest of
+    their breathing's gain; SeparationPass.centre_heat.)"""
     numba.set_num_threads(1)
     case = load_case_text(DRAGGED)
     model = build_model(case)
