@@ -60,6 +60,8 @@ import math
 from impactsim.materials import params as P
 from impactsim.materials.laws import eos_linear_part
 from impactsim.materials.params import FRACTURE_STRAIN
+from impactsim.fracture.separation_refresh import (move_node_live, reconnect_boundary,
+                                                   reconnect_rows)
 from impactsim.solver.element import FAST, _char_length, _corner_forces, _tet_gradients
 from impactsim.mesh.topology import LOCAL_FACES as TET_FACES
 from impactsim.model import ERODED, FRACTURED
@@ -425,6 +427,13 @@ def _released_step(x, v, conn, status, elem_mat, mat_params, pressure, elem_mass
     return best, worst
 
 
+def _grow(fext: np.ndarray, add: int) -> np.ndarray:
+    """``fext`` with ``add`` zero rows more (the force rows a release added)."""
+    if not add:
+        return fext
+    return np.concatenate([fext, np.zeros((add, 3))])
+
+
 class SeparableSet:
     """The separable elements of one element set (the tets, or a hex block) and their state."""
 
@@ -660,26 +669,51 @@ class SeparationPass:
         return np.ascontiguousarray(f[inv, j])
 
     def refresh(self, model) -> None:
+        """What depends on the connectivity, after a release: in place at the cost of the moved
+        corners (fracture/separation_refresh.py, Surface.reconnect) when ``incremental``, else
+        rebuilt (the reference); the node-to-element index is rebuilt either way, and a model
+        with hexes rebuilds the contact surface and the free quads."""
         from impactsim.solver.build import node_to_element
         from impactsim.solver.scatter import force_rows
 
         sim = self.sim
+        moved = self.sep.moved
+        blocks_changed = any(m[0].holder is not model for m in moved)
         if sim is not None:
-            if model.n_elem:
+            for s, e, j, old, new in moved:
+                if s.holder is model:
+                    if self.incremental:
+                        sim.force_rows, add = reconnect_rows(sim.force_rows, model.conn, e, j,
+                                                             new)
+                        sim.fext = _grow(sim.fext, add)
+                    continue
+                r = sim.block_runners[[b is s.holder for b in model.blocks].index(True)]
+                if self.incremental:
+                    r.rows, add = reconnect_rows(r.rows, s.holder.conn, e, j, new)
+                    r.fext = _grow(r.fext, add)
+                else:
+                    r.rows = force_rows(r.block.conn, model.n_node, r.rows.part_size)
+                    r.fext = np.zeros((r.rows.n_rows, 3))
+            if model.n_elem and not self.incremental:
                 sim.set_parts(sim.force_rows.part_size)
-            for r in sim.block_runners:
-                r.rows = force_rows(r.block.conn, model.n_node, r.rows.part_size)
-                r.fext = np.zeros((r.rows.n_rows, 3))
-            changed = [m[1] for m in self.sep.moved if m[0].holder is model]
+            changed = [m[1] for m in moved if m[0].holder is model]
             changed = np.concatenate(changed) if changed else np.zeros(0, np.int64)
-            blocks_changed = any(m[0].holder is not model for m in self.sep.moved)
             for ctx in self.contexts():
                 if self.incremental and not blocks_changed:
                     ctx.reconnect_surface(model, changed)
                 else:
                     ctx.rebuild_surface(model)
         model.n2e_ptr, model.n2e = node_to_element(model.conn, model.n_node)
-        self.s.rebuild_mesh(model)
+        fs = self.s
+        if not self.incremental:
+            fs.rebuild_mesh(model)
+            return
+        for s, e, j, old, new in moved:
+            if s.holder is model:
+                reconnect_boundary(fs.boundary, model.conn, e)
+            else:
+                next(h for h in fs.hexes if h.blk is s.holder).rebuild(model)
+            move_node_live(fs.node_live, s.holder.status, e, old, new)
 
     def history(self, model) -> dict:
         return {"separated_nodes": float(self.sep.counts["new_nodes"])}
