@@ -31,15 +31,15 @@ Akantu's cohesive inserter, with the copies made at build time so that no node a
   left all on the old rep, whose mass shrank, that force over-accelerated it (momentum kept,
   energy gained: +4 % of the largest energy in the torn block of the tests, +100 % in the
   warm-up scene at 2 km/s).
-- After a step with releases, what depends on the connectivity is refreshed: the force rows of
-  the element kernels (``Simulation.set_parts`` and the block runners), the node-to-element
-  index, the fracture passes' free faces and live-node counts, and the contact surface
-  (``ContactContext.reconnect_surface``: only the moved tets and their neighbours, giving the
-  arrays a rebuild gives; a model with hexes rebuilds it): the faces exposed by a release are
-  free faces of their bodies (contact with the other bodies, and self-contact of the
-  fragments when ``contact.self_contact``) at the next velocity stage. The other refreshes
-  rebuild whole structures (O(N log N)); they run only on steps with releases
-  (docs/fracture.md: cost).
+- After a step with releases, what depends on the connectivity is refreshed, in place at the
+  cost of the moved corners (``SeparationPass.refresh``, fracture/separation_refresh.py): the
+  force rows of the element kernels (tets and the block runners), the fracture passes' free
+  faces and live-node counts, and the contact surface (``ContactContext.reconnect_surface``:
+  only the moved tets and their neighbours, giving the arrays a rebuild gives; a model with
+  hexes rebuilds it, and the hexes' free quads); the node-to-element index is rebuilt. The
+  faces exposed by a release are free faces of their bodies (contact with the other bodies,
+  and self-contact of the fragments when ``contact.self_contact``) at the next velocity stage.
+  ``SeparationPass.incremental = False`` rebuilds everything (the reference of the tests).
 - Every step the stable step is lowered to that of the tets with a corner in a split family,
   from the masses their corners carry (``_released_step``, ``SeparationPass.limit_step``): the
   kernel's L / c holds for a connected mesh, not for a tet cut loose (its critical step is

@@ -8,9 +8,9 @@ A release repoints corners (element e, corner j) from their old rep to a new one
 that was dormant until then (no element corner, no mass, no force row); it only ever opens faces.
 
 - Free faces of the fracture passes (``reconnect_boundary``, fracture/boundary.py): the faces a
-  release opened become free faces of both sides (appended, as erosion appends), and the free
-  faces of the moved tets take their new nodes. The set of free faces, their slots, flags and
-  adjacency equal a Boundary built afresh; the row order is the history (as after erosion).
+  release opened become free faces of both sides, and the free faces of the moved tets take
+  their new nodes; the rows are then put in slot order. The arrays equal those of a Boundary
+  built afresh (whose rows are in slot order; erosion appends to them between releases).
 - Live corners per node (``move_node_live``): one count from the old rep to the new one per
   moved live corner.
 - Force rows of the element kernels (``reconnect_rows``, solver/scatter.py): a new rep gets its
@@ -75,8 +75,18 @@ def reconnect_boundary(b, conn: np.ndarray, changed: np.ndarray) -> None:
         b._alloc(max(need, int(1.5 * b.capacity)))
     mask = np.zeros(b.conn.shape[0], np.bool_)
     mask[changed] = True
-    b.n = int(_reflag_faces(touched, mask, b.conn, b.elem_body, b.adj, b.alive, b.face_flag,
-                            LOCAL_FACES, b.faces, b.face_slot, b.face_body, b.pos, b.n))
+    n = b.n = int(_reflag_faces(touched, mask, b.conn, b.elem_body, b.adj, b.alive,
+                                b.face_flag, LOCAL_FACES, b.faces, b.face_slot, b.face_body,
+                                b.pos, b.n))
+    # the rows in slot order, the order of a Boundary built afresh: the particles take their
+    # face impacts in row order, so a run keeps the bits of the rebuilding one (with the
+    # appended order, particles hitting faces took another order: another, equally
+    # deterministic run). Sorting the free faces costs far less than rebuilding from the tets.
+    order = np.argsort(b.face_slot[:n], kind="stable")
+    b.faces[:n] = b.faces[:n][order]
+    b.face_slot[:n] = b.face_slot[:n][order]
+    b.face_body[:n] = b.face_body[:n][order]
+    b.pos[b.face_slot[:n]] = np.arange(n)
 
 
 def move_node_live(node_live: np.ndarray, status: np.ndarray, e: np.ndarray, old: np.ndarray,
