@@ -18,7 +18,7 @@ Kuhn split of one cell. gmsh: L = ``GMSH_ALTITUDE_RATIO`` · h, measured on the 
 Compression raises the sound speed, the artificial viscosity lowers the step (by
 sqrt(1 + C_l^2) - C_l, taken always) and each output frame inside the run costs about
 FRAME_STEPS steps. F, the crush factor, is the mean shrink of the step as plastic impacts
-flatten and shear the elements (case/crush.py: the Taylor bar 3.0, the tet two-cylinders 15,
+flatten and shear the elements (case/crush.py: the Taylor bar 3.1, the tet two-cylinders 14,
 the elastic cases 1).
 
 Wall time. The element loop's time per step t_step + N · t_element, with the two constants
@@ -189,9 +189,9 @@ class Estimate:
             found = self.crush[0]
             worst = max(found, key=lambda c: c.shrink) if found else None
             out.append(f"crushing: the step shrinks ≈ {self.crush_factor:.2g} times on average "
-                       "over the run" + (f" (crush number {worst.phi:.2g}: down to 1/"
-                                         f"{worst.shrink:.2g} of a body's first step)"
-                                         if worst else ""))
+                       "over the run" + (f" (crush number {worst.phi:.2g}, foot strain "
+                                         f"{worst.strain:.2g}: down to 1/{worst.shrink:.2g} "
+                                         "of a body's first step)" if worst else ""))
         if parts:
             out.append("wall time: " + ", ".join(f"{k} ≈ {format_seconds(v)}"
                                                  for k, v in parts.items()))
