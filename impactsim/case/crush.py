@@ -36,7 +36,8 @@ run its course, approached as 1 + (s - 1)(1 - exp(-(t - t_c) / tau)) with the cr
 tau = CRUSH_LENGTHS h / v (h the body's mesh size: the flattening takes the approach of a few
 element lengths). Elastic bodies are not crushed. A body whose material erodes or breaks into
 particles loses its crushed cells before they flatten further: its shrink is at most
-FAILURE_SHRINK. A body's step is its own first step (its L_min / c, which may be larger than the
+FAILURE_SHRINK; one whose mesh comes apart by node separation frees a cell's faces once its
+plastic strain reaches the fracture strain, so its foot strain is at most that. A body's step is its own first step (its L_min / c, which may be larger than the
 run's) divided by its shrink; the run's step the smallest of them (``shrink_profile``).
 
 The constants are fitted to the bundled cases (docs/estimates.md gives real against estimated
@@ -202,12 +203,25 @@ def crushes(case: Case, meshes: list | None = None) -> list[Crush]:
             density = other.density if other is not None else None
             phi = crush_number(mat, v, density)
             strain = foot_strain(mat, v, density, 1.0 if striker else INDENTATION_CONSTRAINT)
+            if mat.failure.fracture_strain is not None:
+                # node separation frees a cell's faces at its fracture strain: a freed cell is
+                # no longer pressed flat by its neighbours (fracture/separation.py)
+                strain = min(strain, mat.failure.fracture_strain)
             s = shrink_of(strain, body.element, mat.failure.active)
             if s > 1.0:
-                h = body.mesh_size if body.mesh_size > 0.0 else 0.0
+                h = cell_size(body)
                 lengths = CRUSH_LENGTHS.get(body.element, CRUSH_LENGTHS["tet"])
                 out.append(Crush(i, s, imp.time, lengths * h / speed, phi, strain))
     return out
+
+
+def cell_size(body: Body) -> float:
+    """The body's element size [m]: its mesh size, the cube12's edge (one cell), else 0."""
+    if body.mesh_size > 0.0:
+        return body.mesh_size
+    if body.shape == "cube12":
+        return float(body.dimensions["size"])
+    return 0.0
 
 
 def pushes(target: Material, speed: float, striker: Material) -> bool:
