@@ -36,8 +36,10 @@ run its course, approached as 1 + (s - 1)(1 - exp(-(t - t_c) / tau)) with the cr
 tau = CRUSH_LENGTHS h / v (h the body's mesh size: the flattening takes the approach of a few
 element lengths). Elastic bodies are not crushed. A body whose material erodes or breaks into
 particles loses its crushed cells before they flatten further: its shrink is at most
-FAILURE_SHRINK; one whose mesh comes apart by node separation frees a cell's faces once its
-plastic strain reaches the fracture strain, so its foot strain is at most that. A body's step is its own first step (its L_min / c, which may be larger than the
+FAILURE_SHRINK; one whose mesh comes apart by node separation frees a crushed cell's faces
+once its plastic strain reaches the fracture strain (by the "mean" measure, the mean of the
+cells beside a face: about twice it in the crushed cell), so its foot strain is at most that
+(``separation_strain``). A body's step is its own first step (its L_min / c, which may be larger than the
 run's) divided by its shrink; the run's step the smallest of them (``shrink_profile``).
 
 The constants are fitted to the bundled cases (docs/estimates.md gives real against estimated
@@ -204,15 +206,24 @@ def crushes(case: Case, meshes: list | None = None) -> list[Crush]:
             phi = crush_number(mat, v, density)
             strain = foot_strain(mat, v, density, 1.0 if striker else INDENTATION_CONSTRAINT)
             if mat.failure.fracture_strain is not None:
-                # node separation frees a cell's faces at its fracture strain: a freed cell is
-                # no longer pressed flat by its neighbours (fracture/separation.py)
-                strain = min(strain, mat.failure.fracture_strain)
+                strain = min(strain, separation_strain(case, mat))
             s = shrink_of(strain, body.element, mat.failure.active)
             if s > 1.0:
                 h = cell_size(body)
                 lengths = CRUSH_LENGTHS.get(body.element, CRUSH_LENGTHS["tet"])
                 out.append(Crush(i, s, imp.time, lengths * h / speed, phi, strain))
     return out
+
+
+def separation_strain(case: Case, mat: Material) -> float:
+    """The most plastic strain a crushed cell of a body that comes apart by node separation
+    reaches (fracture/separation.py): a face is freed when the plastic strain of the cells
+    beside it reaches the fracture strain eps_f, by the "max" measure as soon as the crushed
+    cell does, by the "mean" measure (the default) when the mean of the two does, which with the
+    neighbour behind the crush front still about unstrained is at 2 eps_f; a freed cell is no
+    longer pressed flat between its neighbours."""
+    eps_f = mat.failure.fracture_strain
+    return eps_f if case.fracture.separation_measure == "max" else 1.5 * eps_f
 
 
 def cell_size(body: Body) -> float:
