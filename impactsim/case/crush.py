@@ -161,7 +161,7 @@ def foot_strain(mat: Material, speed: float, density: float | None = None,
 
     def excess(eps: float) -> float:  # rises with eps: e^2/(1-e) grows, rho v^2 / Y falls
         x = math.exp(-eps)
-        return (1.0 - x) ** 2 / x - rho_v2 / mean_flow_stress(mat, eps)
+        return (1.0 - x) ** 2 / x - rho_v2 / max(mean_flow_stress(mat, eps), 1e-300)
 
     # Y(eps) >= Y0 and e^2/(1-e) >= exp(eps) - 2, so the root lies below ln(phi0 + 2)
     lo, hi = 0.0, math.log(phi0 + 2.0)
