@@ -15,9 +15,11 @@ separates, or meets after end_time, does not count.
 Crush (``Crush``). Each plastic body of an impact is crushed by the dynamic pressure of the
 impact against its flow stress: the crush number Phi = rho v^2 / Y0 (Y0 the initial flow stress:
 ideal-plastic Y0, Johnson-Cook A), v the relative speed (all of it: an oblique impact gouges as it
-presses; a target, the body with the larger cross-section, is indented at half of it) and rho the
-smaller of the two bodies' densities (a light target cannot press a dense striker harder than its
-own dynamic pressure). What shrinks the step is how far the crushed cells flatten, so the model
+presses; a target, the body with the larger cross-section, is indented at half of it and flows
+under INDENTATION_CONSTRAINT times its flow stress) and rho the smaller of the two bodies'
+densities (a light target cannot press a dense striker harder than its own dynamic pressure). A
+striker that the target cannot press past its own Y0 is not crushed at all (``pushes``, Tate's
+rigid penetrator). What shrinks the step is how far the crushed cells flatten, so the model
 turns the impact into the true strain of the crushed foot (``foot_strain``) with Taylor's
 plastic-front balance for a rod on a rigid anvil (G. I. Taylor, Proc. R. Soc. A 194 (1948) 289;
 momentum and mass across the front at which the rod's area grows from A0 to A, e = 1 - A0/A):
@@ -37,10 +39,10 @@ tau = CRUSH_LENGTHS h / v (h the body's mesh size: the flattening takes the appr
 element lengths). Elastic bodies are not crushed. A body whose material erodes or breaks into
 particles loses its crushed cells before they flatten further: its shrink is at most
 FAILURE_SHRINK; one whose mesh comes apart by node separation frees a crushed cell's faces
-once its plastic strain reaches the fracture strain (by the "mean" measure, the mean of the
-cells beside a face: about twice it in the crushed cell), so its foot strain is at most that
-(``separation_strain``). A body's step is its own first step (its L_min / c, which may be larger than the
-run's) divided by its shrink; the run's step the smallest of them (``shrink_profile``).
+once the plastic strain of the cells beside them reaches the fracture strain, so its foot
+strain is bounded by it (``separation_strain``). A body's step is its own first step (its
+L_min / c, which may be larger than the run's) divided by its shrink; the run's step the
+smallest of them (``shrink_profile``).
 
 The constants are fitted to the bundled cases (docs/estimates.md gives real against estimated
 steps for each); the model knows nothing of the mesh beyond its size and element type, so a case
