@@ -38,13 +38,12 @@ gets now, measured by a 0.3 s busy loop, ``cpu_share``; on a machine shared with
 run gets about that share on average): the element loop
 (ANP_COST for the averaged nodal pressure, HEX_COST for a hex, HEX_FAILING_COST for a hex of a
 material that can be damaged, SEPARABLE_COST for an element of a body that comes apart by node
-separation, PARALLEL_COST on two threads),
-the node passes and the watch, the contact passes (per boundary face and step, more with
-self-contact), the fracture passes (``fracture_work``: the criteria per element and step, a
-hex's with its scalar path and removals; the distortion check per element once per interval;
-node separation per element of a separable body and step), frame output (per element and frame), the history rows (with
-contact, its max_penetration measure per boundary face), setting up (fixed and per element), and
-gmsh meshing of bodies not in the mesh cache: the constants are fitted to the bundled cases
+separation, PARALLEL_COST on two threads), the node passes and the watch, the contact passes
+(per boundary face and step, more with self-contact), the fracture passes (``fracture_work``:
+the criteria per element and step, a hex's with its scalar path and removals; the distortion
+check per element once per interval; node separation per element of a separable body and
+step), frame output (per element and frame), the history rows (with contact, its
+max_penetration measure per boundary face), setting up (fixed and per element), and gmsh meshing of bodies not in the mesh cache: the constants are fitted to the bundled cases
 (docs/estimates.md, benchmarks/estimates.py).
 
 Re-estimate. After RE_ESTIMATE_SHARE of its simulated time or RE_ESTIMATE_SECONDS of stepping a
