@@ -64,6 +64,7 @@ class FrictionState:
     s_step: np.ndarray  # (2n,) w at the start of the load step: slip increments start here
     q: np.ndarray  # (2n,) nodal tangential tractions (the force of A on B)
     d: np.ndarray  # (n, 2) slip directions in the frame
+    turned: np.ndarray  # (n,) bool: d was turned round since the node slipped
 
 
 def frame(normals: np.ndarray) -> np.ndarray:
@@ -102,7 +103,7 @@ def initial(interfaces: list[Interface], active: list[np.ndarray]) -> list:
         n = len(itf.nodes)
         z = np.zeros(2 * n)
         out.append(FrictionState(act.copy(), z.copy(), z.copy(), z.copy(), z.copy(),
-                                 np.zeros((n, 2))))
+                                 np.zeros((n, 2)), np.zeros(n, bool)))
     return out
 
 
@@ -155,7 +156,7 @@ class Measure:
 
 
 def measure(interfaces, state, out, pa_all, new_active, settle: bool, u_scale: float,
-            p_scale: float) -> tuple[Measure, list]:
+            p_scale: float, decide: bool = True) -> tuple[Measure, list]:
     """The tangential residuals and the new tractions and stick/slip sets of an iteration
     (applied by `advance` once the relaxation is known)."""
     m = Measure([], 0.0, 0.0, False)
@@ -170,42 +171,54 @@ def measure(interfaces, state, out, pa_all, new_active, settle: bool, u_scale: f
         r = np.where(_two(fs.stick), ub_t + fs.s - fs.g, 0.0)
         m.residuals.append(r)
         m.gap = max(m.gap, np.max(np.abs(r), initial=0) / u_scale)
-        stick, d, changed = _sets(itf.tangential, fs, state.active[c], new_active[c],
-                                  pa_all[c], q_stick, ua_t - ub_t, u_scale, p_scale, settle)
+        stick, d, changed, turned = _sets(itf.tangential, fs, state.active[c], new_active[c],
+                                  pa_all[c], q_stick, ua_t - ub_t, u_scale, p_scale, settle,
+                                  decide)
         m.changed |= changed
         s = np.where(_two(stick & fs.stick), fs.s, ua_t - ub_t)  # others stick where they are
         q = _tractions(itf.tangential, stick, new_active[c], q_stick, pa_all[c], d)
         m.change = max(m.change, np.max(np.abs(q - fs.q), initial=0) / p_scale)
-        pending.append((stick, s, q, d, ub_t, r))
+        pending.append((stick, s, q, d, turned, ub_t, r))
     return m, pending
 
 
 def _sets(T: Tangential, fs: FrictionState, act: np.ndarray, new_act: np.ndarray,
           p: np.ndarray, q_stick: np.ndarray, w: np.ndarray, u_scale: float, p_scale: float,
-          settle: bool = True) -> tuple[np.ndarray, np.ndarray, bool]:
-    """(stick set for the next solve, slip directions, whether a set or a direction changed)
-    from a solve with the active set `act` and stick set fs.stick (within act); new_act is the
-    next active set. Nodes that close stick; a stick node with |q| > mu p slips along q; a
-    slip node whose slip increment turns against d sticks; d follows the slip increment."""
+          settle: bool = True, decide: bool = True):
+    """(stick set for the next solve, slip directions, whether a set or a direction changed,
+    the nodes whose d was turned round) from a solve with the active set `act` and stick set
+    fs.stick (within act); new_act is the next active set. Nodes that close stick; a stick
+    node with |q| > mu p slips along q (`decide`); on settled iterates (`settle`) d follows
+    the slip increment, and a slip node moving against d a second time sticks."""
     stick = fs.stick & act & new_act
     d = fs.d.copy()
-    changed = False
+    turned = fs.turned.copy()
+    # stick nodes above the cone slip at once (like penetrating nodes close at once); slip
+    # nodes stick again only on settled iterates
+    qv = q_stick.reshape(2, -1).T
+    qn = np.linalg.norm(qv, axis=1)
+    go = decide & stick & (qn > (1 + SLIP) * T.mu * np.maximum(p, 0.0) + 1e-12 * p_scale)
+    d[go] = qv[go] / np.maximum(qn[go], 1e-300)[:, None]
+    turned[go] = False
+    changed = bool(go.any())
+    stick = stick & ~go
     if settle:
-        qv = q_stick.reshape(2, -1).T
-        qn = np.linalg.norm(qv, axis=1)
-        go = stick & (qn > (1 + SLIP) * T.mu * np.maximum(p, 0.0) + 1e-12 * p_scale)
-        d[go] = qv[go] / np.maximum(qn[go], 1e-300)[:, None]
         slip = act & ~fs.stick & new_act
         inc = (w - fs.s_step).reshape(2, -1).T
         incn = np.linalg.norm(inc, axis=1)
-        back = slip & (np.einsum("ij,ij->i", inc, fs.d) < -TURN * u_scale)
+        # a slip node moving against d turns d round the first time (d came from the stick
+        # tractions of an unconverged iterate) and sticks the second; a node without pressure
+        # has no friction to stick with
+        against = slip & (np.einsum("ij,ij->i", inc, fs.d) < -TURN * u_scale)
+        back = against & fs.turned & (p > 0)
         turn = slip & ~back & (incn > TURN * u_scale)
         new_d = inc[turn] / incn[turn][:, None]
-        changed = bool(go.any() or back.any()) or \
+        changed |= bool(back.any()) or \
             (len(new_d) > 0 and np.max(np.abs(new_d - fs.d[turn])) > 1e-3)
         d[turn] = new_d
-        stick = (stick & ~go) | back
-    return stick | (new_act & ~act), d, changed
+        turned = (fs.turned | against) & ~back
+        stick = stick | back
+    return stick | (new_act & ~act), d, changed, turned
 
 
 def _tractions(T: Tangential, stick, act, q_stick, p, d) -> np.ndarray:
@@ -219,11 +232,11 @@ def advance(state, pending: list, omega) -> None:
         if pend is None:
             continue
         fs = state.friction[c]
-        stick, s, q, d, ub_t, r = pend
+        stick, s, q, d, turned, ub_t, r = pend
         keep = _two(stick & fs.stick)
         om = omega[c] if np.ndim(omega) else omega
         fs.g = np.where(keep, fs.g + om * r, ub_t + s)
-        fs.stick, fs.s, fs.q, fs.d = stick, s, q, d
+        fs.stick, fs.s, fs.q, fs.d, fs.turned = stick, s, q, d, turned
 
 
 def resultants(itf: Interface, fs: FrictionState | None, p: np.ndarray,
@@ -305,8 +318,8 @@ def monolithic_update(interfaces, fstates, slices, x, u, lam, active, new_active
                 q_stick[k * n + st] = np.linalg.solve(Mss, x[m0 + k * len(st):
                                                              m0 + (k + 1) * len(st)])
         w = T.C_t @ u[itf.a] - T.I_t @ u[itf.b]
-        stick, d, ch = _sets(T, fs, active[c], new_active[c], lam[c], q_stick, w, u_scale,
-                             p_scale)
+        stick, d, ch, fs.turned = _sets(T, fs, active[c], new_active[c], lam[c], q_stick, w,
+                                        u_scale, p_scale)
         changed |= ch
         fs.q = _tractions(T, fs.stick & active[c], active[c], q_stick, lam[c], fs.d)
         fs.s = np.where(_two(stick & fs.stick), fs.s, w)
