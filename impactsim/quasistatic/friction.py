@@ -156,7 +156,7 @@ class Measure:
 
 
 def measure(interfaces, state, out, pa_all, new_active, settle: bool, u_scale: float,
-            p_scale: float, decide: bool = True) -> tuple[Measure, list]:
+            p_scale: float) -> tuple[Measure, list]:
     """The tangential residuals and the new tractions and stick/slip sets of an iteration
     (applied by `advance` once the relaxation is known)."""
     m = Measure([], 0.0, 0.0, False)
@@ -172,8 +172,7 @@ def measure(interfaces, state, out, pa_all, new_active, settle: bool, u_scale: f
         m.residuals.append(r)
         m.gap = max(m.gap, np.max(np.abs(r), initial=0) / u_scale)
         stick, d, changed, turned = _sets(itf.tangential, fs, state.active[c], new_active[c],
-                                  pa_all[c], q_stick, ua_t - ub_t, u_scale, p_scale, settle,
-                                  decide)
+                                  pa_all[c], q_stick, ua_t - ub_t, u_scale, p_scale, settle)
         m.changed |= changed
         s = np.where(_two(stick & fs.stick), fs.s, ua_t - ub_t)  # others stick where they are
         q = _tractions(itf.tangential, stick, new_active[c], q_stick, pa_all[c], d)
@@ -184,25 +183,24 @@ def measure(interfaces, state, out, pa_all, new_active, settle: bool, u_scale: f
 
 def _sets(T: Tangential, fs: FrictionState, act: np.ndarray, new_act: np.ndarray,
           p: np.ndarray, q_stick: np.ndarray, w: np.ndarray, u_scale: float, p_scale: float,
-          settle: bool = True, decide: bool = True):
+          settle: bool = True):
     """(stick set for the next solve, slip directions, whether a set or a direction changed,
     the nodes whose d was turned round) from a solve with the active set `act` and stick set
-    fs.stick (within act); new_act is the next active set. Nodes that close stick; a stick
-    node with |q| > mu p slips along q (`decide`); on settled iterates (`settle`) d follows
-    the slip increment, and a slip node moving against d a second time sticks."""
+    fs.stick (within act); new_act is the next active set. Nodes that close stick; on settled
+    iterates (`settle`) a stick node with |q| > mu p slips along q, d follows the slip
+    increment, and a slip node moving against d a second time sticks."""
     stick = fs.stick & act & new_act
     d = fs.d.copy()
     turned = fs.turned.copy()
-    # stick nodes above the cone slip at once (like penetrating nodes close at once); slip
-    # nodes stick again only on settled iterates
-    qv = q_stick.reshape(2, -1).T
-    qn = np.linalg.norm(qv, axis=1)
-    go = decide & stick & (qn > (1 + SLIP) * T.mu * np.maximum(p, 0.0) + 1e-12 * p_scale)
-    d[go] = qv[go] / np.maximum(qn[go], 1e-300)[:, None]
-    turned[go] = False
-    changed = bool(go.any())
-    stick = stick & ~go
-    if settle:
+    changed = False
+    if settle:  # decided on settled iterates only, as the release of the active set
+        qv = q_stick.reshape(2, -1).T
+        qn = np.linalg.norm(qv, axis=1)
+        go = stick & (qn > (1 + SLIP) * T.mu * np.maximum(p, 0.0) + 1e-12 * p_scale)
+        d[go] = qv[go] / np.maximum(qn[go], 1e-300)[:, None]
+        turned[go] = False
+        changed = bool(go.any())
+        stick = stick & ~go
         slip = act & ~fs.stick & new_act
         inc = (w - fs.s_step).reshape(2, -1).T
         incn = np.linalg.norm(inc, axis=1)
@@ -216,7 +214,7 @@ def _sets(T: Tangential, fs: FrictionState, act: np.ndarray, new_act: np.ndarray
         changed |= bool(back.any()) or \
             (len(new_d) > 0 and np.max(np.abs(new_d - fs.d[turn])) > 1e-3)
         d[turn] = new_d
-        turned = (fs.turned | against) & ~back
+        turned = (turned | against) & ~back
         stick = stick | back
     return stick | (new_act & ~act), d, changed, turned
 

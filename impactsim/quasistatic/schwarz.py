@@ -295,9 +295,9 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
                                p_scale, release=settle)
             changed |= bool((na != act).any())
             new_active.append(na)
-        # (slip starts at once, stick again on settled iterates; nothing on the first one)
+        # (stick and slip are decided on settled iterates, never on the first one)
         fm, pending = friction.measure(interfaces, state, out, pa_all, new_active,
-                                       settle and it > 1, u_scale, p_scale, it > 1)
+                                       settle and it > 1, u_scale, p_scale)
         gap_res, p_change = max(gap_res, fm.gap), max(p_change, fm.change)
         changed |= fm.changed
         r = np.concatenate(residuals + fm.residuals) if residuals else np.zeros(0)

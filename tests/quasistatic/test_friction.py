@@ -107,14 +107,14 @@ def test_above_mu_p_the_blocks_slip_and_the_friction_is_mu_p(mu):
     itf, fs, act, normal, tangential = _interface(out)
     assert act.all() and not fs.stick[act].any()
     assert abs(-normal[2] / (P * AREA) - 1) < 1e-3
-    # the traction on the interface is mu times the pressure, in total and node by node
+    # the traction on the interface is mu times the pressure (in total: the nodal values are
+    # q = mu max(p, 0) d by construction; a few edge nodes' M^-1 lambda are negative)
     assert abs(np.hypot(*tangential[:2]) / (mu * -normal[2]) - 1) < 0.01
-    q = fs.q.reshape(2, -1).T[act]
-    assert np.allclose(np.linalg.norm(q, axis=1), mu * out.state.p[0][act], rtol=0.01)
-    # and it opposes the motion of the upper block (+x): the force on the lower block is +x
-    assert tangential[0] > 0.99 * np.hypot(*tangential[:2])
-    assert (_slip(out, itf, act)[:, 0] if abs(itf.tangential.frame[0, 0, 0]) > 0.5 else
-            _slip(out, itf, act)[:, 1]).__abs__().min() > 0
+    # it drags the lower block along the motion of the upper one (+x), and the upper block
+    # slides over it: every node's slip is along +x
+    assert tangential[0] > 0.999 * np.hypot(*tangential[:2])
+    w = _slip(out, itf, act) @ itf.tangential.frame[0]  # (nodes, 3): flat face, one frame
+    assert (w[:, 0] > 0.9 * 10e-6).all() and (np.abs(w[:, 1]) < 0.01 * w[:, 0]).all()
 
 
 def test_without_friction_a_tangential_load_is_not_carried():
@@ -123,9 +123,14 @@ def test_without_friction_a_tangential_load_is_not_carried():
     _, _, free = blocks(0.0, 'displacement = ["10 um", 0, "free"]')
     _, _, fric = blocks(0.3, 'displacement = ["10 um", 0, "free"]')
     assert free.stopped is None and fric.stopped is None
-    up = free.fields[1]["u"].reshape(-1, 3)[:, 0]
-    assert np.abs(up - 10e-6).max() < 1e-3 * 10e-6
-    low_free = np.abs(free.fields[0]["u"].reshape(-1, 3)[:, 0]).max()
-    low_fric = np.abs(fric.fields[0]["u"].reshape(-1, 3)[:, 0]).max()
-    assert low_fric > 1e-8  # 0.3 x 10 MPa shears the clamped lower block
-    assert low_free < 1e-3 * low_fric
+    # the upper block slides by 10 um (on average: Poisson's expansion under the pressure moves
+    # its faces by +-0.1 um)
+    up = free.fields[1]["u"].reshape(-1, 3)[:, 0].mean()
+    assert abs(up / 10e-6 - 1) < 1e-3
+    # the clamped lower block carries the friction as shear: mean sigma_xz = mu p (measured
+    # 3.0004 MPa), and nothing without it (measured 0.059 MPa, as sigma_yz: the shear of the
+    # clamp's own Poisson constraint, the same in both)
+    shear_fric = fric.fields[0]["stress"][4].mean()
+    shear_free = free.fields[0]["stress"][4].mean()
+    assert abs(shear_fric / (0.3 * P) - 1) < 0.01
+    assert abs(shear_free) < 0.03 * 0.3 * P
