@@ -9,7 +9,9 @@ import pytest
 
 from impactsim.quasistatic import friction
 from impactsim.quasistatic import interfaces as setup_mod
+from impactsim.quasistatic.body import BodyState
 from impactsim.quasistatic.build import problem
+from impactsim.quasistatic.monolithic import solve_monolithic
 from impactsim.quasistatic.solver import solve
 
 from tests.quasistatic.helpers import case
@@ -55,7 +57,6 @@ friction = MU
 """
 
 P, AREA = 10e6, 1e-4
-
 
 def blocks(mu: float, top: str, *overrides: str):
     text = BLOCKS.replace("TOP", top).replace("MU", "inf" if mu == np.inf else repr(mu))
@@ -134,3 +135,30 @@ def test_without_friction_a_tangential_load_is_not_carried():
     shear_free = free.fields[0]["stress"][4].mean()
     assert abs(shear_fric / (0.3 * P) - 1) < 0.01
     assert abs(shear_free) < 0.03 * 0.3 * P
+
+
+@pytest.mark.parametrize("mu, top, stick", [
+    (0.5, 'traction = ["1 MPa", 0, 0]', True),
+    (0.3, 'displacement = ["10 um", 0, "free"]', False)])
+def test_schwarz_equals_the_monolithic_solve_with_friction(mu, top, stick):
+    # measured: 2e-7 stuck, 5.7e-4 slipping (of the largest displacement)
+    prob, (spaces, itfs, specs, route, t), out = blocks(mu, top)
+    assert out.stopped is None, out.stopped
+    states = {s.index: BodyState(s) for s in specs}
+    fm = []
+    u, active = solve_monolithic(states, itfs, friction_states=fm)
+    size = max(np.abs(u[i]).max() for i in u)
+    for i in u:
+        assert np.abs(out.fields[i]["u"] - u[i]).max() < 1e-3 * size
+    assert (active[0] == out.state.active[0]).all()
+    assert (fm[0].stick == out.state.friction[0].stick).all()
+    assert fm[0].stick[active[0]].all() == stick
+
+
+def test_friction_gives_the_same_answer_with_two_workers():
+    prob, setup, local = blocks(0.3, 'displacement = ["10 um", 0, "free"]')
+    two = solve(prob, 2, setup=setup)
+    assert two.workers == 2 and two.stopped is None
+    assert local.steps[-1]["iterations"] == two.steps[-1]["iterations"]
+    for i in local.fields:
+        np.testing.assert_array_equal(local.fields[i]["u"], two.fields[i]["u"])
