@@ -155,10 +155,18 @@ def test_schwarz_equals_the_monolithic_solve_with_friction(mu, top, stick):
     assert fm[0].stick[active[0]].all() == stick
 
 
-def test_friction_gives_the_same_answer_with_two_workers():
+def test_friction_gives_the_same_answer_with_one_and_two_workers():
+    # bit for bit between worker counts (Dask's workers run their BLAS on one thread; in
+    # this process it may use more, and the Schur complements' sums then differ in the last
+    # bits: 1e-11 relative, measured)
     prob, setup, local = blocks(0.3, 'displacement = ["10 um", 0, "free"]')
+    one = solve(prob, 1, setup=setup)
     two = solve(prob, 2, setup=setup)
-    assert two.workers == 2 and two.stopped is None
-    assert local.steps[-1]["iterations"] == two.steps[-1]["iterations"]
+    assert (one.workers, two.workers) == (1, 2)
+    assert one.stopped is None and two.stopped is None
+    its = {r.steps[-1]["iterations"] for r in (local, one, two)}
+    assert len(its) == 1
     for i in local.fields:
-        np.testing.assert_array_equal(local.fields[i]["u"], two.fields[i]["u"])
+        np.testing.assert_array_equal(one.fields[i]["u"], two.fields[i]["u"])
+        np.testing.assert_allclose(local.fields[i]["u"], two.fields[i]["u"], rtol=0,
+                                   atol=1e-9 * np.abs(local.fields[i]["u"]).max())
