@@ -301,7 +301,9 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
         gap_res, p_change = max(gap_res, fm.gap), max(p_change, fm.change)
         changed |= fm.changed
         r = np.concatenate(residuals + fm.residuals) if residuals else np.zeros(0)
-        if not all(np.isfinite(v) for v in (gap_res, p_change, u_scale, p_scale)):
+        # (Python's max drops NaN, so the residual vector is checked too)
+        if not all(np.isfinite(v) for v in (gap_res, p_change, u_scale, p_scale)) or \
+                not np.isfinite(r).all():
             raise NotConverged(f"Schwarz iteration: diverged at iteration {it} (the "
                                f"mismatches are not finite)")
         if settings.aitken and r_old is not None and not changed and len(r) == len(r_old) \
