@@ -65,6 +65,7 @@ class FrictionState:
     q: np.ndarray  # (2n,) nodal tangential tractions (the force of A on B)
     d: np.ndarray  # (n, 2) slip directions in the frame
     turned: np.ndarray  # (n,) bool: d was turned round since the node slipped
+    loaded: np.ndarray | None = None  # (n,) bool: p > 0 (the monolithic's slip tractions)
 
 
 def frame(normals: np.ndarray) -> np.ndarray:
@@ -196,7 +197,7 @@ def _sets(T: Tangential, fs: FrictionState, act: np.ndarray, new_act: np.ndarray
     if settle:  # decided on settled iterates only, as the release of the active set
         qv = q_stick.reshape(2, -1).T
         qn = np.linalg.norm(qv, axis=1)
-        go = stick & (qn > (1 + SLIP) * T.mu * np.maximum(p, 0.0) + 1e-12 * p_scale)
+        go = stick & (qn > (1 + SLIP) * _cap(T.mu, p) + 1e-12 * p_scale)
         d[go] = qv[go] / np.maximum(qn[go], 1e-300)[:, None]
         turned[go] = False
         changed = bool(go.any())
@@ -217,6 +218,13 @@ def _sets(T: Tangential, fs: FrictionState, act: np.ndarray, new_act: np.ndarray
         turned = (turned | against) & ~back
         stick = stick | back
     return stick | (new_act & ~act), d, changed, turned
+
+
+def _cap(mu: float, p: np.ndarray) -> np.ndarray:
+    """mu max(p, 0); infinite for mu = inf (stuck, even without pressure)."""
+    if not np.isfinite(mu):
+        return np.full(len(p), np.inf)
+    return mu * np.maximum(p, 0.0)
 
 
 def _tractions(T: Tangential, stick, act, q_stick, p, d) -> np.ndarray:
@@ -278,7 +286,10 @@ def monolithic_blocks(states, interfaces, active, fstates, lam_slices, off, m, a
         slices.append((m, st))
         for k in range(2):
             if len(sl) and np.isfinite(T.mu):
-                Q = sp.csr_matrix(T.mu * fs.d[sl, k][:, None] * P[pos])  # q_k(slip) of lambda
+                # q_k(slip) of lambda: mu p d where the last pass had p > 0 (the iteration's
+                # mu max(p, 0) d)
+                on = fs.loaded[sl] if fs.loaded is not None else np.ones(len(sl), bool)
+                Q = sp.csr_matrix((T.mu * on * fs.d[sl, k])[:, None] * P[pos])
                 Ma = itf.M_a[idx][:, sl]
                 add((T.C_t[k * n + idx][:, ea.F].T @ (Ma @ Q)), off[itf.a], m0)
                 add(-(T.G_t[:, k * n + sl][eb.F] @ Q), off[itf.b], m0)
@@ -318,6 +329,11 @@ def monolithic_update(interfaces, fstates, slices, x, u, lam, active, new_active
         w = T.C_t @ u[itf.a] - T.I_t @ u[itf.b]
         stick, d, ch, fs.turned = _sets(T, fs, active[c], new_active[c], lam[c], q_stick, w,
                                         u_scale, p_scale)
+        loaded = lam[c] > 0
+        if fs.loaded is not None:
+            slip = active[c] & ~fs.stick
+            ch |= bool((loaded != fs.loaded)[slip].any())
+        fs.loaded = loaded
         changed |= ch
         fs.q = _tractions(T, fs.stick & active[c], active[c], q_stick, lam[c], fs.d)
         fs.s = np.where(_two(stick & fs.stick), fs.s, w)

@@ -141,7 +141,8 @@ def test_without_friction_a_tangential_load_is_not_carried():
     (0.5, 'traction = ["1 MPa", 0, 0]', True),
     (0.3, 'displacement = ["10 um", 0, "free"]', False)])
 def test_schwarz_equals_the_monolithic_solve_with_friction(mu, top, stick):
-    # measured: 2e-7 stuck, 5.7e-4 slipping (of the largest displacement)
+    # measured: 2.2e-7 stuck, 3.8e-7 slipping (of the largest displacement; 5.7e-4 before
+    # the monolithic's slip tractions left out the edge nodes with p < 0 as the iteration does)
     prob, (spaces, itfs, specs, route, t), out = blocks(mu, top)
     assert out.stopped is None, out.stopped
     states = {s.index: BodyState(s) for s in specs}
@@ -149,7 +150,7 @@ def test_schwarz_equals_the_monolithic_solve_with_friction(mu, top, stick):
     u, active = solve_monolithic(states, itfs, friction_states=fm)
     size = max(np.abs(u[i]).max() for i in u)
     for i in u:
-        assert np.abs(out.fields[i]["u"] - u[i]).max() < 1e-3 * size
+        assert np.abs(out.fields[i]["u"] - u[i]).max() < 1e-5 * size
     assert (active[0] == out.state.active[0]).all()
     assert (fm[0].stick == out.state.friction[0].stick).all()
     assert fm[0].stick[active[0]].all() == stick
