@@ -4,6 +4,8 @@ independence of the number of workers."""
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 
@@ -58,7 +60,9 @@ friction = MU
 
 P, AREA = 10e6, 1e-4
 
+@functools.lru_cache(maxsize=4)
 def blocks(mu: float, top: str, *overrides: str):
+    """(problem, setup, outcome): cached, the tests only read them."""
     text = BLOCKS.replace("TOP", top).replace("MU", "inf" if mu == np.inf else repr(mu))
     prob = problem(case(text, *overrides))
     setup = setup_mod.setup(prob)
@@ -139,7 +143,7 @@ def test_without_friction_a_tangential_load_is_not_carried():
 
 @pytest.mark.parametrize("mu, top, stick", [
     (0.5, 'traction = ["1 MPa", 0, 0]', True),
-    (0.3, 'displacement = ["10 um", 0, "free"]', False)])
+    pytest.param(0.3, 'displacement = ["10 um", 0, "free"]', False, marks=pytest.mark.slow)])
 def test_schwarz_equals_the_monolithic_solve_with_friction(mu, top, stick):
     # measured: 2.2e-7 stuck, 3.8e-7 slipping (of the largest displacement; 5.7e-4 before
     # the monolithic's slip tractions left out the edge nodes with p < 0 as the iteration does)
@@ -156,6 +160,7 @@ def test_schwarz_equals_the_monolithic_solve_with_friction(mu, top, stick):
     assert fm[0].stick[active[0]].all() == stick
 
 
+@pytest.mark.slow
 def test_friction_gives_the_same_answer_with_one_and_two_workers():
     # bit for bit between worker counts (Dask's workers run their BLAS on one thread; in
     # this process it may use more, and the Schur complements' sums then differ in the last
