@@ -139,9 +139,10 @@ def forces_block(buf, dt, eos, rho0, bulk, c0, s, gamma0, shear, cq, cl):
     \"\"\"Deviatoric work, EOS pressure with the energy implicit, bulk viscosity, stable dt (as
     element._pressure_block, with the hex's volume), then the Flanagan-Belytschko hourglass
     resultants and their work, and the corner forces of stress and hourglass control together
-    (hex8._hex_element's formulas, regrouped: see gen_hex8_block.hourglass_lines).\"\"\"
-    for i in range(B):
-        vnew = buf[R_DET * B + i] * (1.0 / 6.0)
+    (hex8._hex_element's formulas, regrouped: see gen_hex8_block.hourglass_lines). In five
+    lane loops, each keeping fewer values alive than the registers, through the HK rows:
+    W_ij = sum_n v_in b_jn, b.b and Gamma_a . v; h_a and the rates; the pressure part; the
+    resultants Q, their work and T = sigma - M / 8; the corner forces.\"\"\"
 """
 
 PRESSURE_BODY = """        vold = buf[R_VOLD * B + i]
@@ -212,9 +213,21 @@ def gamma_dot(v, d):
     return L
 
 
+# scratch rows of forces_block in HK: W (9), Gamma_a . v (12), b.b, h_a (12), rates (12), p + q,
+# the viscous and stiffness coefficients; T (9) and the pair sums A, C, D, E (12) over W and Gu
+K_W, K_GU, K_BB, K_H, K_R, K_PT, K_KV, K_KS = 0, 9, 21, 22, 34, 46, 47, 48
+K_T, K_Q8 = 0, 9
+N_HK = 49
+
+
+def hk(k):
+    return row("HK", k)
+
+
 def hourglass_lines():
-    """The hourglass part of forces_block, inside the lane loop: (the rates, before the
-    pressure part; the resultants and all forces, after it).
+    """The loops of forces_block around the pressure part: (the two loops before it, the lines
+    ending the pressure loop, the two loops after it), each a list of lines inside its lane
+    loop.
 
     FB81's shape vectors g_an = (1/8) [Gamma_an - h_a . b_n] with h_a = (Gamma_a . x) / V are
     not formed. The rates are qdot_ia = sum_n v_in g_an = (1/8) [Gamma_a . v_i - h_a . W_i]
@@ -222,10 +235,11 @@ def hourglass_lines():
     -(1/8) sum_a Q_ia Gamma_an + (1/8) M_ij b_jn with M_ij = sum_a Q_ia h_aj, so stress and
     hourglass forces together are f_in = -(sigma_ij - M_ij / 8) b_jn - (1/8) sum_a Q_ia
     Gamma_an: the same sums in another order (equal to round-off), with far fewer operations
-    and fewer values alive at once (the lane loop spills less)."""
+    and fewer values alive at once."""
+    loops = []
+    # loop 1: W_ij = sum_n v_in b_jn, sum b.b and Gamma_a . v, by pairs of nodes (2k, 2k + 1)
     L = []
     A = L.append
-    # W_ij = sum_n v_in b_jn, sum b.b and Gamma_a . v, by pairs of nodes (2k, 2k + 1)
     for k in range(4):
         for m in (2 * k, 2 * k + 1):
             for d in XYZ:
@@ -245,55 +259,93 @@ def hourglass_lines():
                     A(f"Gu{a}{d} = {'' if sg[k] > 0 else '-'}{term}")
                 else:
                     A(f"Gu{a}{d} {'+=' if sg[k] > 0 else '-='} {term}")
-    # h_a = (Gamma_a . x) / V
-    A("vinv = 1.0 / vnew")
+    for i, di in enumerate(XYZ):
+        for j, dj in enumerate(XYZ):
+            A(f"{hk(K_W + 3 * i + j)} = W{di}{dj}")
+    for a in range(4):
+        for i, di in enumerate(XYZ):
+            A(f"{hk(K_GU + 3 * a + i)} = Gu{a}{di}")
+    A(f"{hk(K_BB)} = bb")
+    loops.append(L)
+    # loop 2: h_a = (Gamma_a . x) / V and the rates
+    L = []
+    A = L.append
+    A("vinv = 6.0 / buf[R_DET * B + i]")
     for d in XYZ:
         for n in range(8):
             A(f"x{d}{n} = {row('HX', 3 * n + XYZ.index(d))}")
         L.extend(gamma_dot("x", d))
         for a in range(4):
             A(f"h{a}{d} = Gx{a}{d} * vinv")
+            A(f"{hk(K_H + 3 * a + XYZ.index(d))} = h{a}{d}")
+    for i, di in enumerate(XYZ):
+        for j, dj in enumerate(XYZ):
+            A(f"W{di}{dj} = {hk(K_W + 3 * i + j)}")
     for a in range(4):
-        for di in XYZ:
-            A(f"r{a}{di} = 0.125 * (Gu{a}{di} - (h{a}x * W{di}x + h{a}y * W{di}y"
-              f" + h{a}z * W{di}z))")
-    rates = L
+        for i, di in enumerate(XYZ):
+            A(f"{hk(K_R + 3 * a + i)} = 0.125 * ({hk(K_GU + 3 * a + i)} - (h{a}x * W{di}x"
+              f" + h{a}y * W{di}y + h{a}z * W{di}z))")
+    loops.append(L)
+    # the end of the pressure loop: the hourglass coefficients
     L = []
     A = L.append
+    A(f"{hk(K_PT)} = ptot")
     A("cv = buf[HGV * B + i]")
     A("cs = buf[HGS * B + i]")
     A("chg = math.sqrt(max(c2, 0.0))")
-    A("kv = cv * rho * chg * VM.power(vnew, 2.0 / 3.0)")
-    A("ks = cs * dt * (bulk + 4.0 * shear / 3.0) * bb * vinv * (1.0 / 3.0)")
+    A(f"{hk(K_KV)} = cv * rho * chg * VM.power(vnew, 2.0 / 3.0)")
+    A(f"{hk(K_KS)} = cs * dt * (bulk + 4.0 * shear / 3.0) * {hk(K_BB)} / vnew * (1.0 / 3.0)")
+    loops.append(L)
+    # loop 4: resultants, their work, T = sigma - M / 8 (M_ij = sum_a Q_ia h_aj), the pair sums
+    L = []
+    A = L.append
+    A(f"kv = {hk(K_KV)}")
+    A(f"ks = {hk(K_KS)}")
     A("work = 0.0")
     for a in range(4):
         for di in XYZ:
             k = 3 * a + XYZ.index(di)
             r = f"r{a}{di}"
+            A(f"{r} = {hk(K_R + k)}")
             A(f"s0 = {row('HG', k)}")
             A(f"s1 = s0 + ks * {r}")
             A(f"{row('HG', k)} = s1")
             A(f"Q{a}{di} = s1 + kv * {r}")
             A(f"work += dt * (0.5 * (s0 + s1) + kv * {r}) * {r}")
     A("buf[HGW * B + i] = work")
-    # T = sigma - M / 8 (M_ij = sum_a Q_ia h_aj), sigma = s - (p + q) 1
+    A(f"ptot = {hk(K_PT)}")
+    for k, nm in enumerate(["nxx", "nyy", "nzz", "nxy", "nyz", "nzx"]):
+        A(f"{nm} = {row('R_SN', k)}")
+    for a in range(4):
+        for d in XYZ:
+            A(f"h{a}{d} = {hk(K_H + 3 * a + XYZ.index(d))}")
     sig = {"xx": "nxx - ptot", "yy": "nyy - ptot", "zz": "nzz - ptot", "xy": "nxy", "yx": "nxy",
            "yz": "nyz", "zy": "nyz", "zx": "nzx", "xz": "nzx"}
-    for di in XYZ:
-        for dj in XYZ:
-            A(f"T{di}{dj} = {sig[di + dj]} - 0.125 * ("
+    for i, di in enumerate(XYZ):
+        for j, dj in enumerate(XYZ):
+            A(f"{hk(K_T + 3 * i + j)} = {sig[di + dj]} - 0.125 * ("
               + " + ".join(f"Q{a}{di} * h{a}{dj}" for a in range(4)) + ")")
-    # f_in = -T_ij b_jn - (1/8) sum_a Q_ia Gamma_an
-    for di in XYZ:
-        A(f"A{di}, C{di} = 0.125 * (Q0{di} + Q1{di}), 0.125 * (Q2{di} + Q3{di})")
-        A(f"D{di}, E{di} = 0.125 * (Q0{di} - Q1{di}), 0.125 * (Q2{di} - Q3{di})")
+    for i, di in enumerate(XYZ):
+        q8 = K_Q8 + 4 * i
+        A(f"{hk(q8)}, {hk(q8 + 1)} = 0.125 * (Q0{di} + Q1{di}), 0.125 * (Q2{di} + Q3{di})")
+        A(f"{hk(q8 + 2)}, {hk(q8 + 3)} = 0.125 * (Q0{di} - Q1{di}), 0.125 * (Q2{di} - Q3{di})")
+    loops.append(L)
+    # loop 5: f_in = -T_ij b_jn - (1/8) sum_a Q_ia Gamma_an
+    L = []
+    A = L.append
+    for i, di in enumerate(XYZ):
+        for j, dj in enumerate(XYZ):
+            A(f"T{di}{dj} = {hk(K_T + 3 * i + j)}")
+        q8 = K_Q8 + 4 * i
+        A(f"A{di}, C{di}, D{di}, E{di} = {hk(q8)}, {hk(q8 + 1)}, {hk(q8 + 2)}, {hk(q8 + 3)}")
     for n in range(8):
         for d in XYZ:
             A(f"b{d} = {row('HB', 3 * n + XYZ.index(d))}")
         for di in XYZ:
             A(f"{row('HF', 3 * n + XYZ.index(di))} = -(T{di}x * bx + T{di}y * by + T{di}z * bz)"
               f" - ({qgamma(n, di)})")
-    return rates, L
+    loops.append(L)
+    return loops
 
 
 def qgamma(n, d):
@@ -362,8 +414,8 @@ HG = HF + 24  # 12 rows: stiffness hourglass resultants (in, updated)
 HGV = HG + 12
 HGS = HGV + 1
 HGW = HGS + 1
-HK = HGW + 1  # 12 rows: scratch of kinematics_block
-HROWS = HK + 12
+HK = HGW + 1  # 49 rows: scratch of kinematics_block (12) and forces_block (49)
+HROWS = HK + 49
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
@@ -451,11 +503,15 @@ def load_block(x, v, conn, sdev, pressure, energy, vol, elem_mass, hg, hg_visc, 
     A(ind + f"{row('R_SEQ', 0)} = math.sqrt(max(3.0 * j2, 0.0))")
     P("\n\n" + "\n".join(K) + "\n")
     # ---- pressure, stress and hourglass forces, in one loop
-    rates, forces = hourglass_lines()
+    w_loop, rate_loop, coef, q_loop, f_loop = hourglass_lines()
     P(PRESSURE)
-    P("\n".join(ind + ln for ln in rates) + "\n")
+    for lp in (w_loop, rate_loop):
+        P("    for i in range(B):\n" + "\n".join(ind + ln for ln in lp) + "\n")
+    P("    for i in range(B):\n" + ind + "vnew = buf[R_DET * B + i] * (1.0 / 6.0)\n")
     P(PRESSURE_BODY)
-    P("\n".join(ind + ln for ln in forces) + "\n")
+    P("\n".join(ind + ln for ln in coef) + "\n")
+    for lp in (q_loop, f_loop):
+        P("    for i in range(B):\n" + "\n".join(ind + ln for ln in lp) + "\n")
     P('''
 
 @numba.njit(cache=True, error_model="numpy")
