@@ -68,13 +68,15 @@ def kinematics_lines(ind):
     A('    lane loops, each with fewer live values than the registers (a single loop keeps about')
     A('    100 values per lane alive and spills a third of its instructions): the mid-step')
     A('    coordinates (into the HF rows, free until forces_block), then one loop per column j of')
-    A('    b = dV/dx at the mid-step (sums sum_I v_iI b_jI into HK) and at n+1 (into HB), each from')
+    A('    b = dV/dx at the mid-step (sums sum_I v_iI b_jI into HK) and at n+1 (into HB), '
+      'each from')
     A('    the 24 edge sums of the two coordinates that enter it, the face areas, and the rest."""')
     # 1: mid-step coordinates
     A("    for i in range(B):")
     for n in range(8):
         for d in range(3):
-            A(f"{ind}{row('HF', 3 * n + d)} = {row('HX', 3 * n + d)} - half * {row('HV', 3 * n + d)}")
+            A(f"{ind}{row('HF', 3 * n + d)} = {row('HX', 3 * n + d)}"
+              f" - half * {row('HV', 3 * n + d)}")
     # 2: mid-step columns
     for j in range(3):
         sg, c1, c2 = COLS[j]
@@ -89,7 +91,8 @@ def kinematics_lines(ind):
             A(f"{ind}{row('HK', 3 * d + j)} = " + " + ".join(
                 f"{row('HV', 3 * n + d)} * b{n}" for n in range(8)))
         if j == 0:
-            A(f"{ind}{row('HK', 9)} = " + " + ".join(f"{row('HF', 3 * n)} * b{n}" for n in range(8)))
+            A(f"{ind}{row('HK', 9)} = "
+              + " + ".join(f"{row('HF', 3 * n)} * b{n}" for n in range(8)))
     # 3: columns at n+1
     for j in range(3):
         sg, c1, c2 = COLS[j]
@@ -102,7 +105,8 @@ def kinematics_lines(ind):
             A(f"{ind}b{n} = {sg}{f_expr(c1, c2, a)} * (1.0 / 12.0)")
             A(f"{ind}{row('HB', 3 * n + j)} = b{n}")
         if j == 0:
-            A(f"{ind}{row('HK', 10)} = " + " + ".join(f"{row('HX', 3 * n)} * b{n}" for n in range(8)))
+            A(f"{ind}{row('HK', 10)} = "
+              + " + ".join(f"{row('HX', 3 * n)} * b{n}" for n in range(8)))
     # 4: face areas
     A("    for i in range(B):")
     for n in range(8):
