@@ -157,23 +157,11 @@ class Measure:
 
 
 def measure(interfaces, state, out, pa_all, new_active, settle: bool, u_scale: float,
-            p_scale: float, settled_gap: float = np.inf) -> tuple[Measure, list]:
+            p_scale: float) -> tuple[Measure, list]:
     """The tangential residuals and the new tractions and stick/slip sets of an iteration
-    (applied by `advance` once the relaxation is known). The sets change only when `settle`
-    and the tangential mismatch is below `settled_gap` too."""
+    (applied by `advance` once the relaxation is known)."""
     m = Measure([], 0.0, 0.0, False)
     pending = []
-    rs = []
-    for c, itf in enumerate(interfaces):
-        fs = state.friction[c] if state.friction else None
-        if fs is None:
-            continue
-        ub_t = out[itf.b][("bt", c)]
-        r = np.where(_two(fs.stick), ub_t + fs.s - fs.g, 0.0)
-        m.residuals.append(r)
-        m.gap = max(m.gap, np.max(np.abs(r), initial=0) / u_scale)
-        rs.append(r)
-    settle = settle and m.gap <= settled_gap
     for c, itf in enumerate(interfaces):
         fs = state.friction[c] if state.friction else None
         if fs is None:
@@ -181,7 +169,9 @@ def measure(interfaces, state, out, pa_all, new_active, settle: bool, u_scale: f
             continue
         ua_t, q_stick = out[itf.a][("at", c)]
         ub_t = out[itf.b][("bt", c)]
-        r = rs.pop(0)
+        r = np.where(_two(fs.stick), ub_t + fs.s - fs.g, 0.0)
+        m.residuals.append(r)
+        m.gap = max(m.gap, np.max(np.abs(r), initial=0) / u_scale)
         stick, d, changed, turned = _sets(itf.tangential, fs, state.active[c], new_active[c],
                                   pa_all[c], q_stick, ua_t - ub_t, u_scale, p_scale, settle)
         m.changed |= changed

@@ -297,8 +297,7 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
             new_active.append(na)
         # (stick and slip are decided on settled iterates, never on the first one)
         fm, pending = friction.measure(interfaces, state, out, pa_all, new_active,
-                                       settle and it > 1, u_scale, p_scale,
-                                       SETTLE * max(settings.gap_tolerance, 1e-3))
+                                       settle and it > 1, u_scale, p_scale)
         gap_res, p_change = max(gap_res, fm.gap), max(p_change, fm.change)
         changed |= fm.changed
         r = np.concatenate(residuals + fm.residuals) if residuals else np.zeros(0)
