@@ -32,6 +32,8 @@ from impactsim.quasistatic.model import Settings
 SETTLE = 10.0  # the active set is updated when the mismatches are below SETTLE x tolerance
 MAX_INNER = 100  # ... or after this many iterations with the same active set
 ACTIVATE = 10.0  # a node is activated when it penetrates by ACTIVATE x gap tolerance x u_max
+ENTER_FRACTION = 0.1  # penetrating nodes enter within this fraction of the penetrations'
+# spread from the deepest, after a drop (update_active)
 RELEASE = 1e-3  # a node is released when its (smoothed) pressure is below -RELEASE p_max
 
 
@@ -60,6 +62,14 @@ def update_active(itf: Interface, act: np.ndarray, p: np.ndarray, penetration: n
     if itf.tied:
         return act
     enter = (~act) & itf.matched & (penetration > pen_tol)
+    pe = penetration[enter]
+    if enter.any() and pe.min() > pe.max() - pe.min():
+        # a drop: every penetrating node is deeper than the spread of their penetrations.
+        # A body held at a point (the Hertz sphere on its pole node, its first iterate) sinks
+        # on its weak springs far below the surface and its whole patch penetrates, by the
+        # drop less each node's gap; nodes leave only once per settled state (100 iterations
+        # for every few nodes there), so only those nearest the surface enter
+        enter &= penetration >= pe.max() - ENTER_FRACTION * (pe.max() - pe.min())
     if not release:  # between settled states only nodes that penetrate enter
         return act | enter
     if itf.order == 1:
