@@ -66,26 +66,48 @@ displacement = ["free", 0, "free"]
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(reason="the active set converges too slowly: it starts with every matched node "
-                          "and sheds the tensile ones once per settled state (docs/quasistatic.md, "
-                          "Known limits)", strict=False)
 def test_hertz_contact_radius_and_peak_pressure():
     prob, out = run(HERTZ)
     itf = out.interfaces[0]
     assert prob.bodies[itf.a].name == "sphere"  # held only by the contact: the kinematic side
-    p = out.state.p[0]
     from impactsim.quasistatic.space import Space
-    xy = Space(prob.bodies[itf.a].mesh(), 2).doflocs[:, itf.nodes]
+    space = Space(prob.bodies[itf.a].mesh(), 2)
+    # the load on the meshed top face (its polygonal rim has 1.5 % less area than the
+    # quarter disc), times 4: the force of the full model
+    (top,) = [c for c in prob.bodies[itf.a].conditions if c.kind == "pressure"]
+    x, _ = space.facet_geometry(top.facets)
+    area = 0.5 * np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1).sum()
+    force = 4 * PRESSURE * area
+    p = out.state.p[0]
+    act = out.state.active[0]
+    xy = space.doflocs[:, itf.nodes]
     r2 = xy[0] ** 2 + xy[1] ** 2
-    a = (3 * FORCE * R / (4 * E_STAR)) ** (1 / 3)
-    p0 = 3 * FORCE / (2 * np.pi * a ** 2)
-    # the quarter model carries a quarter of the force
+    a = (3 * force * R / (4 * E_STAR)) ** (1 / 3)
+    p0 = 3 * force / (2 * np.pi * a ** 2)
     total = (itf.M_a @ p).sum()
-    assert abs(total / (FORCE / 4) - 1) < 0.01
-    # p^2 = p0^2 (1 - r^2 / a^2): a straight line in r^2 over the loaded part
-    sel = p > 0.3 * p.max()
-    slope, icpt = np.polyfit(r2[sel], p[sel] ** 2, 1)
-    p0_fit = np.sqrt(icpt)
-    a_fit = np.sqrt(-icpt / slope)
+    assert abs(total / (force / 4) - 1) < 0.01, total / (force / 4)
+    # p = p0 sqrt(1 - r^2 / a^2) fitted in the norm of A's surface mass matrix (the L2 norm of
+    # the pressure field): the nodal values M^-1 lambda of tet10 alternate between corner and
+    # mid-side nodes by +-40 %, which a pointwise fit of p^2 against r^2 takes for shape
+    # (13-17 % on the peak), while their field integrates right
+    M = itf.M_a
+
+    def misfit(scale):
+        shape = np.sqrt(np.clip(1 - r2 / (scale * a) ** 2, 0.0, None))
+        c = (shape @ M @ p) / (shape @ M @ shape)
+        e = p - c * shape
+        return e @ M @ e, c
+
+    from scipy.optimize import minimize_scalar
+
+    best = minimize_scalar(lambda s: misfit(s)[0], bounds=(0.7, 1.3), method="bounded",
+                           options={"xatol": 1e-5})
+    a_fit = best.x * a
+    p0_fit = misfit(best.x)[1]
+    # the contact ends where Hertz says, to within an element (1.5e-4 m here)
+    edge = np.sqrt(r2[act].max())
+    print(f"a_fit/a {a_fit / a:.4f} p0_fit/p0 {p0_fit / p0:.4f} edge/a {edge / a:.4f} "
+          f"force {total / (force / 4):.4f} iterations {out.steps[-1]['iterations']}")
+    assert abs(edge - a) < 1.5e-4, (edge, a)
     assert abs(a_fit / a - 1) < 0.05, (a_fit, a)
     assert abs(p0_fit / p0 - 1) < 0.05, (p0_fit, p0)
