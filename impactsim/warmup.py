@@ -101,11 +101,10 @@ failure = { erosion = "jc-damage", erosion_value = 1.0, jc_damage = [0.0, 0.01, 
     out.append(("hex", "[run]\nname = 'h'\nend_time = 1e-6\n" + hex_rod + striker + _WALL
                 + "[contact]\npasses = ['node-face', 'edge-edge']\n", 8))
     # node separation and distortion erosion [Z] (fracture/separation.py, distortion.py): a
-    # separable block dragged apart fast enough to release families and delete cells. The
-    # energy check only warns: the drag starts impulsively, and even with the time-centred
-    # balance its first three steps move it by 9 % of the (then tiny) reference energy (8 %
-    # with hexes, 35 % with self-contact on; the releases themselves keep the balance:
-    # tests/verification/test_node_separation.py). Noted in the issue; not a warm-up's job.
+    # separable block dragged apart fast enough to release families and delete cells, under
+    # the default energy stop: its worst balance error is 4.0 % at step 1 (4.3 % with hexes),
+    # where the impulsive drag tears the face layer off as single tets (their viscous heat:
+    # SeparationPass.centre_heat; with the kernels' booking it gained 10.9 %)
     sep_mat = """
 [[material]]
 name = "sep"
@@ -119,8 +118,6 @@ nodes = { box = { lo = ["1.4 mm", "-2 mm", "-2 mm"], hi = ["2 mm", "2 mm", "2 mm
 velocity = ["2000 m/s", "0 m/s", "0 m/s"]
 [fracture]
 distortion_interval = "20 ns"
-[checks]
-energy_balance_action = "warn"
 """)
     out.append(("separation", sep, 40))
     # fracture of hexes (fracture/hexes.py) with self-contact (contact/hexes.py: quad keys) and
@@ -136,7 +133,11 @@ energy_balance_action = "warn"
                 + "[checks]\nenergy_balance_action = 'warn'\n")
     out.append(("hex-fracture", hex_frac, 60))
     # with self-contact: the contact surface follows the releases in place (Surface.reconnect)
-    out.append(("separation-contact", sep + "[contact]\nself_contact = true\n", 12))
+    # (tet4 with contact: its step-1 error is 4.99 %, all of it the half-step energy's
+    # dtv_{n+1} / 2 weight where the stress work of step n was done over dt_n: the released
+    # tets halve the next step; too close to the 5 % limit to gate a warm-up on)
+    out.append(("separation-contact", sep + "[contact]\nself_contact = true\n"
+                + "[checks]\nenergy_balance_action = 'warn'\n", 12))
     # the same block of hexes: the released corners' forces by the hex kernel re-run at dt = 0
     # (SeparationPass.move_forces, solver.blocks.hex_corner_forces)
     sep_hex = sep.replace('mesher = "structured"',
@@ -223,7 +224,10 @@ def warm_up(verbose: bool = True) -> dict[str, dict]:
 
 
 def main() -> int:
+    from impactsim.kernel_cache import refresh
+
     t0 = time.perf_counter()
+    refresh()  # kernels cached from older sources would be kept by numba: they go first
     counts = warm_up()
     n = sum(len(c["compiled"]) for c in counts.values())
     print(f"numba cache warm: {n} kernels compiled in "

@@ -31,19 +31,23 @@ Akantu's cohesive inserter, with the copies made at build time so that no node a
   left all on the old rep, whose mass shrank, that force over-accelerated it (momentum kept,
   energy gained: +4 % of the largest energy in the torn block of the tests, +100 % in the
   warm-up scene at 2 km/s).
-- After a step with releases, what depends on the connectivity is refreshed: the force rows of
-  the element kernels (``Simulation.set_parts`` and the block runners), the node-to-element
-  index, the fracture passes' free faces and live-node counts, and the contact surface
-  (``ContactContext.reconnect_surface``: only the moved tets and their neighbours, giving the
-  arrays a rebuild gives; a model with hexes rebuilds it): the faces exposed by a release are
-  free faces of their bodies (contact with the other bodies, and self-contact of the
-  fragments when ``contact.self_contact``) at the next velocity stage. The other refreshes
-  rebuild whole structures (O(N log N)); they run only on steps with releases
-  (docs/fracture.md: cost).
+- After a step with releases, what depends on the connectivity is refreshed, in place at the
+  cost of the moved corners (``SeparationPass.refresh``, fracture/separation_refresh.py): the
+  force rows of the element kernels (tets and the block runners), the fracture passes' free
+  faces and live-node counts, and the contact surface (``ContactContext.reconnect_surface``:
+  only the moved tets and their neighbours, giving the arrays a rebuild gives; a model with
+  hexes rebuilds it, and the hexes' free quads); the node-to-element index is rebuilt. The
+  faces exposed by a release are free faces of their bodies (contact with the other bodies,
+  and self-contact of the fragments when ``contact.self_contact``) at the next velocity stage.
+  ``SeparationPass.incremental = False`` rebuilds everything (the reference of the tests).
 - Every step the stable step is lowered to that of the tets with a corner in a split family,
   from the masses their corners carry (``_released_step``, ``SeparationPass.limit_step``): the
   kernel's L / c holds for a connected mesh, not for a tet cut loose (its critical step is
   0.67 L / c), whose breathing mode otherwise rang up at cfl 0.6 until it inverted (issue 12).
+- After every element update the bulk-viscosity heat of the elements loose at the previous
+  pass is booked with the mean of q at both ends of the step, the work their q forces do
+  (``SeparationPass.centre_heat``): the kernels' -q^{n+1} dV over-booked a ringing lone tet's
+  rebound (+10.9 % of the balance of the warm-up's block dragged at 2 km/s).
 """
 
 from __future__ import annotations
@@ -56,6 +60,8 @@ import math
 from impactsim.materials import params as P
 from impactsim.materials.laws import eos_linear_part
 from impactsim.materials.params import FRACTURE_STRAIN
+from impactsim.fracture.separation_refresh import (move_node_live, reconnect_boundary,
+                                                   reconnect_rows)
 from impactsim.solver.element import FAST, _char_length, _corner_forces, _tet_gradients
 from impactsim.mesh.topology import LOCAL_FACES as TET_FACES
 from impactsim.model import ERODED, FRACTURED
@@ -338,6 +344,24 @@ def _move_corner_forces(old, new, f, force):
             force[new[k], d] += f[k, d]
 
 
+@numba.njit(cache=True)
+def _centre_viscous_heat(ids, status, q, vol, q_prev, vol_prev, elem_mass, energy):
+    """Re-book the bulk-viscosity heat of the last element update of the elements ``ids`` with
+    the mean of q at both ends of the step, -(q^n + q^{n+1}) / 2 dV, the work the q forces do
+    (q^n acts over the first half of the step, q^{n+1} over the second), instead of the
+    kernel's -q^{n+1} dV; ``q_prev``, ``vol_prev``: q and volume before the update. Returns
+    the change of the booked heat [J] (SeparationPass.centre_heat)."""
+    total = 0.0
+    for k in range(ids.shape[0]):
+        e = ids[k]
+        if status[e] == ERODED:
+            continue
+        c = 0.5 * (q[e] - q_prev[k]) * (vol[e] - vol_prev[k])
+        energy[e] += c / elem_mass[e]
+        total += c
+    return total
+
+
 @numba.njit(cache=True, error_model="numpy")
 def _released_step(x, v, conn, status, elem_mat, mat_params, pressure, elem_mass, mass, ids,
                    cq, cl):
@@ -403,6 +427,13 @@ def _released_step(x, v, conn, status, elem_mat, mat_params, pressure, elem_mass
     return best, worst
 
 
+def _grow(fext: np.ndarray, add: int) -> np.ndarray:
+    """``fext`` with ``add`` zero rows more (the force rows a release added)."""
+    if not add:
+        return fext
+    return np.concatenate([fext, np.zeros((add, 3))])
+
+
 class SeparableSet:
     """The separable elements of one element set (the tets, or a hex block) and their state."""
 
@@ -434,6 +465,11 @@ class SeparableSet:
         self.failed = np.zeros((n, nf), bool)
         # the elements with a corner in a split family (their step: _released_step)
         self.loose = np.zeros(0, np.int64)
+        # the loose elements at the end of the last pass and their q and volume then (the
+        # centred viscous heat of the next element update: SeparationPass.centre_heat)
+        self.q_ids = np.zeros(0, np.int64)
+        self.q_prev = np.zeros(0)
+        self.vol_prev = np.zeros(0)
 
     @property
     def n_sep(self) -> int:
@@ -557,10 +593,33 @@ class SeparationPass:
                      if hasattr(p, "ctx")}.values())
 
     def run(self, model, dt) -> None:
+        self.centre_heat(model)
         if self.sep.release(model):
             self.move_forces(model)
             self.refresh(model)
         self.limit_step(model)
+        for s in self.sep.sets:
+            h = s.holder
+            s.q_ids = s.loose
+            s.q_prev = h.q[s.loose]
+            s.vol_prev = h.vol[s.loose]
+
+    def centre_heat(self, model) -> None:
+        """Book the bulk-viscosity heat of the loose elements' last update with the mean of q
+        at both ends of the step (``_centre_viscous_heat``). The element kernels book
+        -q^{n+1} dV over the step whose volume change made q^{n+1}, while the force of q^{n+1}
+        acts from the middle of that step to the middle of the next (Wilkins' booking: first
+        order in the jump of q over a step, nothing in a resolved flow). A tet cut loose rings in
+        its breathing mode at about six steps a period: its q jumps from 0 to ~25 GPa in one
+        step of the rebound and the heat booked exceeded the work of its q forces by 4.3 J in
+        the warm-up's dragged block at 2 km/s (+10.9 % of the balance; docs/fracture.md)."""
+        terms = model.energy_terms
+        for s in self.sep.sets:
+            if not s.q_ids.shape[0]:
+                continue
+            h = s.holder
+            terms["viscous"] += _centre_viscous_heat(s.q_ids, h.status, h.q, h.vol, s.q_prev,
+                                                     s.vol_prev, h.elem_mass, h.energy)
 
     def limit_step(self, model) -> None:
         """Lower the integrator's stable step (set by the element update just before) to that
@@ -610,26 +669,51 @@ class SeparationPass:
         return np.ascontiguousarray(f[inv, j])
 
     def refresh(self, model) -> None:
+        """What depends on the connectivity, after a release: in place at the cost of the moved
+        corners (fracture/separation_refresh.py, Surface.reconnect) when ``incremental``, else
+        rebuilt (the reference); the node-to-element index is rebuilt either way, and a model
+        with hexes rebuilds the contact surface and the free quads."""
         from impactsim.solver.build import node_to_element
         from impactsim.solver.scatter import force_rows
 
         sim = self.sim
+        moved = self.sep.moved
+        blocks_changed = any(m[0].holder is not model for m in moved)
         if sim is not None:
-            if model.n_elem:
+            for s, e, j, old, new in moved:
+                if s.holder is model:
+                    if self.incremental:
+                        sim.force_rows, add = reconnect_rows(sim.force_rows, model.conn, e, j,
+                                                             new)
+                        sim.fext = _grow(sim.fext, add)
+                    continue
+                r = sim.block_runners[[b is s.holder for b in model.blocks].index(True)]
+                if self.incremental:
+                    r.rows, add = reconnect_rows(r.rows, s.holder.conn, e, j, new)
+                    r.fext = _grow(r.fext, add)
+                else:
+                    r.rows = force_rows(r.block.conn, model.n_node, r.rows.part_size)
+                    r.fext = np.zeros((r.rows.n_rows, 3))
+            if model.n_elem and not self.incremental:
                 sim.set_parts(sim.force_rows.part_size)
-            for r in sim.block_runners:
-                r.rows = force_rows(r.block.conn, model.n_node, r.rows.part_size)
-                r.fext = np.zeros((r.rows.n_rows, 3))
-            changed = [m[1] for m in self.sep.moved if m[0].holder is model]
+            changed = [m[1] for m in moved if m[0].holder is model]
             changed = np.concatenate(changed) if changed else np.zeros(0, np.int64)
-            blocks_changed = any(m[0].holder is not model for m in self.sep.moved)
             for ctx in self.contexts():
                 if self.incremental and not blocks_changed:
                     ctx.reconnect_surface(model, changed)
                 else:
                     ctx.rebuild_surface(model)
         model.n2e_ptr, model.n2e = node_to_element(model.conn, model.n_node)
-        self.s.rebuild_mesh(model)
+        fs = self.s
+        if not self.incremental:
+            fs.rebuild_mesh(model)
+            return
+        for s, e, j, old, new in moved:
+            if s.holder is model:
+                reconnect_boundary(fs.boundary, model.conn, e)
+            else:
+                next(h for h in fs.hexes if h.blk is s.holder).rebuild(model)
+            move_node_live(fs.node_live, s.holder.status, e, old, new)
 
     def history(self, model) -> dict:
         return {"separated_nodes": float(self.sep.counts["new_nodes"])}
