@@ -35,20 +35,36 @@ STORE = ROOT / "benchmarks" / "estimates.json"
 DOC = ROOT / "docs" / "estimates.md"
 
 
-def _estimate(name: str, speed: dict | None = None, share: float | None = None) -> dict:
+def _estimate(name: str, speed: dict | None = None, share: float | None = None,
+              threads: int | None = None, until: float | None = None) -> dict:
+    """The estimate `run` prints for the case (meshes known), with the run's thread count when
+    given; `until` [s]: also the estimated steps to that simulated time (``steps_until``, by
+    the crush model's step profile), for a run stopped before its end."""
+    import math
+
+    import numpy as np
+
     from impactsim.case import load_case
-    from impactsim.case.estimate import estimate_cost
+    from impactsim.case.crush import shrink_profile
+    from impactsim.case.estimate import _mesh_faces, estimate_cost
     from impactsim.mesh import mesh_bodies
 
     case = load_case(ROOT / "cases" / f"{name}.toml")
+    if threads:
+        case.run.threads = threads
     meshes = mesh_bodies(case)
     est = estimate_cost(case, speed=speed, meshes=meshes, share=share)
-    from impactsim.mesh.topology import boundary_faces
-
-    faces = sum(len(boundary_faces(t)[0]) for _, t in meshes)
-    return {"elements": est.elements, "steps": est.steps, "wall_seconds": est.wall_seconds,
-            "seconds": est.seconds, "threads": est.threads, "faces": faces,
-            "memory_bytes": est.memory_bytes, "speed": est.speed}
+    faces = sum(_mesh_faces(t) for _, t in meshes)
+    out = {"elements": est.elements, "steps": est.steps, "wall_seconds": est.wall_seconds,
+           "seconds": est.seconds, "threads": est.threads, "faces": faces,
+           "memory_bytes": est.memory_bytes, "speed": est.speed}
+    if until is not None:
+        found, own, first = est.crush
+        t = np.linspace(0.0, until, 2001)
+        g = shrink_profile(found, own, first, t) if found else np.ones_like(t)
+        viscous = math.sqrt(1.0 + case.run.q_linear**2) - case.run.q_linear
+        out["steps_until"] = float(np.trapezoid(g, t) / (viscous * est.dt))
+    return out
 
 
 def _speed(name: str) -> dict:
@@ -79,7 +95,7 @@ def _steps_profile(out: Path) -> dict:
         return {}
     below = t[dt < 0.5 * dt[0]]
     return {"dt_first": float(dt[0]), "dt_min": float(dt.min()),
-            "time_half": float(below[0]) if len(below) else None}
+            "time_half": float(below[0]) if len(below) else None, "time_last": float(t[-1])}
 
 
 # a run shorter than this is repeated REPEATS times and the median kept: on a shared machine the
@@ -139,32 +155,65 @@ def run_all(cases: list[str]) -> dict:
 
 def table(data: dict) -> str:
     rows = ["| case | elements | threads | steps est. / real | ratio | share of a core: probe "
-            "/ run | wall est. / real [s] | ratio | at the run's share | re-estimate in the run "
-            "[s] | ratio | checks triggered |",
-            "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+            "/ run | wall est. / real [s] | ratio | at the run's share | CPU est. / real [s] "
+            "| ratio | re-estimate in the run [s] | ratio | checks triggered |",
+            "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+    notes = []
     for name in CASES:
         if name not in data:
             continue
         real = data[name]
-        est = _estimate(name, real.get("speed"), real.get("cpu_share"))
-        ratio = est["wall_seconds"] / real["wall_seconds"]
-        again = real.get("re_estimate") or {}
-        again_s = (f"{again['wall_seconds']:.1f} | {again['wall_seconds'] / real['wall_seconds']:.2f}"
-                   if again.get("wall_seconds") else "- | -")
+        partial = bool(real.get("stopped"))
+        until = (real.get("dt") or {}).get("time_last") if partial else None
+        est = _estimate(name, real.get("speed"), real.get("cpu_share"), real["threads"], until)
         cpu = real.get("process_cpu_seconds")
-        # the share of a core the run got: its CPU over its wall time on one thread; on two
-        # threads the passes that run on one thread mix in, so the probe stands for it
-        got = (cpu / real["process_seconds"] if cpu and real["threads"] == 1
-               else real.get("cpu_share"))
+        # the share of a core the run got: its CPU over its wall time (on two threads the
+        # passes that run on one thread mix in; the figure is then the cores' mean share)
+        got = cpu / real["process_seconds"] if cpu else real.get("cpu_share")
+        # the run's CPU seconds: the process's without the interpreter's start before the run
+        # (imports, about a second, outside summary.json's wall_seconds)
+        cpu = got * real["wall_seconds"] if cpu else None
         probe = real.get("cpu_share")
-        own = _estimate(name, real.get("speed"), got) if got else est
+        own = _estimate(name, real.get("speed"), got, real["threads"]) if got else est
+        alone = _estimate(name, real.get("speed"), 1.0, real["threads"])  # a free core
         shares = f"{probe:.2f} / {got:.2f}" if probe and got else "-"
-        rows.append(f"| {name} | {real['elements']:,} | {real['threads']} | "
-                    f"{est['steps']:,} / {real['steps']:,} | {est['steps'] / real['steps']:.2f} | "
-                    f"{shares} | {est['wall_seconds']:.1f} / {real['wall_seconds']:.1f} | "
-                    f"{ratio:.2f} | {own['wall_seconds'] / real['wall_seconds']:.2f} | "
-                    f"{again_s} | {', '.join(real['checks'] or {}) or 'none'} |")
-    return "\n".join(rows)
+        again = real.get("re_estimate") or {}
+        if partial:  # stopped before its end: its steps and CPU to the time it reached
+            part = est["steps_until"] / est["steps"] if est["steps"] else 0.0
+            steps = (f"{est['steps_until']:,.0f} / {real['steps']:,} to "
+                     f"{1e6 * until:.1f} us | {est['steps_until'] / real['steps']:.2f}")
+            wall = "- | - | -"
+            cpu_s = (f"{part * alone['wall_seconds']:.0f} / {cpu:.0f} | "
+                     f"{part * alone['wall_seconds'] / cpu:.2f}" if cpu else "- | -")
+            notes.append(f"- {name}: stopped at t = {1e6 * until:.2f} us of "
+                         f"{_end_time(name) * 1e6:.0f} us ({real['stopped']}); the estimate "
+                         f"for the whole run is {est['steps']:,} steps and "
+                         f"{alone['wall_seconds'] / 60:.1f} min of CPU on a free core"
+                         + (f"; the run's own re-estimate after its first "
+                            f"{again['steps_so_far']:,} steps: {again['steps']:,} steps"
+                            if again.get("steps") else "") + ".")
+        else:
+            steps = (f"{est['steps']:,} / {real['steps']:,} | "
+                     f"{est['steps'] / real['steps']:.2f}")
+            wall = (f"{est['wall_seconds']:.1f} / {real['wall_seconds']:.1f} | "
+                    f"{est['wall_seconds'] / real['wall_seconds']:.2f} | "
+                    f"{own['wall_seconds'] / real['wall_seconds']:.2f}")
+            cpu_s = (f"{alone['wall_seconds']:.1f} / {cpu:.1f} | "
+                     f"{alone['wall_seconds'] / cpu:.2f}" if cpu and real["threads"] == 1
+                     else "- | -")
+        again_s = (f"{again['wall_seconds']:.1f} | "
+                   f"{again['wall_seconds'] / real['wall_seconds']:.2f}"
+                   if again.get("wall_seconds") and not partial else "- | -")
+        rows.append(f"| {name} | {real['elements']:,} | {real['threads']} | {steps} | "
+                    f"{shares} | {wall} | {cpu_s} | {again_s} | "
+                    f"{', '.join(real['checks'] or {}) or 'none'} |")
+    return "\n".join(rows + ([""] + notes if notes else []))
+
+
+def _end_time(name: str) -> float:
+    from impactsim.case import load_case
+
+    return load_case(ROOT / "cases" / f"{name}.toml").run.end_time
 
 
 def main() -> None:

@@ -34,6 +34,9 @@ from impactsim.solver import element as E  # noqa: E402
 from impactsim.solver import hex8 as H  # noqa: E402
 from impactsim.solver import hex8_block as HB  # noqa: E402
 
+# the digest of hex8_block.py (scripts/gen_hex8_block.py), so that numba recompiles `_parts`
+# when the block functions it compiles in change (its cache is keyed by this file alone)
+BLOCK_SOURCE = "453b35b10f543cb6"
 STATE = ["sdev", "pressure", "q", "eps_p", "eps_rate", "temperature", "energy", "vol", "hg"]
 
 

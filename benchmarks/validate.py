@@ -48,6 +48,12 @@ REFERENCES = {
     "taylor-cu-190": {"length_mm": 16.2, "source": "Johnson & Cook (1983), OFHC copper Taylor "
                       "test, 7.62 x 25.4 mm at 190 m/s, as quoted in cases/taylor-bar.toml; "
                       "not confirmed against the original paper in this session (unsure)"},
+    "taylor-6061-373": {"length_mm": 16.51, "source": "Wilkins & Guinan (1973), J. Appl. Phys. "
+                        "44:1200, 'Impact of cylinders on a rigid boundary', aluminium rod "
+                        "L0 = 23.47 mm, D0 = 7.62 mm at 373 m/s, final length 16.51 mm, as "
+                        "entered in a Uintah MPM validation script that digitises the paper's "
+                        "profile (p. 1201); the alloy taken as 6061-T6 as in that Uintah study; "
+                        "not confirmed against the original paper (unsure)"},
 }
 
 # results of other codes for the same problem (code-to-code), with their source
@@ -81,9 +87,9 @@ name = "rod"
 material = "{material}"
 shape = "cylinder"
 diameter = "7.62 mm"
-height = "25.4 mm"
+height = "{length} mm"
 axis = [0, 0, 1]
-position = ["0 mm", "0 mm", "12.7001 mm"]
+position = ["0 mm", "0 mm", "{centre} mm"]
 mesh_size = "{h} mm"
 velocity = ["0 m/s", "0 m/s", "-{speed} m/s"]
 
@@ -95,10 +101,12 @@ normal = [0, 0, 1]
 frames = 1
 """
 
-TAYLORS = [  # name, material, speed [m/s], mesh size [mm], end [us]
-    ("taylor-cu-190", "ofhc-copper", 190.0, 0.8, 80.0),
-    ("taylor-6061-373", "al-6061-t6", 373.0, 1.0, 60.0),
-    ("taylor-4340-343", "steel-4340", 343.0, 1.0, 40.0),
+TAYLORS = [  # name, material, speed [m/s], mesh size [mm], end [us], length [mm]
+    ("taylor-cu-190", "ofhc-copper", 190.0, 0.8, 80.0, 25.4),
+    ("taylor-6061-373", "al-6061-t6", 373.0, 1.0, 60.0, 23.47),
+    ("taylor-6061-373", "al-6061-t6", 373.0, 0.7, 60.0, 23.47),
+    ("taylor-4340-343", "steel-4340", 343.0, 1.0, 40.0, 25.4),
+    ("taylor-4340-343", "steel-4340", 343.0, 0.7, 40.0, 25.4),
 ]
 
 
@@ -112,17 +120,19 @@ def taylor_measures(out: Path) -> dict:
 TAYLOR_RUNGS = {t[0] for t in TAYLORS}
 
 
-def run_taylor(name, material, speed, h, end, element) -> dict:
+def run_taylor(name, material, speed, h, end, length, element) -> dict:
     from impactsim.case import load_case_text
     from impactsim.solver.run import run_case
 
     case = load_case_text(TAYLOR.format(name=name, end=end, element=element,
-                                        material=material, h=h, speed=speed))
-    out = OUT / f"{name}-{element}"
+                                        material=material, h=h, speed=speed, length=length,
+                                        centre=0.5 * length + 1e-4))
+    out = OUT / f"{name}-{element}-{h}"
     t0 = time.perf_counter()
     s = run_case(case, out, progress=False)
     wall = time.perf_counter() - t0
-    res = {"rung": name, "element": element, "h_mm": h, "elements": s["elements"],
+    res = {"rung": name, "element": element, "h_mm": h, "length0_mm": length,
+           "elements": s["elements"],
            "steps": s["steps"], "wall_s": wall, "energy_balance_error": s["energy_balance_error"],
            "stopped": s["stopped"]}
     res.update(taylor_measures(out))
@@ -159,10 +169,11 @@ def run_crmo(h: float, formulation: str) -> dict:
     return res
 
 
-def run_plate(element: str) -> dict:
+def run_plate(element: str, d19: bool = False) -> dict:
     """Symmetric 6061-T6 plate impact in uniaxial strain: flyer F = 2 mm, target T = 4 mm,
     500 m/s closing speed, h = 0.1 mm, one column of cells held in x and y; the target's rear
-    free-surface velocity every step."""
+    free-surface velocity every step. d19: with the instantaneous cell criterion of [D19]
+    instead of the default spall (rung plate-6061-500-d19)."""
     from impactsim.case.material import library_material
     from impactsim.case.schema import Constraint, NodeSelector
     from impactsim.mesh.structured import structured_box
@@ -175,6 +186,10 @@ def run_plate(element: str) -> dict:
     mat = library_material("al-6061-t6")
     case = box_case(mat, size=(h, h, F + T), h=h)
     case.bodies[0].constraints = [Constraint(NodeSelector("all"), (0.0, 0.0, None))]
+    rung = "plate-6061-500"
+    if d19:
+        case.fracture.spall_criterion, case.fracture.spall_pressure = "instant", "cell"
+        rung += "-d19"
     pts, tets = structured_box((h, h, F + T), h)
     model = build_model(case, [(pts, tets)])
     z = model.x[:, 2]
@@ -198,8 +213,8 @@ def run_plate(element: str) -> dict:
     peak = float(np.median(rel[max(peak_i - 5, 0):peak_i + 6]))
     after = rel[peak_i:]
     pull = float(peak - after.min()) if after.size else 0.0
-    np.savez(OUT / f"plate-{element}.npz", t=ts, u=rel)
-    return {"rung": "plate-6061-500", "element": element, "h_mm": 0.1,
+    np.savez(OUT / f"{rung}-{element}.npz".replace("plate-6061-500", "plate"), t=ts, u=rel)
+    return {"rung": rung, "element": element, "h_mm": 0.1,
             "elements": model.n_elem, "steps": model.step, "wall_s": wall,
             "free_surface_plateau": peak, "impact_speed": u, "pullback": pull,
             "spall_estimate_gpa": 0.5 * mat.density * c0 * pull / 1e9,
@@ -207,21 +222,27 @@ def run_plate(element: str) -> dict:
             "damaged": int(np.count_nonzero(model.status > 0))}
 
 
-def run_perforation(element: str) -> dict:
+def run_perforation(element: str, default_spall: bool = False) -> dict:
+    """The bundled oblique-sphere case at the coarse test mesh; default_spall: with the default
+    spall criterion instead of the case's [D19] one (rung oblique-sphere-1001-default-spall)."""
     from impactsim.case import load_case
     from impactsim.solver.run import run_case
 
     over = ['body.0.mesh_size="1.8 mm"', 'body.1.mesh_size="1.4 mm"', 'run.end_time="30 us"',
             'output.frames=1', f'run.element="{element}"']
+    rung = "oblique-sphere-1001"
+    if default_spall:
+        over += ['fracture.spall_criterion="tuler-butcher"', 'fracture.spall_pressure="lesser"']
+        rung += "-default-spall"
     case = load_case(ROOT / "cases" / "oblique-sphere.toml", over)
-    out = OUT / f"oblique-sphere-{element}"
+    out = OUT / f"{rung}-{element}"
     t0 = time.perf_counter()
     s = run_case(case, out, progress=False)
     wall = time.perf_counter() - t0
     b = s["bodies"]
     v = b["sphere"]["residual_velocity"]
     hole = b["plate"].get("hole", {})
-    return {"rung": "oblique-sphere-1001", "element": element, "h_mm": 1.4,
+    return {"rung": rung, "element": element, "h_mm": 1.4,
             "elements": s["elements"], "steps": s["steps"], "wall_s": wall,
             "residual_speed": float(np.linalg.norm(v)),
             "angle_deg": math.degrees(math.atan2(math.hypot(v[0], v[1]), -v[2])),
@@ -229,21 +250,38 @@ def run_perforation(element: str) -> dict:
             "energy_balance_error": s["energy_balance_error"], "stopped": s["stopped"]}
 
 
-def run_all() -> list[dict]:
+def run_all(rungs=None) -> list[dict]:
+    """Run the ladder, or with rungs (name prefixes) only those rungs, their results replacing
+    the same rung, element and mesh size in out/validation/results.json."""
     OUT.mkdir(parents=True, exist_ok=True)
     results = []
+
+    def wanted(name):
+        return rungs is None or any(name.startswith(r) for r in rungs)
+
+    def add(res):
+        results.append(res)
+        print(json.dumps(res), flush=True)
+
     for element in ELEMENTS:
         for args in TAYLORS:
-            results.append(run_taylor(*args, element))
-            print(json.dumps(results[-1]), flush=True)
-        results.append(run_plate(element))
-        print(json.dumps(results[-1]), flush=True)
-        results.append(run_perforation(element))
-        print(json.dumps(results[-1]), flush=True)
+            if wanted(args[0]):
+                add(run_taylor(*args, element))
+        if wanted("plate-6061-500"):
+            add(run_plate(element))
+            add(run_plate(element, d19=True))
+        if wanted("oblique-sphere-1001"):
+            add(run_perforation(element))
+            if element == "tet4":
+                add(run_perforation(element, default_spall=True))
     for formulation in CRMO_FORMULATIONS:
         for h in CRMO_SIZES:
-            results.append(run_crmo(h, formulation))
-            print(json.dumps(results[-1]), flush=True)
+            if wanted("taylor-42crmo4-287"):
+                add(run_crmo(h, formulation))
+    if rungs is not None and (OUT / "results.json").exists():
+        new = {(r["rung"], r["element"], r["h_mm"]) for r in results}
+        old = json.loads((OUT / "results.json").read_text())
+        results = [r for r in old if (r["rung"], r["element"], r["h_mm"]) not in new] + results
     (OUT / "results.json").write_text(json.dumps(results, indent=1))
     return results
 
@@ -265,10 +303,11 @@ def plots(results: list[dict]) -> None:
     FIG.mkdir(parents=True, exist_ok=True)
     fig, ax = plt.subplots(figsize=(6, 3.5))
     for element in ELEMENTS:
-        f = OUT / f"plate-{element}.npz"
-        if f.exists():
-            d = np.load(f)
-            ax.plot(1e6 * d["t"], d["u"], label=element)
+        for tag, label in (("", ""), ("-d19", ", [D19] spall")):
+            f = OUT / f"plate{tag}-{element}.npz"
+            if f.exists():
+                d = np.load(f)
+                ax.plot(1e6 * d["t"], d["u"], label=element + label, ls="--" if tag else "-")
     ax.axhline(500.0, color="grey", lw=0.8, ls="--", label="impact speed = 2 u_p")
     ax.set_xlabel("t [us]")
     ax.set_ylabel("free-surface velocity [m/s]")
@@ -405,26 +444,30 @@ def report(results: list[dict]) -> str:
              "bodies: docs/physics.md).", "",
              "**Resolution.** The copper bar runs at 0.8 mm, where the accuracy study "
              "(docs/accuracy.md, taylor-mesh) has its length within 0.1 % and the anp foot "
-             "within 0.4 % of the 0.635 mm run; the 6061-T6 and 4340 bars at 1.0 mm and the "
-             "perforation at the test suite's coarse mesh are not shown converged (no study of "
-             "them here; machine time). Read their element-to-element differences, not their "
-             "last digits.", "",
+             "within 0.4 % of the 0.635 mm run; the 6061-T6 and 4340 bars run at 1.0 and "
+             "0.7 mm (their convergence is stated below the table); the perforation runs at the "
+             "test suite's coarse mesh and is not shown converged (machine time). Read its "
+             "element-to-element differences, not its last digits.", "",
              "**What is measured against what.** Measured values are used only where one is on "
-             "record here with its source; the status of each is given. Where none is (6061-T6 "
-             "and 4340 Taylor bars, the perforation), the rung records the two formulations' "
+             "record here with its source; the status of each is given. Where none is (the "
+             "4340 Taylor bar, the perforation), the rung records the two formulations' "
              "results and the physics checks that need no measurement (no fracture in a Taylor "
              "bar; the free-surface plateau of a symmetric impact).", ""]
     lines += ["## Taylor bars", "",
-              "7.62 mm x 25.4 mm rods onto a rigid wall, with the library's failure data and the "
-              "default spall pressure (`[fracture] spall_pressure = \"cell\"`, [D19]). Length "
-              "and foot diameter of the last frame; `fractured` counts cells that spall damaged "
-              "or loosened. Experiments show no fracture in these bars, so every fractured cell "
-              "is a departure: with the cell pressure, the 6061-T6 bar at 373 m/s and the tet4 "
-              "4340 bar spall cells where the lateral release meets the compressed foot "
-              "(tet4's pressure checkerboard makes single cells read a tension the patch around "
-              "them does not carry). With `spall_pressure = \"patch\"` these bars fracture no "
-              "cell (tests/verification/test_fracture_where_it_belongs.py); it is not the "
-              "default because it smears a thin plate's spall layer (docs/fracture.md).", "",
+              "Rods of 7.62 mm diameter (25.4 mm long; the 6061-T6 rod 23.47 mm, the length of "
+              "the experiment it is compared with) onto a rigid frictionless wall, with the "
+              "library's failure data and the default spall criterion (`[fracture] "
+              "spall_criterion = \"tuler-butcher\"` on `spall_pressure = \"lesser\"`: the "
+              "tension both the cell and its patch carry, integrated over time; "
+              "docs/fracture.md). Length and foot diameter of the last frame; `fractured` "
+              "counts cells that spall damaged or loosened. Experiments show no fracture in "
+              "these bars, so every fractured cell would be a departure. With the "
+              "instantaneous cell criterion of [D19] (the default before) the 6061-T6 bar at "
+              "373 m/s (25.4 mm, h = 1 mm) fractured 2,175 cells with tet4 and 280 with anp, "
+              "and the tet4 4340 bar 272: tet4's pressure checkerboard holds single cells of "
+              "the compressed foot at 7-12 GPa of tension for tens of microseconds, and the "
+              "lateral release converging on the 6061 bar's axis puts it above 1.6 GPa for "
+              "under 0.4 us (docs/fracture.md).", "",
               "| rung | element | h [mm] | elements | steps | wall s | length [mm] | measured "
               "[mm] | error | foot [mm] | fractured | energy balance |",
               "|---|---|---|---|---|---|---|---|---|---|---|---|"]
@@ -435,7 +478,7 @@ def report(results: list[dict]) -> str:
         err = f"{100 * (r['length_mm'] - ref) / ref:+.1f} %" if ref else "–"
         lines.append(f"| {r['rung']} | {r['element']} | {r['h_mm']} | {r['elements']:,} | "
                      f"{r['steps']:,} | {r['wall_s']:.1f} | {r['length_mm']:.3f} | "
-                     f"{_fmt(ref)} | {err} | {r['foot_diameter_mm']:.3f} | "
+                     f"{ref if ref else '–'} | {err} | {r['foot_diameter_mm']:.3f} | "
                      f"{r['fractured_cells']} | {r['energy_balance_error']:+.1e} |")
     cu = {r["element"]: r for r in results if r["rung"] == "taylor-cu-190"}
     ref = REFERENCES["taylor-cu-190"]["length_mm"]
@@ -454,47 +497,98 @@ def report(results: list[dict]) -> str:
                   "diameter is where the element matters: tet4's is "
                   f"{100 * (cu['tet4']['foot_diameter_mm'] / cu['anp']['foot_diameter_mm'] - 1):+.0f} "
                   "% from anp's (volumetric locking), see docs/physics.md."]
+    al = [r for r in results if r["rung"] == "taylor-6061-373"]
+    if al:
+        ref = REFERENCES["taylor-6061-373"]["length_mm"]
+        errs = [100 * (r["length_mm"] - ref) / ref for r in al]
+        lines += ["", f"**The 6061-T6 bar's length.** All four runs end {min(errs):+.1f} to "
+                  f"{max(errs):+.1f} % from the length on record, while the two formulations "
+                  "and the two meshes move it by half a per cent or less: neither the element "
+                  "nor the mesh is the source. Left: the Johnson-Cook constants of 6061-T6 "
+                  "(the library's are marked 'check'), the frictionless wall, and the recorded "
+                  "value itself, read from a digitised figure and not confirmed against the "
+                  "paper. No fracture in any run, as in the experiment."]
+    conv = []
+    for name in ("taylor-6061-373", "taylor-4340-343"):
+        for element in ELEMENTS:
+            rs = sorted((r for r in results if r["rung"] == name and r["element"] == element),
+                        key=lambda r: -r["h_mm"])
+            if len(rs) >= 2:
+                a, b = rs[-2], rs[-1]
+                conv.append(f"- {name}, {element}, {a['h_mm']} -> {b['h_mm']} mm: length "
+                            f"{100 * abs(b['length_mm'] / a['length_mm'] - 1):.2f} %, foot "
+                            f"{100 * abs(b['foot_diameter_mm'] / a['foot_diameter_mm'] - 1):.2f}"
+                            " %.")
+    if conv:
+        lines += ["", "**Convergence of the 6061-T6 and 4340 bars.** Change between the two "
+                  "mesh levels:", ""] + conv
     lines += ["", "References:", ""]
     for k, v in REFERENCES.items():
         lines.append(f"- {k}: {v['source']}.")
     lines += ["", "![Taylor foot diameters](validation/taylor-foot.png)", ""]
     lines += ["## Symmetric plate impact: free-surface velocity", "",
               "6061-T6 onto 6061-T6 at 500 m/s in uniaxial strain (flyer 2 mm, target 4 mm, "
-              "h = 0.1 mm, spall strength 1.6 GPa and loosening 0.03 from the library). The "
+              "h = 0.1 mm, spall strength 1.6 GPa, spall time 0.2 us and loosening 0.03 from "
+              "the library, the default Tuler-Butcher criterion). The "
               "rear free surface of the target jumps by about the impact speed (u_p = V/2 "
               "exactly by symmetry; the free-surface approximation u_fs = 2 u_p holds to a "
               "few per cent in an elastic-plastic release), then the spall's pull-back: the "
               "acoustic estimate rho0 c0 du / 2 of the tension at spall against the strength "
               "given. The estimate is only an estimate (it assumes a gradual loss of strength "
               "and an acoustic release; here a cell loses all tension at once when it spalls), "
-              "so it is reported, not required to match.", "",
-              "| element | elements | steps | wall s | plateau [m/s] | 2 u_p [m/s] | error | "
-              "pull-back [m/s] | spall estimate [GPa] | given [GPa] |",
-              "|---|---|---|---|---|---|---|---|---|---|"]
+              "so it is reported, not required to match. Rows `[D19]` run the instantaneous "
+              "cell criterion instead of the default.", "",
+              "| element | spall | elements | steps | wall s | plateau [m/s] | 2 u_p [m/s] | "
+              "error | pull-back [m/s] | spall estimate [GPa] | given [GPa] |",
+              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in results:
-        if r["rung"] != "plate-6061-500":
+        if not r["rung"].startswith("plate-6061-500"):
             continue
         err = 100 * (r["free_surface_plateau"] - r["impact_speed"]) / r["impact_speed"]
-        lines.append(f"| {r['element']} | {r['elements']:,} | {r['steps']:,} | "
+        spall = "[D19]" if r["rung"].endswith("-d19") else "default"
+        lines.append(f"| {r['element']} | {spall} | {r['elements']:,} | {r['steps']:,} | "
                      f"{r['wall_s']:.1f} | {r['free_surface_plateau']:.1f} | "
                      f"{r['impact_speed']:.0f} | {err:+.1f} % | {r['pullback']:.1f} | "
                      f"{r['spall_estimate_gpa']:.2f} | {r['spall_given_gpa']:.2f} |")
-    lines += ["", "![free-surface velocity](validation/plate-free-surface.png)", ""]
+    lines += ["", "**The default spalls this plate late.** With the time integral the cells "
+              "spall once the tension has stayed above 1.6 GPa for a while, near the full "
+              "tension of the pulse (about 3.6 GPa), so the free surface releases almost to "
+              "rest before the pull-back and the acoustic estimate of the spall tension is "
+              "about twice the threshold; with [D19]'s criterion it is below it. Plate-impact "
+              "measurements of 6061-T6 and 2024 give spall strengths of about 1.0-1.6 GPa "
+              "(Antoun et al., Spall Fracture, 2003, as quoted in the library), which neither "
+              "reproduces exactly, and which the default overshoots: a spall time of about "
+              "0.02-0.03 us would match them, but the tet4 Taylor bar needs more than 0.08 us "
+              "to stay whole (docs/fracture.md has the trade).", "",
+              "![free-surface velocity](validation/plate-free-surface.png)", ""]
     lines += ["## Perforation: oblique sphere [R20]", "",
               "The bundled `cases/oblique-sphere.toml` (52100 sphere 12.7 mm at 1001 m/s, 60 "
               "degrees from the normal, into a 4.9 mm D16T plate) at the coarse mesh of the "
               "test suite (sphere 1.8 mm, plate 1.4 mm), 30 us. [R20] report hole and residual "
               "velocity within about 1 % of their experiment; the measured values are not in "
-              "our sources, so the rung compares the formulations only.", "",
-              "| element | elements | steps | wall s | residual speed [m/s] | angle [deg] | "
-              "hole diameter [mm] | energy balance |", "|---|---|---|---|---|---|---|---|"]
+              "our sources, so the rung compares the formulations only. The case applies the "
+              "plate's spall as [D19] do (`spall_criterion = \"instant\"` on the cell's own "
+              "pressure); the last row runs it with the default spall criterion instead.", "",
+              "| element | spall | elements | steps | wall s | residual speed [m/s] | angle "
+              "[deg] | hole diameter [mm] | energy balance |",
+              "|---|---|---|---|---|---|---|---|---|"]
     for r in results:
-        if r["rung"] != "oblique-sphere-1001":
+        if not r["rung"].startswith("oblique-sphere-1001"):
             continue
-        lines.append(f"| {r['element']} | {r['elements']:,} | {r['steps']:,} | "
+        spall = "default" if r["rung"].endswith("default-spall") else "[D19]"
+        lines.append(f"| {r['element']} | {spall} | {r['elements']:,} | {r['steps']:,} | "
                      f"{r['wall_s']:.1f} | {r['residual_speed']:.1f} | {r['angle_deg']:.1f} | "
                      f"{r['hole_diameter_mm']:.1f} | {r['energy_balance_error']:+.1e} |")
     per = {r["element"]: r for r in results if r["rung"] == "oblique-sphere-1001"}
+    dflt = next((r for r in results if r["rung"] == "oblique-sphere-1001-default-spall"), None)
+    if dflt is not None and "tet4" in per:
+        d = (dflt["residual_speed"] - per["tet4"]["residual_speed"]) / per["tet4"]["residual_speed"]
+        lines += ["", f"**The spall criterion matters here.** With the default criterion the "
+                  f"tet4 sphere's residual speed is {100 * d:+.1f} % from the one with [D19]'s (the "
+                  "criterion decides how much of the plate spalls and loosens ahead of the "
+                  "sphere): larger than the element's effect and the 1 % [R20] claim. Which is closer to the experiment needs "
+                  "[R20]'s measured residual speed, which is not in our sources; the case keeps "
+                  "the criterion it was checked with."]
     if len(per) == 2:
         d = (per["anp"]["residual_speed"] - per["tet4"]["residual_speed"]) \
             / per["tet4"]["residual_speed"]
@@ -505,9 +599,15 @@ def report(results: list[dict]) -> str:
                   "(docs/physics.md), so contact scenes keep tet4 by default."]
     lines += [""] + crmo_report(results)
     lines += ["", "## Not on the ladder", "",
-              "- Measured 6061-T6 and 4340 Taylor lengths and plate-impact VISAR records: "
-              "not on record here (none confirmed); the rungs above give the physics checks "
-              "only.", ""]
+              "- Measured 4340 Taylor lengths (Johnson & Cook 1983; Johnson & Holmquist 1988, "
+              "J. Appl. Phys. 64:3901, have 4340, Armco iron and OFHC copper cylinder tests) "
+              "and plate-impact free-surface (VISAR) records of 6061-T6: not found in our "
+              "sources with values we could state, so not on the ladder. The 6061-T6 length "
+              "above rests on a digitisation of Wilkins & Guinan's figure, to be confirmed "
+              "against the paper.",
+              "- Published Tuler-Butcher constants for 6061-T6, OFHC copper and 4340: not "
+              "found in our sources; the library's spall time (0.2 us) is chosen from the "
+              "measurements in docs/fracture.md, not fitted to plate-impact data.", ""]
     return "\n".join(lines) + "\n"
 
 
@@ -522,12 +622,16 @@ def store(results: list[dict]) -> None:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--report-only", action="store_true")
+    ap.add_argument("--rungs", nargs="+", metavar="NAME",
+                    help="run only the rungs whose names start with these (e.g. taylor-6061 "
+                         "plate); the others' results are kept from out/validation/results.json")
     args = ap.parse_args(argv)
     if args.report_only:
         results = json.loads((OUT / "results.json").read_text())
     else:
-        results = run_all()
-        store(results)
+        results = run_all(args.rungs)
+        if any(r["rung"] == "taylor-cu-190" for r in results):
+            store(results)
     plots(results)
     DOC.write_text(report(results))
     print(f"wrote {DOC}")

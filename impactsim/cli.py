@@ -34,6 +34,9 @@ def _fail(err: Exception) -> None:
 @click.version_option(package_name="impactsim")
 def main() -> None:
     """impactsim: explicit simulation of high-velocity impact between solid bodies."""
+    from impactsim.kernel_cache import refresh
+
+    refresh()  # cached kernels compiled from older sources go (impactsim/kernel_cache.py)
 
 
 @main.command()

@@ -224,7 +224,10 @@ def warm_up(verbose: bool = True) -> dict[str, dict]:
 
 
 def main() -> int:
+    from impactsim.kernel_cache import refresh
+
     t0 = time.perf_counter()
+    refresh()  # kernels cached from older sources would be kept by numba: they go first
     counts = warm_up()
     n = sum(len(c["compiled"]) for c in counts.values())
     print(f"numba cache warm: {n} kernels compiled in "

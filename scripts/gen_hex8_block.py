@@ -5,6 +5,8 @@ innermost loop, the one over the B lanes of a block, and only if nothing inside 
     python scripts/gen_hex8_block.py   # then review the diff of impactsim/solver/hex8_block.py
 """
 
+import hashlib
+import re
 from pathlib import Path
 
 import numpy as np
@@ -15,19 +17,124 @@ VD = ((1, 2, 3, 4, 5, 7), (2, 3, 0, 5, 6, 4), (3, 0, 1, 6, 7, 5), (0, 1, 2, 7, 4
       (7, 6, 5, 0, 3, 1), (4, 7, 6, 1, 0, 2), (5, 4, 7, 2, 1, 3), (6, 5, 4, 3, 2, 0))
 FACES = ((0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7))
 XYZ = "xyz"
+# column j of b = dV/dx: (sign, first coordinate, second coordinate), b_j = sign F(first,
+# second) / 12 with F the dx of `_vol_der` (dy = -F(x, z), dz = -F(y, x))
+COLS = {0: ("", "y", "z"), 1: ("-", "x", "z"), 2: ("-", "y", "x")}
 
 
 def row(base, k):
     return f"buf[({base} + {k}) * B + i]"
 
 
-def lines_b(px, out):
-    """b of corner n: out(d, n) = _vol_der(...) on coordinates px(d, n)."""
-    L = []
-    for n, a in enumerate(VD):
-        args = ", ".join(px(d, k) for d in range(3) for k in a)
-        L.append(f"{out(0, n)}, {out(1, n)}, {out(2, n)} = _vol_der({args})")
-    return L
+def edge(c, p):
+    lo, hi = sorted(p)
+    return f"e{c}{lo}{hi}"
+
+
+def pairs(a):
+    P = [(a[1], a[2]), (a[0], a[1]), (a[0], a[4]), (a[3], a[4]), (a[2], a[5]), (a[3], a[5])]
+    Q = [P[1], P[0], P[3], P[2], P[5], P[4]]
+    return P, Q
+
+
+def f_expr(c1, c2, a):
+    """F: FB81's dV/dx of the node whose six neighbours are `a` (`_vol_der`'s dx, times 12),
+    with y -> c1, z -> c2, from the edge sums e{c}{lo}{hi} (`edge_lines`)."""
+    P, Q = pairs(a)
+    sg = ["+", "-", "+", "-", "-", "+"]
+    out = []
+    for k in range(6):
+        t = f"{edge(c1, P[k])} * {edge(c2, Q[k])}"
+        out.append((sg[k] if k else ("" if sg[k] == "+" else "-")) + (" " if k else "") + t)
+    return "(" + " ".join(out) + ")"
+
+
+def edge_lines(c1, c2, ind):
+    """The sums of coordinates c1 and c2 over the hex edges that enter F (each twice)."""
+    need = set()
+    for a in VD:
+        P, Q = pairs(a)
+        need |= {(c1, tuple(sorted(p))) for p in P} | {(c2, tuple(sorted(q))) for q in Q}
+    return [f"{ind}{edge(c, p)} = {c}{p[0]} + {c}{p[1]}" for c, p in sorted(need)]
+
+
+def kinematics_lines(ind):
+    K = []
+    A = K.append
+    A('@numba.njit(cache=True, error_model="numpy", fastmath=FAST)')
+    A('def kinematics_block(buf, half, dt, shear):')
+    A('    """Velocity gradient on the mid-step geometry, b, volume and length at n+1, trial')
+    A('    deviator (Jaumann), its von Mises equivalent and the effective strain rate. In several')
+    A('    lane loops, each with fewer live values than the registers (a single loop keeps about')
+    A('    100 values per lane alive and spills a third of its instructions): the mid-step')
+    A('    coordinates (into the HF rows, free until forces_block), then one loop per column j of')
+    A('    b = dV/dx at the mid-step (sums sum_I v_iI b_jI into HK) and at n+1 (into HB), '
+      'each from')
+    A('    the 24 edge sums of the two coordinates that enter it, the face areas, and the rest."""')
+    # 1: mid-step coordinates
+    A("    for i in range(B):")
+    for n in range(8):
+        for d in range(3):
+            A(f"{ind}{row('HF', 3 * n + d)} = {row('HX', 3 * n + d)}"
+              f" - half * {row('HV', 3 * n + d)}")
+    # 2: mid-step columns
+    for j in range(3):
+        sg, c1, c2 = COLS[j]
+        A("    for i in range(B):")
+        for n in range(8):
+            for c in (c1, c2):
+                A(f"{ind}{c}{n} = {row('HF', 3 * n + XYZ.index(c))}")
+        K.extend(edge_lines(c1, c2, ind))
+        for n, a in enumerate(VD):
+            A(f"{ind}b{n} = {sg}{f_expr(c1, c2, a)}")
+        for d in range(3):
+            A(f"{ind}{row('HK', 3 * d + j)} = " + " + ".join(
+                f"{row('HV', 3 * n + d)} * b{n}" for n in range(8)))
+        if j == 0:
+            A(f"{ind}{row('HK', 9)} = "
+              + " + ".join(f"{row('HF', 3 * n)} * b{n}" for n in range(8)))
+    # 3: columns at n+1
+    for j in range(3):
+        sg, c1, c2 = COLS[j]
+        A("    for i in range(B):")
+        for n in range(8):
+            for c in (c1, c2):
+                A(f"{ind}{c}{n} = {row('HX', 3 * n + XYZ.index(c))}")
+        K.extend(edge_lines(c1, c2, ind))
+        for n, a in enumerate(VD):
+            A(f"{ind}b{n} = {sg}{f_expr(c1, c2, a)} * (1.0 / 12.0)")
+            A(f"{ind}{row('HB', 3 * n + j)} = b{n}")
+        if j == 0:
+            A(f"{ind}{row('HK', 10)} = "
+              + " + ".join(f"{row('HX', 3 * n)} * b{n}" for n in range(8)))
+    # 4: face areas
+    A("    for i in range(B):")
+    for n in range(8):
+        for d in range(3):
+            A(f"{ind}{XYZ[d]}{n} = {row('HX', 3 * n + d)}")
+    A(ind + "amax = 0.0")
+    for (a, b, c, d) in FACES:
+        A(ind + f"ux, uy, uz = x{c} - x{a}, y{c} - y{a}, z{c} - z{a}")
+        A(ind + f"vx, vy, vz = x{d} - x{b}, y{d} - y{b}, z{d} - z{b}")
+        A(ind + "qx, qy, qz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx")
+        A(ind + "amax = max(amax, qx * qx + qy * qy + qz * qz)")
+    A(ind + f"{row('HK', 11)} = 0.25 * amax")
+    # 5: the rest
+    A("    for i in range(B):")
+    A(ind + f"inv = 1.0 / {row('HK', 9)}")
+    for a in range(3):
+        for b in range(3):
+            A(ind + f"l{XYZ[a]}{XYZ[b]} = {row('HK', 3 * a + b)} * inv")
+    A(ind + f"vnew = {row('HK', 10)}")
+    A(ind + f"{row('R_DET', 0)} = 6.0 * vnew")
+    A(ind + f"{row('R_LEN', 0)} = vnew / math.sqrt(max({row('HK', 11)}, 1e-300))")
+    A(ind + "trd = lxx + lyy + lzz")
+    A(ind + "third = trd * (1.0 / 3.0)")
+    A(ind + "exx, eyy, ezz = lxx - third, lyy - third, lzz - third")
+    A(ind + "dxy, dyz, dzx = 0.5 * (lxy + lyx), 0.5 * (lyz + lzy), 0.5 * (lzx + lxz)")
+    A(ind + "wxy, wyz, wzx = 0.5 * (lxy - lyx), 0.5 * (lyz - lzy), 0.5 * (lzx - lxz)")
+    return K
+
 
 PRESSURE = """
 
@@ -36,9 +143,10 @@ def forces_block(buf, dt, eos, rho0, bulk, c0, s, gamma0, shear, cq, cl):
     \"\"\"Deviatoric work, EOS pressure with the energy implicit, bulk viscosity, stable dt (as
     element._pressure_block, with the hex's volume), then the Flanagan-Belytschko hourglass
     resultants and their work, and the corner forces of stress and hourglass control together
-    (hex8._hex_element's formulas, regrouped: see gen_hex8_block.hourglass_lines).\"\"\"
-    for i in range(B):
-        vnew = buf[R_DET * B + i] * (1.0 / 6.0)
+    (hex8._hex_element's formulas, regrouped: see gen_hex8_block.hourglass_lines). In five
+    lane loops, each keeping fewer values alive than the registers, through the HK rows:
+    W_ij = sum_n v_in b_jn, b.b and Gamma_a . v; h_a and the rates; the pressure part; the
+    resultants Q, their work and T = sigma - M / 8; the corner forces.\"\"\"
 """
 
 PRESSURE_BODY = """        vold = buf[R_VOLD * B + i]
@@ -109,9 +217,21 @@ def gamma_dot(v, d):
     return L
 
 
+# scratch rows of forces_block in HK: W (9), Gamma_a . v (12), b.b, h_a (12), rates (12), p + q,
+# the viscous and stiffness coefficients; T (9) and the pair sums A, C, D, E (12) over W and Gu
+K_W, K_GU, K_BB, K_H, K_R, K_PT, K_KV, K_KS = 0, 9, 21, 22, 34, 46, 47, 48
+K_T, K_Q8 = 0, 9
+N_HK = 49
+
+
+def hk(k):
+    return row("HK", k)
+
+
 def hourglass_lines():
-    """The hourglass part of forces_block, inside the lane loop: (the rates, before the
-    pressure part; the resultants and all forces, after it).
+    """The loops of forces_block around the pressure part: (the two loops before it, the lines
+    ending the pressure loop, the two loops after it), each a list of lines inside its lane
+    loop.
 
     FB81's shape vectors g_an = (1/8) [Gamma_an - h_a . b_n] with h_a = (Gamma_a . x) / V are
     not formed. The rates are qdot_ia = sum_n v_in g_an = (1/8) [Gamma_a . v_i - h_a . W_i]
@@ -119,10 +239,11 @@ def hourglass_lines():
     -(1/8) sum_a Q_ia Gamma_an + (1/8) M_ij b_jn with M_ij = sum_a Q_ia h_aj, so stress and
     hourglass forces together are f_in = -(sigma_ij - M_ij / 8) b_jn - (1/8) sum_a Q_ia
     Gamma_an: the same sums in another order (equal to round-off), with far fewer operations
-    and fewer values alive at once (the lane loop spills less)."""
+    and fewer values alive at once."""
+    loops = []
+    # loop 1: W_ij = sum_n v_in b_jn, sum b.b and Gamma_a . v, by pairs of nodes (2k, 2k + 1)
     L = []
     A = L.append
-    # W_ij = sum_n v_in b_jn, sum b.b and Gamma_a . v, by pairs of nodes (2k, 2k + 1)
     for k in range(4):
         for m in (2 * k, 2 * k + 1):
             for d in XYZ:
@@ -142,55 +263,93 @@ def hourglass_lines():
                     A(f"Gu{a}{d} = {'' if sg[k] > 0 else '-'}{term}")
                 else:
                     A(f"Gu{a}{d} {'+=' if sg[k] > 0 else '-='} {term}")
-    # h_a = (Gamma_a . x) / V
-    A("vinv = 1.0 / vnew")
+    for i, di in enumerate(XYZ):
+        for j, dj in enumerate(XYZ):
+            A(f"{hk(K_W + 3 * i + j)} = W{di}{dj}")
+    for a in range(4):
+        for i, di in enumerate(XYZ):
+            A(f"{hk(K_GU + 3 * a + i)} = Gu{a}{di}")
+    A(f"{hk(K_BB)} = bb")
+    loops.append(L)
+    # loop 2: h_a = (Gamma_a . x) / V and the rates
+    L = []
+    A = L.append
+    A("vinv = 6.0 / buf[R_DET * B + i]")
     for d in XYZ:
         for n in range(8):
             A(f"x{d}{n} = {row('HX', 3 * n + XYZ.index(d))}")
         L.extend(gamma_dot("x", d))
         for a in range(4):
             A(f"h{a}{d} = Gx{a}{d} * vinv")
+            A(f"{hk(K_H + 3 * a + XYZ.index(d))} = h{a}{d}")
+    for i, di in enumerate(XYZ):
+        for j, dj in enumerate(XYZ):
+            A(f"W{di}{dj} = {hk(K_W + 3 * i + j)}")
     for a in range(4):
-        for di in XYZ:
-            A(f"r{a}{di} = 0.125 * (Gu{a}{di} - (h{a}x * W{di}x + h{a}y * W{di}y"
-              f" + h{a}z * W{di}z))")
-    rates = L
+        for i, di in enumerate(XYZ):
+            A(f"{hk(K_R + 3 * a + i)} = 0.125 * ({hk(K_GU + 3 * a + i)} - (h{a}x * W{di}x"
+              f" + h{a}y * W{di}y + h{a}z * W{di}z))")
+    loops.append(L)
+    # the end of the pressure loop: the hourglass coefficients
     L = []
     A = L.append
+    A(f"{hk(K_PT)} = ptot")
     A("cv = buf[HGV * B + i]")
     A("cs = buf[HGS * B + i]")
     A("chg = math.sqrt(max(c2, 0.0))")
-    A("kv = cv * rho * chg * VM.power(vnew, 2.0 / 3.0)")
-    A("ks = cs * dt * (bulk + 4.0 * shear / 3.0) * bb * vinv * (1.0 / 3.0)")
+    A(f"{hk(K_KV)} = cv * rho * chg * VM.power(vnew, 2.0 / 3.0)")
+    A(f"{hk(K_KS)} = cs * dt * (bulk + 4.0 * shear / 3.0) * {hk(K_BB)} / vnew * (1.0 / 3.0)")
+    loops.append(L)
+    # loop 4: resultants, their work, T = sigma - M / 8 (M_ij = sum_a Q_ia h_aj), the pair sums
+    L = []
+    A = L.append
+    A(f"kv = {hk(K_KV)}")
+    A(f"ks = {hk(K_KS)}")
     A("work = 0.0")
     for a in range(4):
         for di in XYZ:
             k = 3 * a + XYZ.index(di)
             r = f"r{a}{di}"
+            A(f"{r} = {hk(K_R + k)}")
             A(f"s0 = {row('HG', k)}")
             A(f"s1 = s0 + ks * {r}")
             A(f"{row('HG', k)} = s1")
             A(f"Q{a}{di} = s1 + kv * {r}")
             A(f"work += dt * (0.5 * (s0 + s1) + kv * {r}) * {r}")
     A("buf[HGW * B + i] = work")
-    # T = sigma - M / 8 (M_ij = sum_a Q_ia h_aj), sigma = s - (p + q) 1
+    A(f"ptot = {hk(K_PT)}")
+    for k, nm in enumerate(["nxx", "nyy", "nzz", "nxy", "nyz", "nzx"]):
+        A(f"{nm} = {row('R_SN', k)}")
+    for a in range(4):
+        for d in XYZ:
+            A(f"h{a}{d} = {hk(K_H + 3 * a + XYZ.index(d))}")
     sig = {"xx": "nxx - ptot", "yy": "nyy - ptot", "zz": "nzz - ptot", "xy": "nxy", "yx": "nxy",
            "yz": "nyz", "zy": "nyz", "zx": "nzx", "xz": "nzx"}
-    for di in XYZ:
-        for dj in XYZ:
-            A(f"T{di}{dj} = {sig[di + dj]} - 0.125 * ("
+    for i, di in enumerate(XYZ):
+        for j, dj in enumerate(XYZ):
+            A(f"{hk(K_T + 3 * i + j)} = {sig[di + dj]} - 0.125 * ("
               + " + ".join(f"Q{a}{di} * h{a}{dj}" for a in range(4)) + ")")
-    # f_in = -T_ij b_jn - (1/8) sum_a Q_ia Gamma_an
-    for di in XYZ:
-        A(f"A{di}, C{di} = 0.125 * (Q0{di} + Q1{di}), 0.125 * (Q2{di} + Q3{di})")
-        A(f"D{di}, E{di} = 0.125 * (Q0{di} - Q1{di}), 0.125 * (Q2{di} - Q3{di})")
+    for i, di in enumerate(XYZ):
+        q8 = K_Q8 + 4 * i
+        A(f"{hk(q8)}, {hk(q8 + 1)} = 0.125 * (Q0{di} + Q1{di}), 0.125 * (Q2{di} + Q3{di})")
+        A(f"{hk(q8 + 2)}, {hk(q8 + 3)} = 0.125 * (Q0{di} - Q1{di}), 0.125 * (Q2{di} - Q3{di})")
+    loops.append(L)
+    # loop 5: f_in = -T_ij b_jn - (1/8) sum_a Q_ia Gamma_an
+    L = []
+    A = L.append
+    for i, di in enumerate(XYZ):
+        for j, dj in enumerate(XYZ):
+            A(f"T{di}{dj} = {hk(K_T + 3 * i + j)}")
+        q8 = K_Q8 + 4 * i
+        A(f"A{di}, C{di}, D{di}, E{di} = {hk(q8)}, {hk(q8 + 1)}, {hk(q8 + 2)}, {hk(q8 + 3)}")
     for n in range(8):
         for d in XYZ:
             A(f"b{d} = {row('HB', 3 * n + XYZ.index(d))}")
         for di in XYZ:
             A(f"{row('HF', 3 * n + XYZ.index(di))} = -(T{di}x * bx + T{di}y * by + T{di}z * bz)"
               f" - ({qgamma(n, di)})")
-    return rates, L
+    loops.append(L)
+    return loops
 
 
 def qgamma(n, d):
@@ -259,7 +418,8 @@ HG = HF + 24  # 12 rows: stiffness hourglass resultants (in, updated)
 HGV = HG + 12
 HGS = HGV + 1
 HGW = HGS + 1
-HROWS = HGW + 1
+HK = HGW + 1  # 49 rows: scratch of kinematics_block (12) and forces_block (49)
+HROWS = HK + 49
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
@@ -319,48 +479,8 @@ def load_block(x, v, conn, sdev, pressure, energy, vol, elem_mass, hg, hg_visc, 
         buf[HGS * B + i] = hs[i]
 ''')
     # ---- kinematics
-    K = []
+    K = kinematics_lines(ind)
     A = K.append
-    A('@numba.njit(cache=True, error_model="numpy", fastmath=FAST)')
-    A('def kinematics_block(buf, half, dt, shear):')
-    A('    """Velocity gradient on the mid-step geometry, b, volume and length at n+1, trial')
-    A('    deviator (Jaumann), its von Mises equivalent and the effective strain rate."""')
-    A('    for i in range(B):')
-    for n in range(8):
-        for d in range(3):
-            A(f"{ind}{XYZ[d]}{n} = {row('HX', 3 * n + d)}")
-            A(f"{ind}u{XYZ[d]}{n} = {row('HV', 3 * n + d)}")
-    for n in range(8):
-        for d in range(3):
-            A(f"{ind}m{XYZ[d]}{n} = {XYZ[d]}{n} - half * u{XYZ[d]}{n}")
-    for ln in lines_b(lambda d, k: f"m{XYZ[d]}{k}", lambda d, n: f"b{XYZ[d]}{n}"):
-        A(ind + ln)
-    A(ind + "vmid = " + " + ".join(f"mx{n} * bx{n}" for n in range(8)))
-    A(ind + "inv = 1.0 / vmid")
-    for a in range(3):
-        for b in range(3):
-            A(ind + f"l{XYZ[a]}{XYZ[b]} = (" + " + ".join(
-                f"u{XYZ[a]}{n} * b{XYZ[b]}{n}" for n in range(8)) + ") * inv")
-    A(ind + "trd = lxx + lyy + lzz")
-    A(ind + "third = trd * (1.0 / 3.0)")
-    A(ind + "exx, eyy, ezz = lxx - third, lyy - third, lzz - third")
-    A(ind + "dxy, dyz, dzx = 0.5 * (lxy + lyx), 0.5 * (lyz + lzy), 0.5 * (lzx + lxz)")
-    A(ind + "wxy, wyz, wzx = 0.5 * (lxy - lyx), 0.5 * (lyz - lzy), 0.5 * (lzx - lxz)")
-    for ln in lines_b(lambda d, k: f"{XYZ[d]}{k}", lambda d, n: f"c{XYZ[d]}{n}"):
-        A(ind + ln)
-    A(ind + "vnew = " + " + ".join(f"x{n} * cx{n}" for n in range(8)))
-    for n in range(8):
-        for d in range(3):
-            A(ind + f"{row('HB', 3 * n + d)} = c{XYZ[d]}{n}")
-    A(ind + f"{row('R_DET', 0)} = 6.0 * vnew")
-    # face areas
-    A(ind + "amax = 0.0")
-    for (a, b, c, d) in FACES:
-        A(ind + f"ux, uy, uz = x{c} - x{a}, y{c} - y{a}, z{c} - z{a}")
-        A(ind + f"vx, vy, vz = x{d} - x{b}, y{d} - y{b}, z{d} - z{b}")
-        A(ind + "qx, qy, qz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx")
-        A(ind + "amax = max(amax, 0.25 * (qx * qx + qy * qy + qz * qz))")
-    A(ind + f"{row('R_LEN', 0)} = vnew / math.sqrt(max(amax, 1e-300))")
     for k, nm in enumerate(["exx", "eyy", "ezz", "dxy", "dyz", "dzx"]):
         A(ind + f"{row('R_D', k)} = {nm}")
     A(ind + f"{row('R_TRD', 0)} = trd")
@@ -387,11 +507,15 @@ def load_block(x, v, conn, sdev, pressure, energy, vol, elem_mass, hg, hg_visc, 
     A(ind + f"{row('R_SEQ', 0)} = math.sqrt(max(3.0 * j2, 0.0))")
     P("\n\n" + "\n".join(K) + "\n")
     # ---- pressure, stress and hourglass forces, in one loop
-    rates, forces = hourglass_lines()
+    w_loop, rate_loop, coef, q_loop, f_loop = hourglass_lines()
     P(PRESSURE)
-    P("\n".join(ind + ln for ln in rates) + "\n")
+    for lp in (w_loop, rate_loop):
+        P("    for i in range(B):\n" + "\n".join(ind + ln for ln in lp) + "\n")
+    P("    for i in range(B):\n" + ind + "vnew = buf[R_DET * B + i] * (1.0 / 6.0)\n")
     P(PRESSURE_BODY)
-    P("\n".join(ind + ln for ln in forces) + "\n")
+    P("\n".join(ind + ln for ln in coef) + "\n")
+    for lp in (q_loop, f_loop):
+        P("    for i in range(B):\n" + "\n".join(ind + ln for ln in lp) + "\n")
     P('''
 
 @numba.njit(cache=True, error_model="numpy")
@@ -439,7 +563,28 @@ def store_block(rows, sdev, pressure, q, eps_rate, energy, vol, hg, fext, e0, bu
     return "".join(src)
 
 
+STAMPED = ("impactsim/solver/hex8.py", "benchmarks/hex_parts.py")
+
+
+def stamp(text: str) -> None:
+    """Write the digest of the new hex8_block.py into the BLOCK_SOURCE line of the files that
+    compile its functions into their own (STAMPED): numba keys a cached function by its own
+    file's contents only, so without it hex8.hex_update would load its old machine code from
+    the cache after hex8_block.py changed."""
+    root = Path(__file__).resolve().parents[1]
+    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
+    for name in STAMPED:
+        path = root / name
+        src = path.read_text()
+        if not re.search(r'^BLOCK_SOURCE = "[0-9a-f]*"', src, flags=re.M):
+            raise SystemExit(f"{name} has no BLOCK_SOURCE line")
+        path.write_text(re.sub(r'^BLOCK_SOURCE = "[0-9a-f]*"', f'BLOCK_SOURCE = "{digest}"',
+                               src, count=1, flags=re.M))
+
+
 if __name__ == "__main__":
     out = Path(__file__).resolve().parents[1] / "impactsim" / "solver" / "hex8_block.py"
-    out.write_text(gen())
-    print(f"wrote {out}")
+    text = gen()
+    out.write_text(text)
+    stamp(text)
+    print(f"wrote {out} (and the BLOCK_SOURCE lines of {', '.join(STAMPED)})")

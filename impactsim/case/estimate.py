@@ -18,7 +18,7 @@ Kuhn split of one cell. gmsh: L = ``GMSH_ALTITUDE_RATIO`` · h, measured on the 
 Compression raises the sound speed, the artificial viscosity lowers the step (by
 sqrt(1 + C_l^2) - C_l, taken always) and each output frame inside the run costs about
 FRAME_STEPS steps. F, the crush factor, is the mean shrink of the step as plastic impacts
-flatten and shear the elements (case/crush.py: the Taylor bar 3.0, the tet two-cylinders 15,
+flatten and shear the elements (case/crush.py: the Taylor bar 3.1, the tet two-cylinders 14,
 the elastic cases 1).
 
 Wall time. The element loop's time per step t_step + N · t_element, with the two constants
@@ -36,11 +36,14 @@ Every pass is counted in units of t_element (the calibration keeps its quietest 
 speed of a free core) times the contention (``contention``: 1 / the share of a core this process
 gets now, measured by a 0.3 s busy loop, ``cpu_share``; on a machine shared with other jobs a
 run gets about that share on average): the element loop
-(ANP_COST for the averaged nodal pressure, HEX_COST for a hex, PARALLEL_COST on two threads),
-the node passes and the watch, the contact passes (per boundary face and step), the fracture
-passes (per element and step), frame output (per element and frame), the history rows (with
-contact, its max_penetration measure per boundary face), setting up (fixed and per element), and
-gmsh meshing of bodies not in the mesh cache: the constants are fitted to the bundled cases
+(ANP_COST for the averaged nodal pressure, HEX_COST for a hex, HEX_FAILING_COST for a hex of a
+material that can be damaged, SEPARABLE_COST for an element of a body that comes apart by node
+separation, PARALLEL_COST on two threads), the node passes and the watch, the contact passes
+(per boundary face and step, more with self-contact), the fracture passes (``fracture_work``:
+the criteria per element and step, a hex's with its scalar path and removals; the distortion
+check per element once per interval; node separation per element of a separable body and
+step), frame output (per element and frame), the history rows (with contact, its
+max_penetration measure per boundary face), setting up (fixed and per element), and gmsh meshing of bodies not in the mesh cache: the constants are fitted to the bundled cases
 (docs/estimates.md, benchmarks/estimates.py).
 
 Re-estimate. After RE_ESTIMATE_SHARE of its simulated time or RE_ESTIMATE_SECONDS of stepping a
@@ -121,6 +124,24 @@ PARALLEL_COST = 1.65
 NODES_TE = 0.15
 CONTACT_TE_PER_FACE = 6.0
 FRACTURE_TE = 1.3
+# a hex's fracture criteria (fracture/hexes.py, with its removals re-running the hex kernel):
+# fitted in-sample to sphere-plate-hex (4.4 t_e per element-step in all, the distortion checks
+# and the sphere's tets taken out), one case
+HEX_FRACTURE_TE = 4.5
+# the distortion check [Z] per element and check (one pass, fracture/distortion.py), measured
+# on the sphere-plate-hex meshes: 31 ns a tet, 55 ns a hex at 60-68 ns per element-step;
+# keyed by "is a hex"
+DISTORTION_TE = {False: 0.5, True: 0.9}
+# node separation [Z] (fracture/separation.py) per element of a separable body and step, and
+# contact with self-contact per boundary face and step (every face also searched against its
+# own body's, the faces that node separation opens inside included): fitted in-sample to the
+# first 1.5 us of three-plate-shield (its passes' seconds times the run's CPU / wall, 0.18 of
+# a core, at the calibrated 68 ns per element-step: 12.2 and 62 t_e), one case; there its
+# element loop cost 1.6 t_e per tet-step and the node passes 0.24 (a separable body's
+# elements each have their own corner nodes, build.split_points), SEPARABLE_COST times a tet's
+SEPARATION_TE = 12.0
+SELF_CONTACT_TE_PER_FACE = 60.0
+SEPARABLE_COST = 1.5
 FRAME_TE_PER_ELEMENT = {"zlib": 45.0, "none": 12.0}
 FRAME_SECONDS = 0.01  # a frame's own cost (files, the series' index), whatever its size
 ROW_TE_PER_FACE = 2.0
@@ -189,9 +210,9 @@ class Estimate:
             found = self.crush[0]
             worst = max(found, key=lambda c: c.shrink) if found else None
             out.append(f"crushing: the step shrinks ≈ {self.crush_factor:.2g} times on average "
-                       "over the run" + (f" (crush number {worst.phi:.2g}: down to 1/"
-                                         f"{worst.shrink:.2g} of a body's first step)"
-                                         if worst else ""))
+                       "over the run" + (f" (crush number {worst.phi:.2g}, foot strain "
+                                         f"{worst.strain:.2g}: down to 1/{worst.shrink:.2g} "
+                                         "of a body's first step)" if worst else ""))
         if parts:
             out.append("wall time: " + ", ".join(f"{k} ≈ {format_seconds(v)}"
                                                  for k, v in parts.items()))
@@ -267,6 +288,11 @@ def _count(n: float) -> int:
 # thread, the Johnson-Cook bench of each, measured at the same time; in the bundled Taylor bar
 # with hexes 2.8 of the element loop's calibrated tet-steps, docs/estimates.md)
 HEX_COST = 2.8
+# a hex of a material that can be damaged (spall, loosening, erosion): a block of 32 hexes with
+# one damaged hex takes the scalar path (848 against 192 ns per hex-step, docs/performance.md);
+# fitted in-sample to sphere-plate-hex's element loop (its plate's hexes 4.8 tet-steps each),
+# one case
+HEX_FAILING_COST = 4.8
 
 
 # above this many hexes (about a second of meshing) the count is not made by meshing: a case
@@ -582,8 +608,11 @@ def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = N
     from impactsim.solver.formulation import resolve_element
 
     tet = ANP_COST if resolve_element(case) == "anp" else 1.0
-    work = min(sum(n * (HEX_COST if b.element == "hex8" else tet)
+    work = min(sum(n * (_hex_cost(case, b) if b.element == "hex8" else tet)
+                   * (SEPARABLE_COST if separable(case, b) else 1.0)
                    for b, n in zip(case.bodies, per_body.values()) if n), float(MAX_COUNT))
+    node_work = min(sum(n * (SEPARABLE_COST if separable(case, b) else 1.0)
+                        for b, n in zip(case.bodies, per_body.values()) if n), float(MAX_COUNT))
     threads = run_threads(case, elements)
     frames = len(case.output.times) if case.output.times else case.output.frames + 1
     crush_factor, crush = 1.0, ((), (), 0.0)
@@ -611,13 +640,15 @@ def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = N
     t_elem = 1e-9 * speed["ns_per_element_step"]
     parallel = PARALLEL_COST if threads > 1 else 1.0
     parts = {"elements": steps * (speed["seconds_per_step"]
-                                  + (ELEMENT_TE * parallel * work + NODES_TE * elements)
+                                  + (ELEMENT_TE * parallel * work + NODES_TE * node_work)
                                   * t_elem)}
     contact = has_contact(case)
     if contact:
-        parts["contact"] = steps * faces * CONTACT_TE_PER_FACE * t_elem
-    if any(case.materials[b.material].failure.active for b in case.bodies):
-        parts["fracture"] = steps * elements * FRACTURE_TE * t_elem
+        per_face = SELF_CONTACT_TE_PER_FACE if case.contact.self_contact else CONTACT_TE_PER_FACE
+        parts["contact"] = steps * faces * per_face * t_elem
+    fracture = fracture_work(case, per_body, steps)
+    if fracture > 0.0:
+        parts["fracture"] = fracture * t_elem
     per_frame = FRAME_TE_PER_ELEMENT[case.output.compression] * t_elem
     parts["output"] = frames * (elements * per_frame + FRAME_SECONDS)
     rows = steps / max(case.output.history_every, 1)
@@ -639,6 +670,39 @@ def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = N
                     unknown_bodies=unknown, threads=threads, memory_bytes=memory_bytes(elements),
                     seconds=parts, steps_needed=steps_needed, crush_factor=crush_factor,
                     crush=crush)
+
+
+def separable(case: Case, body: Body) -> bool:
+    """The body comes apart by node separation (its material has a fracture strain)."""
+    return case.materials[body.material].failure.fracture_strain is not None
+
+
+def _hex_cost(case: Case, body: Body) -> float:
+    """A hex-step of `body` in tet-steps: HEX_COST, HEX_FAILING_COST when its material can be
+    damaged (a damaged hex sends its block of 32 to the scalar path)."""
+    return HEX_FAILING_COST if case.materials[body.material].failure.active else HEX_COST
+
+
+def fracture_work(case: Case, per_body: dict, steps: int) -> float:
+    """The fracture passes of a run in element-steps of t_e (module docstring): the criteria
+    over every element when a material can fail (FRACTURE_TE a tet, HEX_FRACTURE_TE a hex), the
+    distortion check every distortion_interval (DISTORTION_TE per element and check), and node
+    separation every step over the bodies whose material has a fracture strain
+    (SEPARATION_TE). 0 when no fracture pass runs."""
+    mats = [case.materials[b.material].failure for b in case.bodies]
+    counts = [float(n or 0) for n in per_body.values()]
+    hexes = [b.element == "hex8" for b in case.bodies]
+    work = 0.0
+    if any(f.active for f in mats):
+        work += steps * sum(n * (HEX_FRACTURE_TE if h else FRACTURE_TE)
+                            for n, h in zip(counts, hexes))
+    interval = case.fracture.distortion_interval
+    if interval is not None and interval > 0.0:
+        checks = min(float(steps), case.run.end_time / interval)  # at most one a step
+        work += checks * sum(n * DISTORTION_TE[h] for n, h in zip(counts, hexes))
+    work += steps * sum(n * SEPARATION_TE for n, b in zip(counts, case.bodies)
+                        if separable(case, b))
+    return min(work, 1e300)
 
 
 # the run re-estimates itself once, after this share of its simulated time or these wall

@@ -229,6 +229,7 @@ def _fracture(r: Reader) -> Fracture:
                                            r.at("particles_per_element"))),
         particle_collisions=r.get("particle_collisions"),
         erosion_region=r.get("erosion_region"),
+        spall_criterion=r.get("spall_criterion"),
         spall_pressure=r.get("spall_pressure"),
         distortion_interval=(positive(r.get("distortion_interval"), r.at("distortion_interval"))
                              if r.has("distortion_interval") else None),

@@ -201,6 +201,9 @@ def _failure(mat: Reader) -> Failure:
     f = Failure()
     if r.has("spall_strength"):
         f.spall_strength = positive(r.get("spall_strength"), r.at("spall_strength"))
+    if r.has("spall_time"):
+        # inert without spall_strength (a case may switch a library entry's spall off)
+        f.spall_time = positive(r.get("spall_time"), r.at("spall_time"))
     if r.has("loosening"):
         f.loosening = in_range(r.get("loosening"), r.at("loosening"), 0.0, 1.0)
         if f.spall_strength is None:

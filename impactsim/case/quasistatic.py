@@ -188,10 +188,11 @@ def _build(raw: dict, source: Path | None) -> QSCase:
         for k, pat in enumerate(bs):
             if not any(fnmatch.fnmatchcase(n, pat) for n in _all_names(bodies)):
                 raise r.at(f"bodies[{k}]").error(f"'{pat}' matches no body")
-        fr = non_negative(r.get("friction"), r.at("friction"))
-        if fr > 0:
-            raise r.error("friction", "Coulomb friction is not available yet in the "
-                                      "quasistatic analysis (frictionless contact only)")
+        raw = rp.get("friction")
+        if raw == float("inf") or (isinstance(raw, str) and raw.strip().lower() == "inf"):
+            fr = float("inf")  # stuck: every node in contact keeps its tangential position
+        else:
+            fr = non_negative(r.get("friction"), r.at("friction"))
         gt = r.get("gap_tolerance")
         pairs.append(QSPair(tuple(bs), fr, non_negative(r.get("conductance"),
                                                         r.at("conductance")),

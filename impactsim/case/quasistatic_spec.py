@@ -60,8 +60,9 @@ PAIR = Table("pair", "Properties of the contacts between bodies matching two nam
              "(shell-style: \"pellet*\"). The first matching entry applies; with detect = false "
              "only pairs of listed bodies are searched.", (
     Key("bodies", "string-list", "Two body names or patterns."),
-    Key("friction", "number", "Coulomb friction coefficient (>= 0). Not available yet: "
-        "values > 0 are rejected.", 0.0),
+    Key("friction", "number", "Coulomb friction coefficient mu (>= 0): stick while the "
+        "tangential traction is below mu times the pressure, slip at it; 0 (the default): "
+        "frictionless, free tangential slip; inf (or \"inf\"): stuck, tangentially tied.", 0.0),
     Key("conductance", "quantity", "Gap heat-transfer coefficient h (>= 0; 0: no heat "
         "crosses).", 0.0, dim="heat_transfer"),
     Key("gap_tolerance", "quantity", "Surfaces closer than this are in contact.", COMPUTED,

@@ -42,6 +42,9 @@ class Failure:
     """Fracture and erosion data (ALGORITHMS.md 4). None switches a mechanism off."""
 
     spall_strength: float | None = None  # [Pa] max tensile principal stress -> damaged
+    # [s] Tuler-Butcher time tau: damaged once the integral of (s1 / spall_strength - 1)+ dt
+    # reaches it (fracture/spall.py); None: the instantaneous threshold of [D19]
+    spall_time: float | None = None
     loosening: float | None = None  # [-] chi* : damaged -> fully fractured when 1 - V0/V > chi*
     erosion: str | None = None  # "plastic-strain" | "jc-damage" | "principal-strain" | "fractured"
     erosion_value: float | None = None  # threshold of the erosion criterion (strain, or D = 1)
@@ -166,8 +169,12 @@ class Fracture:
     particles_per_element: int = 1
     particle_collisions: bool = False
     erosion_region: str = "surface"  # "surface" | "anywhere"
-    # the pressure spall reads: the element's own ("cell", [D19]) or its patch mean ("patch")
-    spall_pressure: str = "cell"
+    # how spall reads the tension (fracture/spall.py): "tuler-butcher" integrates it over time
+    # for materials with failure.spall_time, "instant" is the threshold of [D19]
+    spall_criterion: str = "tuler-butcher"
+    # the pressure spall reads: the lesser tension of the element's own pressure and its patch
+    # mean ("lesser"), the element's own ("cell", [D19]) or the patch mean ("patch")
+    spall_pressure: str = "lesser"
     # distortion erosion [Z] (fracture/distortion.py): checked every interval [s]; None = off
     distortion_interval: float | None = None
     distortion_extent: float = 3.0  # r1: axis extent > r1 * L_ch deletes

@@ -189,7 +189,13 @@ FAILURE = Table("failure", "Fracture and erosion data; a mechanism is off when i
                 "library entry brings; a key set to \"none\" (e.g. `spall_strength = \"none\"`) "
                 "switches off that one mechanism of the library entry.", (
     Key("spall_strength", "quantity", "Spall: a cell whose maximum principal tensile stress "
-        "exceeds this is damaged (> 0).", None, dim="pressure"),
+        "exceeds this is damaged (> 0); with spall_time, the threshold sigma_0 of the "
+        "Tuler-Butcher integral.", None, dim="pressure"),
+    Key("spall_time", "quantity", "Tuler-Butcher spall (impulse form, lambda = 1): a cell is "
+        "damaged once the integral of (sigma_1 / spall_strength - 1) dt over the time its "
+        "maximum principal stress sigma_1 exceeds spall_strength reaches this (> 0); read under "
+        "[fracture] spall_criterion = \"tuler-butcher\" (the default). Absent: the "
+        "instantaneous threshold of [D19].", None, dim="time"),
     Key("loosening", "number", "Loosening chi*: a damaged cell with 1 - V0/V > chi* is fully "
         "fractured, in (0, 1); needs spall_strength.", None),
     Key("erosion", "choice", "Erosion criterion: elements meeting it are deleted.", None,
@@ -369,12 +375,17 @@ FRACTURE = Table("fracture", "How fractured material is represented.", (
     Key("erosion_region", "choice", "Where erosion may delete elements: only at the contact "
         "surface [R20], or anywhere.", _d(schema.Fracture, "erosion_region"),
         choices=EROSION_REGIONS),
-    Key("spall_pressure", "choice", "The pressure the spall criterion reads: the element's own "
-        "(cell, as [D19]; resolves a thin plate's spall layer) or the mean over the patch of "
-        "elements around its nodes (patch: removes the tet4 pressure checkerboard that spalls "
-        "cells inside the compressed foot of a Taylor bar, but smears a spall layer a few cells "
-        "thick: the full sphere-plate plate domes instead of perforating; docs/fracture.md).",
-        _d(schema.Fracture, "spall_pressure"), choices=("cell", "patch")),
+    Key("spall_criterion", "choice", "How spall reads the tension: tuler-butcher integrates "
+        "it over time for materials with failure.spall_time (others spall at the threshold), "
+        "instant is the threshold of [D19] for every material (docs/fracture.md).",
+        _d(schema.Fracture, "spall_criterion"), choices=("tuler-butcher", "instant")),
+    Key("spall_pressure", "choice", "The pressure the spall criterion reads: lesser, the "
+        "smaller tension of the element's own pressure and its patch mean (a tension the cell "
+        "and the cells around it carry: rejects the tet4 pressure checkerboard of a Taylor "
+        "bar's foot); cell, the element's own (as [D19]; resolves a thin plate's spall layer "
+        "but spalls checkerboard cells); patch, the mean over the patch of elements around its "
+        "nodes (docs/fracture.md).",
+        _d(schema.Fracture, "spall_pressure"), choices=("lesser", "cell", "patch")),
     Key("distortion_interval", "quantity", "Distortion erosion [Z]: every this long (longer "
         "than the step) an element is deleted when an axis extent exceeds distortion_extent "
         "times its initial largest extent, the product of its axis extents exceeds "

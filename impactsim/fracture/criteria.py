@@ -2,20 +2,21 @@
 
 Per live element e, after the element update of the step:
 
-1. Spall [D19 after Fomin et al.]: an intact element whose largest principal stress of
-   sigma = s - p I exceeds the material's spall strength becomes DAMAGED (the element kernel
-   then keeps only bulk compression: zero deviator, p >= 0). p is the element's own pressure
-   ([fracture] spall_pressure = "cell", the default, as [D19]) or p_patch, the pressure
-   averaged over the patch of live elements around the element's four nodes ("patch";
-   `patch_fields`: volume-weighted nodal means, then the mean of the element's nodes).
-   The linear tet's own pressure carries the checkerboard mode of volumetric locking: in a
-   Taylor bar's foot single tets sat at -1.5 to -1.9 GPa (V/V0 = 1.02) inside a compressed
-   foot, so spall damaged cells of a compressive flow and loosening then fractured them (a
-   6061-T6 bar at 262 m/s: 431 damaged, 331 particles). The patch mean removes that mode (the
-   averaging the ANP tet applies to its EOS, Bonet & Burton 1998), but it also smears a spall
-   layer a few cells thick: with it the full-resolution sphere-plate plate domes instead of
-   perforating by 4 us. Hence the choice per case, the [D19] cell pressure by default
-   (docs/fracture.md).
+1. Spall (fracture/spall.py): an intact element whose tension damages it becomes DAMAGED (the
+   element kernel then keeps only bulk compression: zero deviator, p >= 0). The tension is the
+   largest principal stress of sigma = s - p I with p from `[fracture] spall_pressure`: the
+   larger (less tensile) of the element's own pressure and p_patch ("lesser", the default),
+   the element's own ("cell", as [D19]) or p_patch ("patch"); p_patch is the pressure
+   averaged over the patch of live elements around the element's nodes (`patch_fields`:
+   volume-weighted nodal means, then the mean of the element's nodes). The criterion is the
+   Tuler-Butcher impulse integral for materials with a spall time (`[fracture]
+   spall_criterion = "tuler-butcher"`, the default) or the instantaneous threshold of [D19].
+   The linear tet's own pressure carries the checkerboard mode of volumetric locking: single
+   tets of a Taylor bar's foot sit far in tension inside a compressed foot, for tens of
+   microseconds (a 4340 bar at 343 m/s: 12 GPa, 27 us), which no time integral filters; their
+   patch is not in that tension. A tension both the cell and its patch carry that lasts only
+   a fraction of a microsecond (the lateral release converging on a fast 6061-T6 bar's axis)
+   is filtered by the time integral. docs/fracture.md has the measurements.
 2. Loosening: a damaged element with chi = 1 - V0/V > chi* becomes FRACTURED (zero pressure):
    the cell's own opening, as in [D19] (a crack opens one cell, not a patch).
 3. Johnson-Cook damage (materials with erosion = "jc-damage"): D += d eps_p / eps_f with
@@ -57,6 +58,7 @@ import math
 import numba
 
 from impactsim.fracture.principal import max_principal, max_principal_stretch
+from impactsim.fracture.spall import SPALL_CELL, spall_pressure, spalls
 from impactsim.materials import params as P
 from impactsim.model import DAMAGED, ERODED, FRACTURED, INTACT
 
@@ -128,9 +130,10 @@ def patch_fields(vol, vol0, pressure, status, n2e_ptr, n2e, pnode, jnode, corner
 
 @numba.njit(cache=True, inline="always")
 def element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev, damage, eps_rate,
-                  temperature, mat_params):
+                  temperature, mat_params, dt, spall_k, integrate):
     """Steps 1-3 of the module docstring for live element e of any type (the per-element
-    arrays of the tets and of a hex block have one layout): spall with the pressure p, loosening,
+    arrays of the tets and of a hex block have one layout): spall with the pressure p
+    (``spall.spalls``: the Tuler-Butcher integral spall_k[e] when integrate), loosening,
     Johnson-Cook damage (updates damage[e] and eps_p_prev[e]). Returns (status, newly damaged
     0/1, newly fractured 0/1)."""
     dam = 0
@@ -143,7 +146,8 @@ def element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev, damage, eps_
     if st == INTACT and max(
             sxx + abs(sxy) + abs(szx), syy + abs(sxy) + abs(syz),
             szz + abs(syz) + abs(szx)) - p > spall:
-        if max_principal(sxx - p, syy - p, szz - p, sxy, syz, szx) > spall:
+        if spalls(e, mk, max_principal(sxx - p, syy - p, szz - p, sxy, syz, szx), dt, spall_k,
+                  mat_params, integrate):
             st = DAMAGED
             dam = 1
     if st == DAMAGED and 1.0 - vol0[e] / vol[e] > mat_params[mk, P.CHI_STAR]:
@@ -204,12 +208,14 @@ def element_action(e, mk, st, on_surface, lone, surface_only, eps_p, damage, tem
 @numba.njit(cache=True, parallel=True)
 def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p,
                       eps_p_prev, damage, eps_rate, temperature, mat_params, face_flag, adj,
-                      surface_only, dt, action, patch_spall, pnode, jnode):
+                      surface_only, dt, action, spall_mode, pnode, jnode, spall_k, integrate):
     """Apply spall and loosening to ``status`` and decide ``action (e,) int8`` (module docstring).
 
     face_flag (4e,) bool free faces and adj (e,4) face neighbours at t = 0 (-1: none)
-    (impactsim.fracture.boundary.Boundary). patch_spall: spall reads p_patch from pnode, the
-    nodal means of `patch_fields` (else the element's own pressure; jnode is not read).
+    (impactsim.fracture.boundary.Boundary). spall_mode (spall.PRESSURE_CODES): the pressure
+    spall reads, from the element's own and p_patch from pnode, the nodal means of
+    `patch_fields` (not read for "cell"; jnode is not read). spall_k (e,) the Tuler-Butcher
+    accumulators, integrate: `[fracture] spall_criterion = "tuler-butcher"` (spall.py).
     eps_p_prev (e,) plastic strain at the previous call (updated here). Returns
     (newly damaged, newly fractured, elements with an action). The pointwise steps
     (``element_state``, ``element_action``) are shared with the hexes' kernel
@@ -226,12 +232,12 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
             continue
         mk = elem_mat[e]
         i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
-        if patch_spall:
-            p = 0.25 * (pnode[i0] + pnode[i1] + pnode[i2] + pnode[i3])  # p_patch
-        else:
-            p = pressure[e]
+        p = pressure[e]
+        if spall_mode != SPALL_CELL:
+            p = spall_pressure(spall_mode, p, 0.25 * (pnode[i0] + pnode[i1] + pnode[i2]
+                                                     + pnode[i3]))
         st, dam, frac = element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev, damage,
-                                      eps_rate, temperature, mat_params)
+                                      eps_rate, temperature, mat_params, dt, spall_k, integrate)
         n_dam += dam
         n_frac += frac
         status[e] = st

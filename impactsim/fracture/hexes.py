@@ -36,6 +36,7 @@ from impactsim.contact.surface import events_buffer, free_face_changes
 from impactsim.fracture import criteria as C
 from impactsim.fracture.principal import stretch_of
 from impactsim.fracture.separation import HEX_FACES, face_adjacency_k
+from impactsim.fracture.spall import SPALL_CELL, spall_pressure
 from impactsim.materials import params as P
 from impactsim.model import ERODED
 
@@ -110,11 +111,12 @@ def hex_stretch(x, x0, conn, e, xi):
 @numba.njit(cache=True, parallel=True)
 def hex_fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p,
                           eps_p_prev, damage, eps_rate, temperature, mat_params, face_flag, adj,
-                          surface_only, dt, action, patch_spall, pnode, xi):
+                          surface_only, dt, action, spall_mode, pnode, xi, spall_k, integrate):
     """``criteria.fracture_criteria`` on a hex block (module docstring): applies spall and
     loosening to ``status`` and decides ``action (n,) int8``. face_flag (6n,) free quads and adj
     (n, 6) quad neighbours at t = 0 (``HexBoundary``); pnode the nodal means of
-    ``criteria.patch_fields`` over the block (read when patch_spall). Returns (newly damaged,
+    ``criteria.patch_fields`` over the block (read unless spall_mode is "cell"); spall_k, integrate
+    the Tuler-Butcher accumulators and criterion (``spall.spalls``). Returns (newly damaged,
     newly fractured, hexes with an action)."""
     n_dam = 0
     n_frac = 0
@@ -125,15 +127,15 @@ def hex_fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol,
         if st == ERODED:
             continue
         mk = elem_mat[e]
-        if patch_spall:
-            p = 0.0
+        p = pressure[e]
+        if spall_mode != SPALL_CELL:
+            pp = 0.0
             for k in range(8):
-                p += pnode[conn[e, k]]
-            p *= 0.125
-        else:
-            p = pressure[e]
+                pp += pnode[conn[e, k]]
+            p = spall_pressure(spall_mode, p, 0.125 * pp)
         st, dam, frac = C.element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev,
-                                        damage, eps_rate, temperature, mat_params)
+                                        damage, eps_rate, temperature, mat_params, dt, spall_k,
+                                        integrate)
         n_dam += dam
         n_frac += frac
         status[e] = st
@@ -332,6 +334,7 @@ class HexFracture:
         self.action = np.zeros(blk.n_elem, dtype=np.int8)
         self.ids = np.zeros(blk.n_elem, dtype=np.int64)
         self.eps_p_prev = blk.eps_p.copy()
+        self.spall_k = np.zeros(blk.n_elem)  # [s] Tuler-Butcher accumulators (spall.py)
         self.status_before = blk.status.copy()  # before the criteria of the step
         self.pnode = np.zeros(model.n_node)
         self.jnode = np.ones(model.n_node)
@@ -343,12 +346,12 @@ class HexFracture:
         blk = self.blk
         self.boundary = HexBoundary(blk.conn, blk.elem_body, blk.status != ERODED)
 
-    def criteria(self, model, dt: float, surface_only: bool, patch_spall: bool):
+    def criteria(self, model, dt: float, surface_only: bool, spall_mode: int, integrate: bool):
         """Run the criteria on the block; returns (newly damaged, newly fractured, ascending ids
         of the hexes with an action)."""
         b, blk = self.boundary, self.blk
         np.copyto(self.status_before, blk.status)  # what the element update saw
-        if patch_spall:
+        if spall_mode != SPALL_CELL:
             if self._n2e is None or self._n2e[2] is not blk.conn:
                 from impactsim.solver.build import node_to_element
 
@@ -359,7 +362,7 @@ class HexFracture:
             model.x, model.v, model.x0, blk.conn, blk.elem_mat, blk.status, blk.sdev,
             blk.pressure, blk.vol, blk.vol0, blk.eps_p, self.eps_p_prev, blk.damage,
             blk.eps_rate, blk.temperature, model.mat_params, b.face_flag, b.adj, surface_only,
-            dt, self.action, patch_spall, self.pnode, XI)
+            dt, self.action, spall_mode, self.pnode, XI, self.spall_k, integrate)
         ids = self.ids[:C.action_ids(self.action, self.ids)] if n_act else self.ids[:0]
         return int(n_dam), int(n_frac), ids
 

@@ -44,6 +44,7 @@ from impactsim.fracture.particles import (Particles, faces_near, move_particles,
                                           particle_face_sweep, particle_particle_sweep,
                                           particle_walls)
 from impactsim.fracture.removal import remove_elements
+from impactsim.fracture.spall import PRESSURE_CODES, SPALL_CELL
 from impactsim.model import DAMAGED, ERODED, FRACTURED
 from impactsim.solver.passes import Pass
 
@@ -72,7 +73,9 @@ class FractureState:
         self.counts = {"damaged": 0, "fractured": 0, "eroded": 0, "converted": 0, "guard": 0,
                        "melt": 0}
         # nodal means of pressure and volume ratio over the live elements (criteria.patch_fields)
-        self.patch_spall = case.fracture.spall_pressure == "patch"
+        self.spall_mode = PRESSURE_CODES[case.fracture.spall_pressure]
+        self.spall_integrate = case.fracture.spall_criterion == "tuler-butcher"
+        self.spall_k = np.zeros(model.n_elem)  # [s] Tuler-Butcher accumulators (spall.py)
         self.pnode = np.zeros(model.n_node)
         self.jnode = np.ones(model.n_node)
         model.energy_terms.setdefault("eroded", 0.0)
@@ -127,20 +130,22 @@ class FracturePass(Pass):
     def run(self, model, dt):
         s = self.s
         b = s.boundary
-        if s.patch_spall:
+        if s.spall_mode != SPALL_CELL:
             C.patch_fields(model.vol, model.vol0, model.pressure, model.status, model.n2e_ptr,
                            model.n2e, s.pnode, s.jnode, 4)
         n_dam, n_frac, n_act = C.fracture_criteria(
             model.x, model.v, model.x0, model.conn, model.elem_mat, model.status, model.sdev,
             model.pressure, model.vol, model.vol0, model.eps_p, s.eps_p_prev, model.damage,
             model.eps_rate, model.temperature, model.mat_params, b.face_flag, b.adj,
-            s.surface_only, dt, s.action, s.patch_spall, s.pnode, s.jnode)
+            s.surface_only, dt, s.action, s.spall_mode, s.pnode, s.jnode, s.spall_k,
+            s.spall_integrate)
         s.counts["damaged"] += int(n_dam)
         s.counts["fractured"] += int(n_frac)
         if n_act:
             self._remove(model, s.ids[:C.action_ids(s.action, s.ids)])
         for hf in s.hexes:  # the hex blocks (fracture/hexes.py)
-            n_dam, n_frac, ids = hf.criteria(model, dt, s.surface_only, s.patch_spall)
+            n_dam, n_frac, ids = hf.criteria(model, dt, s.surface_only, s.spall_mode,
+                                             s.spall_integrate)
             s.counts["damaged"] += n_dam
             s.counts["fractured"] += n_frac
             if ids.shape[0]:

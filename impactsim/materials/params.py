@@ -48,7 +48,8 @@ EROSION = 22  # erosion criterion code
 EROSION_VALUE = 23  # threshold of the erosion criterion
 JC_D1 = 24  # D1..D5 in columns 24..28
 FRACTURE_STRAIN = 29  # [-] node separation, +inf = none
-N_PARAM = 30
+SPALL_TIME = 30  # [s] Tuler-Butcher time tau of spall (fracture/spall.py), 0 = instantaneous
+N_PARAM = 31
 
 
 def material_row(mat: Material) -> np.ndarray:
@@ -80,6 +81,7 @@ def material_row(mat: Material) -> np.ndarray:
     if fail.jc_damage is not None:
         row[JC_D1:JC_D1 + 5] = fail.jc_damage
     row[FRACTURE_STRAIN] = fail.fracture_strain if fail.fracture_strain is not None else np.inf
+    row[SPALL_TIME] = fail.spall_time if fail.spall_time is not None else 0.0
     return row
 
 

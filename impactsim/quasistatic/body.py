@@ -34,6 +34,9 @@ class BodySpec:
     heat_send: list = field(default_factory=list)  # (link id, P): values the neighbour needs
     thermal: bool = False  # solve heat (else the temperature stays the initial one)
     solver: str = "direct"  # the elastic solver: direct or amg (interfaces.setup decides)
+    # interfaces with friction: their C, I rows are [normal; t_1; t_2] and G's columns
+    # [p, q_1, q_2] (friction.py)
+    friction: set = field(default_factory=set)
 
 
 class BodyState:
@@ -80,12 +83,18 @@ class BodyState:
         self.f = self.elastic.load(self.heat.T, scale)
         self.uD = self.elastic.prescribed(scale)
 
-    def mech_solve(self, g: dict, active: dict, pressure: dict) -> dict:
+    def mech_solve(self, g: dict, active: dict, pressure: dict, slip: dict | None = None) -> dict:
         t0 = time.perf_counter()
         f = self.f.copy()
         for k, _, G in self.spec.force:
             if k in pressure:
                 f += G @ pressure[k]
+        for k, C, M in self.spec.kin:
+            if slip and k in slip:  # friction of slipping nodes: -C_t^T M q (active rows)
+                n = M.shape[0]
+                act = active[k][:n]
+                q = slip[k]
+                f -= C[n:].T @ np.concatenate([act * (M @ q[:n]), act * (M @ q[n:])])
         if self.C is not None:
             gg = np.concatenate([g[k] for k, _, _ in self.spec.kin])
             aa = np.concatenate([active[k] for k, _, _ in self.spec.kin])
@@ -94,11 +103,21 @@ class BodyState:
         u, lam = self.elastic.solve(f, self.uD, self.C, gg, aa)
         self.u = u
         out = {}
-        for i, (k, C, _) in enumerate(self.spec.kin):
+        for i, (k, C, M) in enumerate(self.spec.kin):
             r = lam[self.rows[i]:self.rows[i + 1]]
-            out[("a", k)] = (C @ u, _pressures(self.spec.kin[i][2], r, active[k]))
+            n = M.shape[0]
+            Cu, a = C @ u, active[k]
+            out[("a", k)] = (Cu[:n], _pressures(M, r[:n], a[:n]))
+            if k in self.spec.friction:  # tangential displacements, stick tractions
+                out[("at", k)] = (Cu[n:], np.concatenate(
+                    [_pressures(M, r[j * n:(j + 1) * n], a[j * n:(j + 1) * n]) for j in (1, 2)]))
         for k, I, _ in self.spec.force:
-            out[("b", k)] = I @ u
+            Iu = I @ u
+            if k in self.spec.friction:
+                n = len(Iu) // 3
+                out[("b", k)], out[("bt", k)] = Iu[:n], Iu[n:]
+            else:
+                out[("b", k)] = Iu
         self.seconds["solves"] += time.perf_counter() - t0
         return out
 

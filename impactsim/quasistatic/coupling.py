@@ -53,6 +53,7 @@ class Interface:
     heat_b: tuple | None = None  # A's quadrature points, B's interpolation there (and conversely)
     facets_a: np.ndarray | None = None
     facets_b: np.ndarray | None = None
+    tangential: object | None = None  # friction.Tangential: the rows and transfer of friction
 
 
 def faceting(space: Space, facets: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -121,9 +122,12 @@ def _sub_rule(level: int) -> tuple[np.ndarray, np.ndarray]:
     return pts, np.full(len(pts), 1.0 / len(pts))
 
 
-def transfer_matrix(sa: Space, facets_a, nodes, sb: Space, facets_b, h: float) -> sp.csr_matrix:
+def transfer_matrix(sa: Space, facets_a, nodes, sb: Space, facets_b, h: float,
+                    directions: np.ndarray | None = None) -> sp.csr_matrix:
     """G_b (3 N_B x n): B's nodal forces of the traction -p n_B, p interpolated from A's nodal
-    pressures, points off A's patch getting no pressure. B's facets whose corners, edge
+    pressures, points off A's patch getting no pressure (with `directions` (n, 3): of the
+    traction sum_m phi_m p_m d_m instead, the vector field interpolated from A's nodal
+    values: friction.py's tangential tractions). B's facets whose corners, edge
     midpoints and centroid all lie on A's patch are integrated on 4 sub-triangles, those A
     covers in part on 4^SUBDIVISION (the force of the covered part to within the sub-triangle
     size), those with none of those points on it are skipped. The rule is of degree 2 on each
@@ -138,7 +142,7 @@ def transfer_matrix(sa: Space, facets_a, nodes, sb: Space, facets_b, h: float) -
     G = sp.csr_matrix((3 * sb.n, len(nodes)))
     for mask, level in ((full, 1), (part, SUBDIVISION)):
         if mask.any():
-            G = G + _transfer(sa, facets_a, nodes, sb, facets_b[mask], h, level)
+            G = G + _transfer(sa, facets_a, nodes, sb, facets_b[mask], h, level, directions)
     return G.tocsr()
 
 
@@ -150,7 +154,8 @@ def _on_patch(sa: Space, facets_a, points: np.ndarray, normals: np.ndarray, h: f
     return off <= 1e-6 * h
 
 
-def _transfer(sa: Space, facets_a, nodes, sb: Space, facets_b, h: float, level: int):
+def _transfer(sa: Space, facets_a, nodes, sb: Space, facets_b, h: float, level: int,
+              directions: np.ndarray | None = None):
     bary, w = _sub_rule(level)
     xb, nb = sb.facet_geometry(facets_b)  # (nf, 3, 3), (nf, 3)
     area = 0.5 * np.linalg.norm(np.cross(xb[:, 1] - xb[:, 0], xb[:, 2] - xb[:, 0]), axis=1)
@@ -177,7 +182,8 @@ def _transfer(sa: Space, facets_a, nodes, sb: Space, facets_b, h: float, level: 
         for c in range(3):
             rows.append(3 * fd[j, fq] + c)
             cols.append(ca)
-            data.append(-nb[fq, c] * vals[qa, j] * wq[qa] * va)
+            d = -nb[fq, c] if directions is None else directions[ca, c]
+            data.append(d * vals[qa, j] * wq[qa] * va)
     return sp.csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))),
                          shape=(3 * sb.n, len(nodes)))
 

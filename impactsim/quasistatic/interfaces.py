@@ -19,8 +19,9 @@ import time
 from collections import deque
 
 import numpy as np
+import scipy.sparse as sp
 
-from impactsim.quasistatic import coupling
+from impactsim.quasistatic import coupling, friction
 from impactsim.quasistatic.body import BodySpec
 from impactsim.quasistatic.matching import boxes_overlap, detect, locate
 from impactsim.quasistatic.model import ContactRule, Problem
@@ -148,6 +149,7 @@ def setup(problem: Problem):
         interfaces.append(coupling.build(a, b, spaces[a], spaces[b], fa, fb, rule.friction,
                                          rule.conductance, rule.tied))
         interfaces[-1].anchor = k in anchored
+        friction.attach(interfaces[-1], spaces[a], spaces[b])
     thermal_bodies = any(c.kind in ("temperature", "flux", "exchange", "source")
                          for b in bodies for c in b.conditions)
     thermal = thermal_bodies or any(itf.conductance > 0 for itf in interfaces)
@@ -157,8 +159,16 @@ def setup(problem: Problem):
              for i, b in enumerate(bodies)]
     route = {}
     for c, itf in enumerate(interfaces):
-        specs[itf.a].kin.append((c, itf.C_a, itf.M_a))
-        specs[itf.b].force.append((c, itf.I_b, itf.G_b))
+        T = itf.tangential
+        if T is None:
+            specs[itf.a].kin.append((c, itf.C_a, itf.M_a))
+            specs[itf.b].force.append((c, itf.I_b, itf.G_b))
+        else:  # friction: tangential rows and tractions beside the normal ones
+            specs[itf.a].kin.append((c, sp.vstack([itf.C_a, T.C_t]).tocsr(), itf.M_a))
+            specs[itf.b].force.append((c, sp.vstack([itf.I_b, T.I_t]).tocsr(),
+                                       sp.hstack([itf.G_b, T.G_t]).tocsr()))
+            specs[itf.a].friction.add(c)
+            specs[itf.b].friction.add(c)
         if itf.heat_a is not None:
             H, L, P = itf.heat_a
             specs[itf.a].heat.append(((c, "a"), H, L))

@@ -8,7 +8,10 @@ rules), solved at once with Lagrange multipliers: one sparse LU of
     [ 0          K_b   -G_b M_aa^-1    ] [u_b] = [f_b]
     [ C_a       -I_b    0              ] [lam]   [gap]
 
-(one block row per body and per interface), repeated until the active set settles. Bodies held
+(one block row per body and per interface), repeated until the active set settles. With
+friction (friction.py) the stick nodes add tangential rows and multipliers, the slip nodes the
+tractions mu p d (linear in the multipliers), and the stick/slip sets settle with the active set
+by the iteration's rules. Bodies held
 only by their contacts get the same proximal weak springs as in the iteration, so the converged
 answer does not depend on them. Temperatures come from the bodies' heat solvers as given.
 """
@@ -19,14 +22,17 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
+from impactsim.quasistatic import friction
 from impactsim.quasistatic.body import BodyState
 from impactsim.quasistatic.schwarz import update_active
 
 
 def solve_monolithic(states: dict[int, BodyState], interfaces, scale: float = 1.0,
                      max_active_iterations: int = 50, proximal_iterations: int = 30,
-                     tolerance: float = 1e-12) -> tuple[dict[int, np.ndarray], list]:
-    """Displacements per body and the active sets per interface."""
+                     tolerance: float = 1e-12, friction_states: list | None = None
+                     ) -> tuple[dict[int, np.ndarray], list]:
+    """Displacements per body and the active sets per interface (and, into
+    `friction_states` when given, the friction.FrictionState per interface)."""
     order = sorted(states)
     off = {}
     n = 0
@@ -37,11 +43,15 @@ def solve_monolithic(states: dict[int, BodyState], interfaces, scale: float = 1.
         n += len(st.elastic.F)
     active = [itf.matched & ((itf.gap <= 1e-6 * np.sqrt(itf.M_a.diagonal().mean())) | itf.tied)
               for itf in interfaces]
+    fstates = friction.initial(interfaces, active)
+    friction.begin_step(fstates)
+    if friction_states is not None:
+        friction_states.extend(fstates)
     u_prev = {i: np.zeros(states[i].elastic.ndof) for i in order}
     u = u_prev
     for _ in range(max_active_iterations):
         for _ in range(proximal_iterations):
-            u, lam = _solve(states, interfaces, active, off, n, u_prev)
+            u, lam, fric = _solve(states, interfaces, active, off, n, u_prev, fstates)
             change = max(np.max(np.abs(u[i] - u_prev[i]), initial=0) for i in order)
             size = max(np.max(np.abs(u[i]), initial=0) for i in order)
             u_prev = u
@@ -56,13 +66,15 @@ def solve_monolithic(states: dict[int, BodyState], interfaces, scale: float = 1.
             pen = ua - ub - itf.gap
             pscale = max(max(np.max(np.abs(q), initial=0) for q in lam), 1e-30)
             new.append(update_active(itf, active[c], p, pen, 1e-4 * size, pscale))
-        if all((a == b).all() for a, b in zip(new, active)):
+        fchanged = friction.monolithic_update(interfaces, fstates, *fric, u, lam, active, new,
+                                              size)
+        if all((a == b).all() for a, b in zip(new, active)) and not fchanged:
             return u, active
         active = new
     raise RuntimeError("monolithic: the active set did not settle")
 
 
-def _solve(states, interfaces, active, off, n, u_prev):
+def _solve(states, interfaces, active, off, n, u_prev, fstates=None):
     rows, cols, vals = [], [], []
     rhs = np.zeros(n)
 
@@ -99,6 +111,9 @@ def _solve(states, interfaces, active, off, n, u_prev):
         g = itf.gap[idx] - Ca[:, ea.D] @ states[itf.a].uD + Ib[:, eb.D] @ states[itf.b].uD
         extra_rhs.append(g)
         m += len(idx)
+    f_rhs, f_slices, m = friction.monolithic_blocks(states, interfaces, active, fstates,
+                                                    lam_slices, off, m, add)
+    extra_rhs += f_rhs
     A = sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                       shape=(m, m))
     b = np.concatenate([rhs] + extra_rhs)
@@ -117,4 +132,4 @@ def _solve(states, interfaces, active, off, n, u_prev):
             Maa = interfaces[c].M_a[idx][:, idx].toarray()
             p[idx] = np.linalg.solve(Maa, x[m0:m0 + len(idx)])
         lam.append(p)
-    return u, lam
+    return u, lam, (f_slices, x)

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from impactsim.quasistatic import friction
 from impactsim.quasistatic.coupling import Interface
 from impactsim.quasistatic.model import Settings
 
@@ -48,6 +49,7 @@ class ContactState:
     p: list[np.ndarray]
     ua: list[np.ndarray] = field(default_factory=list)
     ub: list[np.ndarray] = field(default_factory=list)
+    friction: list = field(default_factory=list)  # friction.FrictionState or None per interface
 
 
 def update_active(itf: Interface, act: np.ndarray, p: np.ndarray, penetration: np.ndarray,
@@ -203,7 +205,8 @@ def initial_state(interfaces: list[Interface]) -> ContactState:
         scale = np.sqrt(itf.M_a.diagonal().mean()) if itf.M_a.shape[0] else 1.0
         act.append(itf.matched & ((itf.gap <= 1e-6 * scale) | itf.tied))
     return ContactState([itf.gap.copy() for itf in interfaces], act,
-                        [np.zeros(len(itf.gap)) for itf in interfaces])
+                        [np.zeros(len(itf.gap)) for itf in interfaces],
+                        friction=friction.initial(interfaces, act))
 
 
 def heat_phase(pool, route: dict, settings: Settings, dt: float | None, log: list) -> int:
@@ -236,6 +239,7 @@ def heat_phase(pool, route: dict, settings: Settings, dt: float | None, log: lis
 def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state: ContactState,
                     scale: float, log: list, step: int) -> dict:
     pool.call("mech_begin", scale)
+    friction.begin_step(state.friction)
     n_b = len(interfaces)
     omega = settings.relaxation
     om = np.full(n_b, omega)  # per interface (one value today)
@@ -250,6 +254,7 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
             inputs[itf.a][0][c] = state.g[c]
             inputs[itf.a][1][c] = state.active[c]
             inputs[itf.b][2][c] = state.p[c]
+        friction.add_inputs(inputs, interfaces, state)
         out = pool.call("mech_solve", per_body=inputs)
         u_scale = 1e-30
         p_scale = 1e-30
@@ -290,8 +295,15 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
                                p_scale, release=settle)
             changed |= bool((na != act).any())
             new_active.append(na)
-        r = np.concatenate(residuals) if residuals else np.zeros(0)
-        if not all(np.isfinite(v) for v in (gap_res, p_change, u_scale, p_scale)):
+        # (stick and slip are decided on settled iterates, never on the first one)
+        fm, pending = friction.measure(interfaces, state, out, pa_all, new_active,
+                                       settle and it > 1, u_scale, p_scale)
+        gap_res, p_change = max(gap_res, fm.gap), max(p_change, fm.change)
+        changed |= fm.changed
+        r = np.concatenate(residuals + fm.residuals) if residuals else np.zeros(0)
+        # (Python's max drops NaN, so the residual vector is checked too)
+        if not all(np.isfinite(v) for v in (gap_res, p_change, u_scale, p_scale)) or \
+                not np.isfinite(r).all():
             raise NotConverged(f"Schwarz iteration: diverged at iteration {it} (the "
                                f"mismatches are not finite)")
         if settings.aitken and r_old is not None and not changed and len(r) == len(r_old) \
@@ -323,6 +335,7 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
             state.g[c] = np.where(new_active[c], state.g[c] + om[c] * residuals[c] + pred,
                                   ub_all[c] + interfaces[c].gap)
             state.p[c] = p_new[c] + dp.get(c, 0.0)
+        friction.advance(state, pending, om)
         if changed:
             last_change = it
         state.active = new_active

@@ -40,8 +40,9 @@ ANP_ELEMENT = 8  # vol_eos (float64)
 # per-face and per-edge rows of the boundary (counted per element: a bulk bound)
 CONTACT_ELEMENT = 16 + 4 + 1.2 * 16 + 48 + 32 + 1 + 4 + 16
 # the fracture state: Boundary (conn, elem_body copies, adjacency 4 int64, face flags, face
-# positions 4 int64, alive), action (int8), ids (int64), eps_p_prev (float64)
-FRACTURE_ELEMENT = 16 + 4 + 32 + 4 + 32 + 1 + 1 + 8 + 8
+# positions 4 int64, alive), action (int8), ids (int64), eps_p_prev and the Tuler-Butcher
+# accumulator spall_k (float64)
+FRACTURE_ELEMENT = 16 + 4 + 32 + 4 + 32 + 1 + 1 + 8 + 8 + 8
 FRACTURE_NODE = 4  # node_live (int32)
 # peak during setup over the kept state: 1.2-1.35 measured for a block on a wall at 1M-2M
 # elements (benchmarks/bench_scale.py), up to 1.6 with contact and fracture at 120k-160k

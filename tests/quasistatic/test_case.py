@@ -95,8 +95,8 @@ def test_a_run_that_does_not_converge_exits_3_and_keeps_its_files(tmp_path):
     (('element = "tet4"', 'element = "tet8"'), "quasistatic.element"),
     (('[quasistatic]', '[quasistatic]\nrelaxtion = 0.5'), "did you mean 'relaxation'"),
     (('material = "steel-elastic"', 'material = "unobtainium"'), "unknown material"),
-    (('[quasistatic]', '[[contact.pair]]\nbodies = ["lower", "upper"]\nfriction = 0.3\n[quasistatic]'),
-     "friction is not available yet"),
+    (('[quasistatic]', '[[contact.pair]]\nbodies = ["lower", "upper"]\nfriction = -0.3\n[quasistatic]'),
+     "contact.pair[0].friction: must be >= 0"),
 ])
 def test_bad_input_is_one_line_naming_file_and_key(tmp_path, change, message):
     text = SMALL.replace(*change, 1)

@@ -54,6 +54,8 @@ velocity = ["0 m/s", "0 m/s", "-2 km/s"]
 [contact]
 passes = ["node-face", "edge-edge"]
 [fracture]
+spall_criterion = "instant"  # [D19]'s spall, as cases/sphere-plate.toml
+spall_pressure = "cell"
 particles_per_element = 1
 particle_collisions = true
 [output]

@@ -330,6 +330,31 @@ failure = { fracture_strain = 1.0, spall_strength = "none", loosening = "none" }
         ', spall_strength = "none", loosening = "none"', ""))
     assert full.materials["plate"].failure.spall_strength == 1.6e9
 
+    assert full.materials["plate"].failure.spall_time == pytest.approx(0.2e-6)
+
+
+def test_spall_time_and_criterion_keys(tmp_path):
+    """failure.spall_time (the Tuler-Butcher time, fracture/spall.py) comes from the library
+    and can be replaced or switched off; [fracture] spall_criterion and spall_pressure default
+    to the time integral on the lesser tension; bad values name key and file in one line."""
+    text = BASE + """
+[[material]]
+name = "plate"
+library = "al-6061-t6"
+failure = { spall_time = "50 ns" }
+"""
+    case = load(tmp_path, text.replace('material = "al"', 'material = "plate"'))
+    assert case.materials["plate"].failure.spall_time == pytest.approx(50e-9)
+    assert case.fracture.spall_criterion == "tuler-butcher"
+    assert case.fracture.spall_pressure == "lesser"
+    off = load(tmp_path, text.replace('material = "al"', 'material = "plate"').replace(
+        '"50 ns"', '"none"'))
+    assert off.materials["plate"].failure.spall_time is None
+    msg = error(tmp_path, text.replace('material = "al"', 'material = "plate"').replace(
+        '"50 ns"', '"-1 ns"'))
+    assert "spall_time" in msg and "\n" not in msg.strip()
+    msg = error(tmp_path, text + '[fracture]\nspall_criterion = "slow"\n')
+    assert "spall_criterion" in msg and "\n" not in msg.strip()
 
 def test_library_merge_model_change_and_elastic_set(tmp_path):
     text = BASE + """

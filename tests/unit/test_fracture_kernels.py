@@ -7,6 +7,7 @@ from impactsim.case.schema import Failure, Fracture
 from impactsim.fracture import make_fracture_passes
 from impactsim.fracture.principal import max_principal, max_principal_stretch
 from impactsim.fracture.removal import remove_elements
+from impactsim.fracture.spall import SPALL_CELL, SPALL_LESSER, SPALL_PATCH
 from impactsim.model import DAMAGED, ERODED, FRACTURED, INTACT
 from impactsim.solver.loop import Simulation
 from impactsim.solver.nodal import move
@@ -78,7 +79,7 @@ def test_spall_then_loosening_thresholds():
     chi = 1 - V0/V > chi* FRACTURED."""
     model, passes = _fracture_model(Failure(spall_strength=1e9, loosening=0.03))
     frac = passes[-1]
-    frac.s.patch_spall = True  # [fracture] spall_pressure = "patch"
+    frac.s.spall_mode = SPALL_PATCH  # [fracture] spall_pressure = "patch"
     n = model.n_elem
     model.pressure[:] = 0.0
     model.sdev[:] = 0.0
@@ -106,11 +107,18 @@ def test_spall_then_loosening_thresholds():
 
 
 def test_cell_spall_reads_the_element_s_own_pressure():
-    """spall_pressure = "cell" (the default, [D19]): one cell in tension 1.2 GPa among
-    unloaded neighbours spalls, its neighbours do not."""
+    """spall_pressure = "cell" ([D19]): one cell in tension 1.2 GPa among unloaded neighbours
+    spalls, its neighbours do not; under the default "lesser" it does not (its patch is not
+    in that tension)."""
     model, passes = _fracture_model(Failure(spall_strength=1e9, loosening=0.03))
     frac = passes[-1]
-    assert not frac.s.patch_spall
+    assert frac.s.spall_mode == SPALL_LESSER  # the default
+    model.pressure[:] = 0.0
+    model.sdev[:] = 0.0
+    model.pressure[2] = -1.2e9
+    frac.run(model, 1e-9)
+    assert np.count_nonzero(model.status == DAMAGED) == 0
+    frac.s.spall_mode = SPALL_CELL
     model.pressure[:] = 0.0
     model.sdev[:] = 0.0
     model.pressure[2] = -1.2e9
@@ -280,3 +288,39 @@ def test_hole_is_measured_on_the_plates_largest_piece():
     assert hole["definition"] == HOLE_DEFINITION
     # the ring alone would be pi (5^2 - 3^2) = 50 mm^2; the opening is pi 5^2 = 79 mm^2
     assert np.pi * 4.5e-3 ** 2 < hole["area"] < np.pi * 5.5e-3 ** 2
+
+
+def test_tuler_butcher_spall_integrates_the_tension_over_time():
+    """spall_criterion = "tuler-butcher" (the default) with spall_time tau: a uniform tension
+    of 2 sigma_0 (integrand sigma_1 / sigma_0 - 1 = 1) damages after tau, not one step before;
+    1.5 sigma_0 after 2 tau; below sigma_0 nothing accumulates (each cell's own pressure).
+    "instant" damages at once."""
+    tau, dt = 0.2e-6, 1e-9
+    model, passes = _fracture_model(Failure(spall_strength=1e9, loosening=0.03, spall_time=tau),
+                                    spall_pressure="cell")
+    frac = passes[-1]
+    assert Fracture().spall_criterion == "tuler-butcher" and frac.s.spall_integrate
+    model.sdev[:] = 0.0
+    model.pressure[:] = -2e9
+    model.pressure[0] = -1.5e9
+    model.pressure[1] = -0.99e9
+    steps = round(tau / dt)
+    for _ in range(steps - 1):
+        frac.run(model, dt)
+    assert np.count_nonzero(model.status == DAMAGED) == 0
+    frac.run(model, dt)
+    frac.run(model, dt)  # tau reached (within the rounding of the sum)
+    damaged = model.status == DAMAGED
+    assert damaged[2:].all() and not damaged[:2].any()
+    for _ in range(steps + 2):
+        frac.run(model, dt)
+    assert model.status[0] == DAMAGED and model.status[1] == INTACT
+    assert frac.s.spall_k[1] == 0.0
+    # the same material under the instantaneous criterion of [D19]
+    model, passes = _fracture_model(Failure(spall_strength=1e9, loosening=0.03, spall_time=tau),
+                                    spall_criterion="instant")
+    frac = passes[-1]
+    model.sdev[:] = 0.0
+    model.pressure[:] = -1.01e9
+    frac.run(model, dt)
+    assert np.all(model.status == DAMAGED)
