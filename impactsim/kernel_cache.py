@@ -6,9 +6,12 @@ inlined, so after an edit of, say, the Johnson-Cook return in solver/element.py 
 of solver/hex8.py still loads its old code from the cache: the run silently uses the previous
 physics (found when a benchmark of a changed kernel timed the old one).
 
-`refresh()` closes that gap for the package as a whole: it hashes every source file of
-impactsim and, when the hash differs from the one stored beside the cache, removes the cached
-kernels (`__pycache__/*.nbi, *.nbc`) so that they are compiled afresh from the current sources.
+`refresh()` closes that gap for the package as a whole: it hashes the sources a kernel can
+depend on (every file that uses numba, and the package modules those import at their top: the
+constants numba freezes into a kernel, e.g. model.py's status codes) and, when the hash differs
+from the one stored beside the cache, removes the cached kernels (`__pycache__/*.nbi, *.nbc`)
+so that they are compiled afresh from the current sources. An edit elsewhere (the CLI, the case
+validation, the quasi-static solver) keeps the cache.
 The CLI calls it once per command and the warm-up before compiling, in the parent process,
 never in workers. Hashing the sources costs a few milliseconds. A read-only installation
 (nothing can be cached there either) is left alone.
@@ -17,16 +20,34 @@ never in workers. Hashing the sources costs a few milliseconds. A read-only inst
 from __future__ import annotations
 
 import hashlib
+import re
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent
 STAMP = PACKAGE / "__pycache__" / "kernel-sources.sha256"
 
 
+_IMPORT = re.compile(r"^from impactsim((?:\.\w+)*) import \(?([^)\n]*)", re.M)
+
+
+def kernel_sources(package: Path = PACKAGE) -> list[Path]:
+    """The files a cached kernel can depend on: those that use numba, and the package modules
+    they import at their top level (one level: what those modules import is found when they
+    use numba themselves)."""
+    files = {f for f in package.rglob("*.py") if "numba" in f.read_text()}
+    for f in list(files):
+        for dotted, names in _IMPORT.findall(f.read_text()):
+            base = package.joinpath(*dotted.split(".")[1:])
+            found = [base.with_suffix(".py"), base / "__init__.py"]
+            found += [base / f"{n.split(' as ')[0].strip()}.py" for n in names.split(",")]
+            files.update(c for c in found if c.is_file())
+    return sorted(files)
+
+
 def source_digest(package: Path = PACKAGE) -> str:
-    """The SHA-256 of every .py file of the package, by relative path and content."""
+    """The SHA-256 of `kernel_sources`, by relative path and content."""
     h = hashlib.sha256()
-    for f in sorted(package.rglob("*.py")):
+    for f in kernel_sources(package):
         h.update(str(f.relative_to(package)).encode())
         h.update(b"\0")
         h.update(f.read_bytes())

@@ -135,11 +135,13 @@ DISTORTION_TE = {False: 0.5, True: 0.9}
 # node separation [Z] (fracture/separation.py) per element of a separable body and step, and
 # contact with self-contact per boundary face and step (every face also searched against its
 # own body's, the faces that node separation opens inside included): fitted in-sample to the
-# first 1.5 us of three-plate-shield (its passes' seconds times the run's CPU / wall, 0.18 of
-# a core, at the calibrated 68 ns per element-step: 12.2 and 62 t_e), one case; there its
-# element loop cost 1.6 t_e per tet-step and the node passes 0.24 (a separable body's
-# elements each have their own corner nodes, build.split_points), SEPARABLE_COST times a tet's
-SEPARATION_TE = 12.0
+# first 1.5 us of three-plate-shield (its passes' seconds times the run's CPU / wall, 0.21 of
+# a core, at the calibrated 69 ns per element-step: 3.6 and 64 t_e; 12.2 for the separation
+# before its refresh in place, d766aef), one case; there its element loop cost 1.6 t_e per
+# tet-step and the node passes 0.24 (a separable body's elements each have their own corner
+# nodes, build.split_points), SEPARABLE_COST times a tet's, and its criteria and particle
+# passes 1.1 t_e per element-step (FRACTURE_TE)
+SEPARATION_TE = 3.6
 SELF_CONTACT_TE_PER_FACE = 60.0
 SEPARABLE_COST = 1.5
 FRAME_TE_PER_ELEMENT = {"zlib": 45.0, "none": 12.0}
@@ -685,18 +687,21 @@ def _hex_cost(case: Case, body: Body) -> float:
 
 def fracture_work(case: Case, per_body: dict, steps: int) -> float:
     """The fracture passes of a run in element-steps of t_e (module docstring): the criteria
-    over every element when a material can fail (FRACTURE_TE a tet, HEX_FRACTURE_TE a hex), the
+    and particle passes over every element (FRACTURE_TE a tet, HEX_FRACTURE_TE a hex), the
     distortion check every distortion_interval (DISTORTION_TE per element and check), and node
     separation every step over the bodies whose material has a fracture strain
-    (SEPARATION_TE). 0 when no fracture pass runs."""
+    (SEPARATION_TE). 0 when no fracture pass runs (no failure data, no fracture strain, no
+    distortion erosion: fracture/passes.py, fracture_wanted)."""
     mats = [case.materials[b.material].failure for b in case.bodies]
     counts = [float(n or 0) for n in per_body.values()]
     hexes = [b.element == "hex8" for b in case.bodies]
-    work = 0.0
-    if any(f.active for f in mats):
-        work += steps * sum(n * (HEX_FRACTURE_TE if h else FRACTURE_TE)
-                            for n, h in zip(counts, hexes))
     interval = case.fracture.distortion_interval
+    if not (any(f.active or f.fracture_strain is not None for f in mats)
+            or interval is not None):
+        return 0.0  # no fracture pass runs (fracture/passes.py, fracture_wanted)
+    # the criteria and particle passes run over every element once any fracture pass runs
+    work = steps * sum(n * (HEX_FRACTURE_TE if h else FRACTURE_TE)
+                       for n, h in zip(counts, hexes))
     if interval is not None and interval > 0.0:
         checks = min(float(steps), case.run.end_time / interval)  # at most one a step
         work += checks * sum(n * DISTORTION_TE[h] for n, h in zip(counts, hexes))

@@ -5,9 +5,8 @@ sphere through plate 1); the slow one the whole 25 us.
 What must hold: the run reaches its end time, mass to round-off, momentum (mesh plus particles:
 no wall, no constraint) to round-off of the impact momentum, the energy balance within its
 bound, no fragment through the next plate (nothing of the other bodies beyond plate 3's rear
-face as it is, bulged; contact's max_penetration under a tenth of the plates' cells while the
-cloud crosses the gaps, up to about a cell once the cloud hits plate 3: docs/fracture.md, a
-known defect), plate 1 perforated, and the debris-cloud statistics in summary.json."""
+face as it is, bulged; contact's max_penetration under a tenth of the plates' cells to 2 us,
+under 50 um to 25 us), plate 1 perforated, and the debris-cloud statistics in summary.json."""
 
 from pathlib import Path
 
@@ -79,9 +78,11 @@ def test_shield_first_microseconds(tmp_path, monkeypatch):
 def test_shield_whole_run(tmp_path, monkeypatch):
     """The whole 25 us: the cloud meets plates 2 and 3, plate 3 stops it."""
     s, hist, model = _run(tmp_path, "25 us", monkeypatch)
-    # once the cloud reaches plate 3 (20 us) the meter finds 0.9-2 mm of overlap on these
-    # 2-2.65 mm cells (docs/fracture.md: three-plate shield); nothing gets through plate 3
-    _check(s, hist, model, 0.03, 1.3 * H)
+    # the cloud reaches plate 3 at 20 us: 1.6 um of overlap at most (7.9 um before the
+    # released elements' centred viscous heat); 1.1-1.95 mm while the particle pass ran after
+    # the contact passes and pushed light fragment corners into plate 3 (docs/fracture.md:
+    # three-plate shield)
+    _check(s, hist, model, 0.03, 0.025 * H)
     assert s["shield"]["plates"][1]["perforated"] and s["shield"]["d2"] > 7.9e-3
     # plate 3 has stopped the cloud: its front moves at a fraction of the 5.5 km/s (the bulge
     # of plate 3: 470-580 m/s measured)

@@ -76,6 +76,7 @@ def test_refreshes_in_place_equal_rebuilds(text, steps):
     assert np.array_equal(runs[0][0], runs[1][0]) and np.array_equal(runs[0][1], runs[1][1])
 
 
+@pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two numba threads")
 def test_rows_in_place_same_bits_on_two_threads():
     """The force rows updated in place keep one writer per row: two threads give the bits of
     one (the torn block, 60 steps)."""
