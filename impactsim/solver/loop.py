@@ -226,11 +226,14 @@ class Simulation:
 
         The balance is time-centred. After a step the velocities are those of t^{n+1/2} and the
         stresses, internal energy and forces those of t^{n+1}; the work of prescribed velocities
-        is booked up to t^{n+1/2} (constraints.py). ``half_step_energy`` = dtv/2 sum F^{n+1} .
-        U^{n+1/2} (dtv the coming velocity step) is what the forces add from t^{n+1/2} to
-        t^{n+1}: with it the kinetic energy is the leapfrog's time-centred one, 1/2 m
-        U^{n+1/2} . U^{n+3/2}, and at a prescribed node it is the reaction's work over that half
-        step. Without it a body driven from rest (a prescribed velocity, an initial strain-rate
+        is booked up to t^{n+1/2} (constraints.py). ``half_step_energy`` = dt/2 sum F^{n+1} .
+        U^{n+1/2} (dt the step just taken: t^{n+1} - t^{n+1/2} = dt/2) is what the forces add
+        from t^{n+1/2} to t^{n+1}, and at a prescribed node the reaction's work over that half
+        step. With a constant step it makes the kinetic energy the leapfrog's time-centred one,
+        1/2 m U^{n+1/2} . U^{n+3/2}; when the step changes it stays the work of the half step
+        the stress work was booked over (weighted by the coming velocity step instead, a
+        release that halved the next step lost a quarter of a step's stress work from the
+        balance until the step after). Without it a body driven from rest (a prescribed velocity, an initial strain-rate
         field) books its first step's stress work a step before the kinetic energy or the
         external work that pays for it (+14-18 % of the energy at step 1); the kinetic energy
         reported stays 1/2 m |U^{n+1/2}|^2."""
@@ -243,7 +246,7 @@ class Simulation:
 
             ie += block_internal_energy(m)
         t = m.energy_terms
-        half = 0.5 * self.next_dtv() * power
+        half = 0.5 * self.dt * power
         out = {"kinetic_energy": ke, "internal_energy": ie, "viscous_energy": t["viscous"],
                "contact_dissipated": t["contact_dissipated"], "external_work": t["external_work"],
                "eroded_energy": t["eroded"]}
@@ -258,14 +261,6 @@ class Simulation:
             out["hourglass_energy"] = t["hourglass"]
             out["total_energy"] += t["hourglass"]
         return out
-
-    def next_dtv(self) -> float:
-        """The velocity step the next step's predictor will take (step() without a time limit);
-        0 when there is no stable step (no elements)."""
-        dt = self.next_dt()
-        if not (dt > 0.0 and math.isfinite(dt)):
-            return 0.0
-        return 0.5 * (self.dt + dt) if self.dt > 0.0 else 0.5 * dt
 
     def momentum(self) -> np.ndarray:
         m = self.model
