@@ -20,11 +20,10 @@ from impactsim.solver.scatter import force_rows
 class BlockRunner:
     """Buffers and caches of one further element block and the call of its kernel."""
 
-    def __init__(self, model: Model, block: ElementBlock, part_size: int | None = None):
+    def __init__(self, model: Model, block: ElementBlock, part_size: int = H.PART):
         if block.kind != "hex8":
             raise ValueError(f"unknown element block kind {block.kind!r}")
         self.block = block
-        part_size = H.part_size(block.n_elem) if part_size is None else part_size
         self.rows = force_rows(block.conn, model.n_node, part_size)
         self.fext = np.zeros((self.rows.n_rows, 3))
         self.chunk_out = np.zeros((H.n_chunks(block.n_elem), H.N_OUT))

@@ -63,9 +63,7 @@ from impactsim.solver.scatter import take_node
 
 B = E.B  # lanes of a block of the vector path (hex8_block.py)
 CHUNK = 256  # hexes per reduction chunk (a multiple of B)
-PART = 4 * CHUNK  # the fewest hexes per part (the unit of work of a thread)
-PART_MAX = 32 * CHUNK  # the most
-MIN_PARTS = 16  # parts a block has at least while they can be PART hexes or more
+PART = 4 * CHUNK  # hexes per part (the unit of work of a thread)
 OUT_DT, OUT_QWORK, OUT_INVERTED, OUT_WORST, OUT_HGWORK = 0, 1, 2, 3, 4
 N_OUT = 5
 SCRATCH = 8 * 3 * 4 + 8  # per-thread work space of `_hex_element`
@@ -95,17 +93,6 @@ def n_chunks(n_elem: int) -> int:
 _VD = ((1, 2, 3, 4, 5, 7), (2, 3, 0, 5, 6, 4), (3, 0, 1, 6, 7, 5), (0, 1, 2, 7, 4, 6),
        (7, 6, 5, 0, 3, 1), (4, 7, 6, 1, 0, 2), (5, 4, 7, 2, 1, 3), (6, 5, 4, 3, 2, 0))
 VD = np.array(_VD, dtype=np.int64)
-
-
-def part_size(n_elem: int) -> int:
-    """Hexes per part of a block of n_elem: PART_MAX while the block has MIN_PARTS parts of it,
-    down to PART (whole chunks). A function of n_elem alone, never of the number of threads,
-    so that the bits stay the same on any number of threads, and at least MIN_PARTS parts keep
-    two threads' shares even. Larger parts have fewer border nodes, so fewer further force rows
-    to write, read and zero: the 110,592 hexes of the bench (bench_hex.py) take parts of 6,912
-    hexes with 12k further rows (5 % of the corners add to one) against 41k (16 %) for parts of
-    1,024; the kernel alone, `benchmarks/hex_ab.py`, 1.02-1.05 times faster."""
-    return CHUNK * max(PART // CHUNK, min(PART_MAX // CHUNK, n_elem // (MIN_PARTS * CHUNK)))
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)

@@ -217,7 +217,7 @@ def test_one_and_two_threads_give_the_same_bits():
             from impactsim.mesh import mesh_body
 
             model = build_model(case, [mesh_body(case.bodies[0])])
-            assert model.blocks[0].n_elem > 2 * H.part_size(model.blocks[0].n_elem)
+            assert model.blocks[0].n_elem > 2 * H.PART
             sim = Simulation(model, build_passes(case, model))
             for _ in range(40):
                 sim.step()
