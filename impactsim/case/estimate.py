@@ -355,10 +355,10 @@ def body_min_length(body: Body) -> float | None:
     if body.shape == "file":
         return None
     if body.element == "hex8":  # the hex kernel's V / largest face area
-        from impactsim.mesh.hexes import hex_report
+        from impactsim.mesh.hexes import hex_lengths
 
         if _hex_count(body) <= HEX_MESH_LIMIT:
-            return hex_report(*_hex_mesh(body), 1.0, 1.0)["length_min"]
+            return float(hex_lengths(*_hex_mesh(body)).min())
         if body.shape in ("box", "plate"):  # a box cell's V / largest face: its least side
             return min(length / max(1.0, round(length / body.mesh_size))
                        for length in d["size"])

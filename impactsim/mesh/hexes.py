@@ -285,6 +285,15 @@ HEX_JACOBIAN_WARN = 0.2  # scaled corner Jacobian below which the report warns
 HEX_WARP_WARN = 30.0  # [deg]
 
 
+def hex_lengths(points: np.ndarray, hexes: np.ndarray,
+                volume: np.ndarray | None = None) -> np.ndarray:
+    """The hex kernel's element length (solver/hex8.py): V / its largest face area, (e,)."""
+    f = points[hexes][:, _FACES]
+    area = 0.5 * np.linalg.norm(np.cross(f[:, :, 2] - f[:, :, 0], f[:, :, 3] - f[:, :, 1]),
+                                axis=-1).max(axis=1)
+    return (hex_volumes(points, hexes) if volume is None else volume) / area
+
+
 def hex_report(points: np.ndarray, hexes: np.ndarray, wave_speed: float, cfl: float) -> dict:
     """The `impactsim mesh` numbers of a hex body: counts, volume, edge lengths, the quality
     measures of `hex_quality` and the expected stable step cfl * min(V / largest face area) / c
@@ -294,10 +303,7 @@ def hex_report(points: np.ndarray, hexes: np.ndarray, wave_speed: float, cfl: fl
     q = hex_quality(points, hexes)
     x = points[hexes]
     edges = np.linalg.norm(x[:, EDGES[:, 1]] - x[:, EDGES[:, 0]], axis=-1)
-    f = x[:, _FACES]
-    area = 0.5 * np.linalg.norm(np.cross(f[:, :, 2] - f[:, :, 0], f[:, :, 3] - f[:, :, 1]),
-                                axis=-1).max(axis=1)
-    length = q["volume"] / area
+    length = hex_lengths(points, hexes, q["volume"])
     return {"nodes": int(len(np.unique(hexes))), "elements": int(len(hexes)),
             "volume": float(q["volume"].sum()), "edge_min": float(edges.min()),
             "edge_mean": float(edges.mean()), "edge_max": float(edges.max()),
