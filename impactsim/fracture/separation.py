@@ -62,7 +62,8 @@ from impactsim.materials.laws import eos_linear_part
 from impactsim.materials.params import FRACTURE_STRAIN
 from impactsim.fracture.separation_refresh import (move_node_live, reconnect_boundary,
                                                    reconnect_rows)
-from impactsim.solver.element import FAST, _char_length, _corner_forces, _tet_gradients
+from impactsim.solver.element import (FAST, _char_length, _tet_gradients,
+                                      stored_corner_force)
 from impactsim.mesh.topology import LOCAL_FACES as TET_FACES
 from impactsim.model import ERODED, FRACTURED
 
@@ -300,35 +301,10 @@ def _apply_split(conn, status, elem_mass, fam_mem, lo, hi, copy_elem, copy_corne
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
 def _tet_corner_forces(x, conn, status, sdev, pressure, q, e_ids, j_ids, out):
     """out[k] = the force corner j_ids[k] of tet e_ids[k] added to its node at the last element
-    update (-V sigma grad N_j from the stored stress, as ``element.node_forces``); zero for an
-    eroded or inverted tet, which added nothing."""
+    update (``element.stored_corner_force``, as ``element.node_forces``)."""
     for k in range(e_ids.shape[0]):
-        e, a = e_ids[k], j_ids[k]
-        out[k, 0] = 0.0
-        out[k, 1] = 0.0
-        out[k, 2] = 0.0
-        if status[e] == ERODED:
-            continue
-        i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
-        det, b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z = _tet_gradients(
-            x[i0, 0], x[i0, 1], x[i0, 2], x[i1, 0], x[i1, 1], x[i1, 2],
-            x[i2, 0], x[i2, 1], x[i2, 2], x[i3, 0], x[i3, 1], x[i3, 2])
-        if not det > 0.0:
-            continue
-        ptot = pressure[e] + q[e]
-        f1x, f1y, f1z, f2x, f2y, f2z, f3x, f3y, f3z = _corner_forces(
-            sdev[e, 0] - ptot, sdev[e, 1] - ptot, sdev[e, 2] - ptot, sdev[e, 3], sdev[e, 4],
-            sdev[e, 5], b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z)
-        if a == 0:
-            out[k, 0] = -(f1x + f2x + f3x)
-            out[k, 1] = -(f1y + f2y + f3y)
-            out[k, 2] = -(f1z + f2z + f3z)
-        elif a == 1:
-            out[k, 0], out[k, 1], out[k, 2] = f1x, f1y, f1z
-        elif a == 2:
-            out[k, 0], out[k, 1], out[k, 2] = f2x, f2y, f2z
-        else:
-            out[k, 0], out[k, 1], out[k, 2] = f3x, f3y, f3z
+        out[k, 0], out[k, 1], out[k, 2] = stored_corner_force(
+            e_ids[k], j_ids[k], x, conn, status, sdev, pressure, q)
 
 
 @numba.njit(cache=True)

@@ -901,8 +901,8 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     caching the kernel), each part's chunks in order. Every corner adds its force to its row of
     `fext` (`rows`, `extra_ptr`, `extra_rows`: `scatter.force_rows` for parts of that size),
     which has that one writer, and each node's rows are then summed in part order into
-    `force` (and left zero: fext must be zero on entry). Every node thus gets its elements' forces in the same order whatever the number of
-    threads.
+    `force` (and left zero: fext must be zero on entry). Every node thus gets its elements'
+    forces in the same order whatever the number of threads.
 
     The stable dt of an element is L / (Q + sqrt(Q^2 + c^2)), L = 3V / max face area (smallest
     altitude), Q = C_l c + C_q^2 L |tr D| in compression, c the EOS sound speed with 4G/3rho.
@@ -953,6 +953,32 @@ def _node_forces_serial(nodes, x, conn, status, sdev, pressure, q, n2e_ptr, n2e,
         _node_force(nodes[j], x, conn, status, sdev, pressure, q, n2e_ptr, n2e, force)
 
 
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST, inline="always")
+def stored_corner_force(e, a, x, conn, status, sdev, pressure, q):
+    """The force corner a of tet e adds to its node from the stored stress, -V sigma grad N_a
+    at the current coordinates (as the element update assembled it); zero for an eroded or
+    inverted tet, which adds nothing."""
+    if status[e] == ERODED:
+        return 0.0, 0.0, 0.0
+    i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
+    det, b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z = _tet_gradients(
+        x[i0, 0], x[i0, 1], x[i0, 2], x[i1, 0], x[i1, 1], x[i1, 2],
+        x[i2, 0], x[i2, 1], x[i2, 2], x[i3, 0], x[i3, 1], x[i3, 2])
+    if not det > 0.0:
+        return 0.0, 0.0, 0.0
+    ptot = pressure[e] + q[e]
+    f1x, f1y, f1z, f2x, f2y, f2z, f3x, f3y, f3z = _corner_forces(
+        sdev[e, 0] - ptot, sdev[e, 1] - ptot, sdev[e, 2] - ptot, sdev[e, 3], sdev[e, 4],
+        sdev[e, 5], b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z)
+    if a == 0:
+        return -(f1x + f2x + f3x), -(f1y + f2y + f3y), -(f1z + f2z + f3z)
+    if a == 1:
+        return f1x, f1y, f1z
+    if a == 2:
+        return f2x, f2y, f2z
+    return f3x, f3y, f3z
+
+
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
 def _node_force(i, x, conn, status, sdev, pressure, q, n2e_ptr, n2e, force):
     """force[i] from node i's live elements (node_forces)."""
@@ -961,35 +987,10 @@ def _node_force(i, x, conn, status, sdev, pressure, q, n2e_ptr, n2e, force):
     fz = 0.0
     for k in range(n2e_ptr[i], n2e_ptr[i + 1]):
         e = n2e[k] // 4
-        a = n2e[k] - 4 * e
-        if status[e] == ERODED:
-            continue
-        i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
-        det, b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z = _tet_gradients(
-            x[i0, 0], x[i0, 1], x[i0, 2], x[i1, 0], x[i1, 1], x[i1, 2],
-            x[i2, 0], x[i2, 1], x[i2, 2], x[i3, 0], x[i3, 1], x[i3, 2])
-        if not det > 0.0:
-            continue
-        ptot = pressure[e] + q[e]
-        f1x, f1y, f1z, f2x, f2y, f2z, f3x, f3y, f3z = _corner_forces(
-            sdev[e, 0] - ptot, sdev[e, 1] - ptot, sdev[e, 2] - ptot, sdev[e, 3], sdev[e, 4],
-            sdev[e, 5], b1x, b1y, b1z, b2x, b2y, b2z, b3x, b3y, b3z)
-        if a == 0:
-            fx -= f1x + f2x + f3x
-            fy -= f1y + f2y + f3y
-            fz -= f1z + f2z + f3z
-        elif a == 1:
-            fx += f1x
-            fy += f1y
-            fz += f1z
-        elif a == 2:
-            fx += f2x
-            fy += f2y
-            fz += f2z
-        else:
-            fx += f3x
-            fy += f3y
-            fz += f3z
+        gx, gy, gz = stored_corner_force(e, n2e[k] - 4 * e, x, conn, status, sdev, pressure, q)
+        fx += gx
+        fy += gy
+        fz += gz
     force[i, 0] = fx
     force[i, 1] = fy
     force[i, 2] = fz

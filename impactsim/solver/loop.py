@@ -233,10 +233,10 @@ class Simulation:
         1/2 m U^{n+1/2} . U^{n+3/2}; when the step changes it stays the work of the half step
         the stress work was booked over (weighted by the coming velocity step instead, a
         release that halved the next step lost a quarter of a step's stress work from the
-        balance until the step after). Without it a body driven from rest (a prescribed velocity, an initial strain-rate
-        field) books its first step's stress work a step before the kinetic energy or the
-        external work that pays for it (+14-18 % of the energy at step 1); the kinetic energy
-        reported stays 1/2 m |U^{n+1/2}|^2."""
+        balance until the step after). Without it a body driven from rest (a prescribed
+        velocity, an initial strain-rate field) books its first step's stress work a step
+        before the kinetic energy or the external work that pays for it (+14-18 % of the
+        energy at step 1); the kinetic energy reported stays 1/2 m |U^{n+1/2}|^2."""
         m = self.model
         ke = kinetic_energy(m.v, m.mass) if ke is None else ke
         ie = internal_energy(m.energy, m.elem_mass, m.status) if ie is None else ie
