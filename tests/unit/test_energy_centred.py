@@ -90,3 +90,19 @@ def test_free_vibration_half_step_energy_tightens_the_balance():
     scale = e0["total_energy"]
     assert np.abs(centred).max() < 0.5 * np.abs(plain).max(), (centred, plain)
     assert np.abs(centred).max() < 0.03 * scale
+
+
+def test_a_changing_step_keeps_the_balance():
+    """The half-step energy spans the half of the step just taken (t^{n+1/2} to t^{n+1}): with
+    the step cut to 0.4 of the stable one every third step (a frame time, a released tet), the
+    compressed block's balance stays within 2.3 %. Weighted by the coming velocity step it
+    reached 5.0 %."""
+    model, case = box_model(material(), size=(4e-3,) * 3, h=1e-3)
+    model.v[:] = -2e4 * (model.x - model.x.mean(axis=0))
+    sim = Simulation(model, build_passes(case, model))
+    e0 = sim.energies()["total_energy"]
+    errors = []
+    for k in range(40):
+        sim.step(0.4 * sim.next_dt() if k % 3 == 1 else np.inf)
+        errors.append(sim.energies()["total_energy"] / e0 - 1.0)
+    assert np.abs(errors).max() < 0.03, errors
