@@ -60,8 +60,8 @@ import math
 from impactsim.materials import params as P
 from impactsim.materials.laws import eos_linear_part
 from impactsim.materials.params import FRACTURE_STRAIN
-from impactsim.fracture.separation_refresh import (move_node_live, reconnect_boundary,
-                                                   reconnect_rows)
+from impactsim.fracture.separation_refresh import (move_node_elements, move_node_live,
+                                                   reconnect_boundary, reconnect_rows)
 from impactsim.solver.element import (FAST, _char_length, _tet_gradients,
                                       stored_corner_force)
 from impactsim.mesh.topology import LOCAL_FACES as TET_FACES
@@ -679,16 +679,17 @@ class SeparationPass:
                     ctx.reconnect_surface(model, changed)
                 else:
                     ctx.rebuild_surface(model)
-        model.n2e_ptr, model.n2e = node_to_element(model.conn, model.n_node)
         fs = self.s
         if not self.incremental:
+            model.n2e_ptr, model.n2e = node_to_element(model.conn, model.n_node)
             fs.rebuild_mesh(model)
             return
         for s, e, j, old, new in moved:
             if s.holder is model:
                 reconnect_boundary(fs.boundary, model.conn, e)
+                move_node_elements(model.n2e_ptr, model.n2e, 4, e, j, old, new)
             else:
-                next(h for h in fs.hexes if h.blk is s.holder).rebuild(model)
+                next(h for h in fs.hexes if h.blk is s.holder).reconnect(e, j, old, new)
             move_node_live(fs.node_live, s.holder.status, e, old, new)
 
     def history(self, model) -> dict:
