@@ -64,8 +64,9 @@ from impactsim.fracture.separation_refresh import (move_node_elements, move_node
                                                    reconnect_boundary, reconnect_rows)
 from impactsim.solver.element import (FAST, _char_length, _tet_gradients,
                                       stored_corner_force)
+from impactsim.solver.hex8 import _volume_gradient
 from impactsim.mesh.topology import LOCAL_FACES as TET_FACES
-from impactsim.model import ERODED, FRACTURED
+from impactsim.model import ERODED, FRACTURED, INTACT
 
 # the quad faces of a hex in VTK order, outward
 HEX_FACES = np.array([[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6],
@@ -321,21 +322,88 @@ def _move_corner_forces(old, new, f, force):
 
 
 @numba.njit(cache=True)
-def _centre_viscous_heat(ids, status, q, vol, q_prev, vol_prev, elem_mass, energy):
+def _centre_viscous_heat(ids, status, q, vol, q_prev, vol_prev, elem_mass, energy, pressure,
+                         elem_mat, mat_params, consistent, dp):
     """Re-book the bulk-viscosity heat of the last element update of the elements ``ids`` with
     the mean of q at both ends of the step, -(q^n + q^{n+1}) / 2 dV, the work the q forces do
     (q^n acts over the first half of the step, q^{n+1} over the second), instead of the
-    kernel's -q^{n+1} dV; ``q_prev``, ``vol_prev``: q and volume before the update. Returns
-    the change of the booked heat [J] (SeparationPass.centre_heat)."""
+    kernel's -q^{n+1} dV; ``q_prev``, ``vol_prev``: q and volume before the update.
+
+    ``consistent``: an intact element whose EOS depends on the energy (p = a + b e, b > 0:
+    Mie-Grueneisen) takes the energy and pressure the kernel's implicit update gives with the
+    centred heat, e' = e + d / (1 + b dV / 2m), p' = p + b (e' - e) (d the heat change per
+    mass; the kernel's trapezoid books -(p^n + p') dV / 2, so e' keeps the pressure work of
+    the new pressure), and ``dp[k]`` = p' - p, whose corner forces the caller adds to the
+    forces of the coming step. Otherwise (or when b = 0, or the element is damaged or
+    fractured: the kernel's pressure branches there) e += d and dp[k] = 0.
+    Returns the change of the booked viscous heat [J] (SeparationPass.centre_heat)."""
     total = 0.0
     for k in range(ids.shape[0]):
         e = ids[k]
+        dp[k] = 0.0
         if status[e] == ERODED:
             continue
-        c = 0.5 * (q[e] - q_prev[k]) * (vol[e] - vol_prev[k])
-        energy[e] += c / elem_mass[e]
+        dv = vol[e] - vol_prev[k]
+        c = 0.5 * (q[e] - q_prev[k]) * dv
         total += c
+        m = elem_mass[e]
+        mk = elem_mat[e]
+        b = 0.0
+        if int(mat_params[mk, P.EOS]) == P.MIE_GRUNEISEN:
+            b = mat_params[mk, P.GAMMA0] * mat_params[mk, P.RHO0]
+        if consistent and b > 0.0 and status[e] == INTACT:
+            de = (c / m) / (1.0 + 0.5 * dv * b / m)
+            energy[e] += de
+            dp[k] = b * de
+            pressure[e] += dp[k]
+        else:
+            energy[e] += c / m
     return total
+
+
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def _tet_pressure_forces(x, conn, status, ids, dp, force):
+    """The corner forces of the pressure changes ``dp`` of the tets ``ids`` added to ``force``
+    (``element.stored_corner_force`` with the stress -dp I), in element and corner order."""
+    z6 = np.zeros((1, 6))
+    z1 = np.zeros(1)
+    pe = np.zeros(1)
+    st = np.zeros(1, np.int8)
+    cn = np.zeros((1, 4), conn.dtype)
+    for k in range(ids.shape[0]):
+        if dp[k] == 0.0:
+            continue
+        e = ids[k]
+        pe[0] = dp[k]
+        st[0] = status[e]
+        for a in range(4):
+            cn[0, a] = conn[e, a]
+        for a in range(4):
+            fx, fy, fz = stored_corner_force(0, a, x, cn, st, z6, pe, z1)
+            force[cn[0, a], 0] += fx
+            force[cn[0, a], 1] += fy
+            force[cn[0, a], 2] += fz
+
+
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def _hex_pressure_forces(x, conn, ids, dp, force):
+    """The corner forces of the pressure changes ``dp`` of the hexes ``ids`` added to ``force``:
+    dp times the volume gradient dV/dx_I at the current corners (the pressure part of the hex
+    kernel's f_I = -sigma b_I), in element and corner order."""
+    p = np.empty(24)
+    b = np.empty(24)
+    for k in range(ids.shape[0]):
+        if dp[k] == 0.0:
+            continue
+        e = ids[k]
+        for n in range(8):
+            for d in range(3):
+                p[3 * n + d] = x[conn[e, n], d]
+        if not _volume_gradient(p, b) > 0.0:
+            continue
+        for n in range(8):
+            for d in range(3):
+                force[conn[e, n], d] += dp[k] * b[3 * n + d]
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -552,6 +620,9 @@ class SeparationPass:
         # the contact surface follows a release in place (Surface.reconnect); False rebuilds
         # it (the reference of tests and benchmarks/bench_reconnect.py)
         self.incremental = True
+        # the centred heat of loose elements also gives them the pressure of their EOS at the
+        # re-booked energy, and its forces (centre_heat); False leaves the kernel's pressure
+        self.consistent_pressure = True
 
     def attach(self, sim) -> None:
         self.sim = sim
@@ -569,10 +640,13 @@ class SeparationPass:
                      if hasattr(p, "ctx")}.values())
 
     def run(self, model, dt) -> None:
-        self.centre_heat(model)
+        # the release first: move_forces reads the stress of the forces the update added
+        # (tets) or re-runs the kernel from the elements' energy (hexes), both as the update
+        # left them, before centre_heat changes energy, pressure and forces
         if self.sep.release(model):
             self.move_forces(model)
             self.refresh(model)
+        self.centre_heat(model)
         self.limit_step(model)
         for s in self.sep.sets:
             h = s.holder
@@ -594,8 +668,16 @@ class SeparationPass:
             if not s.q_ids.shape[0]:
                 continue
             h = s.holder
-            terms["viscous"] += _centre_viscous_heat(s.q_ids, h.status, h.q, h.vol, s.q_prev,
-                                                     s.vol_prev, h.elem_mass, h.energy)
+            dp = np.empty(s.q_ids.shape[0])
+            terms["viscous"] += _centre_viscous_heat(
+                s.q_ids, h.status, h.q, h.vol, s.q_prev, s.vol_prev, h.elem_mass, h.energy,
+                h.pressure, h.elem_mat, model.mat_params, self.consistent_pressure, dp)
+            if not self.consistent_pressure:
+                continue
+            if s.k == 4:
+                _tet_pressure_forces(model.x, h.conn, h.status, s.q_ids, dp, model.force)
+            else:
+                _hex_pressure_forces(model.x, h.conn, s.q_ids, dp, model.force)
 
     def limit_step(self, model) -> None:
         """Lower the integrator's stable step (set by the element update just before) to that
