@@ -34,20 +34,23 @@ Akantu's cohesive inserter, with the copies made at build time so that no node a
 - After a step with releases, what depends on the connectivity is refreshed, in place at the
   cost of the moved corners (``SeparationPass.refresh``, fracture/separation_refresh.py): the
   force rows of the element kernels (tets and the block runners), the fracture passes' free
-  faces and live-node counts, and the contact surface (``ContactContext.reconnect_surface``:
-  only the moved tets and their neighbours, giving the arrays a rebuild gives; a model with
-  hexes rebuilds it, and the hexes' free quads); the node-to-element index is rebuilt. The
-  faces exposed by a release are free faces of their bodies (contact with the other bodies,
+  faces and live-node counts, the hexes' free quads (``hexes.reconnect_hex_boundary``), the
+  node-to-element indices (the model's, a hex block's patch index: ``move_node_elements``) and
+  the contact surface (``ContactContext.reconnect_surface``: only the moved tets and their
+  neighbours, giving the arrays a rebuild gives; a model with hexes rebuilds it: contact/hexes.py
+  has no in-place update). The faces exposed by a release are free faces of their bodies (contact with the other bodies,
   and self-contact of the fragments when ``contact.self_contact``) at the next velocity stage.
   ``SeparationPass.incremental = False`` rebuilds everything (the reference of the tests).
 - Every step the stable step is lowered to that of the tets with a corner in a split family,
   from the masses their corners carry (``_released_step``, ``SeparationPass.limit_step``): the
   kernel's L / c holds for a connected mesh, not for a tet cut loose (its critical step is
   0.67 L / c), whose breathing mode otherwise rang up at cfl 0.6 until it inverted (issue 12).
-- After every element update the bulk-viscosity heat of the elements loose at the previous
-  pass is booked with the mean of q at both ends of the step, the work their q forces do
-  (``SeparationPass.centre_heat``): the kernels' -q^{n+1} dV over-booked a ringing lone tet's
-  rebound (+10.9 % of the balance of the warm-up's block dragged at 2 km/s).
+- After every element update (and the release) the bulk-viscosity heat of the elements loose
+  at the previous pass is booked with the mean of q at both ends of the step, the work their q
+  forces do (``SeparationPass.centre_heat``): the kernels' -q^{n+1} dV over-booked a ringing
+  lone tet's rebound (+10.9 % of the balance of the warm-up's block dragged at 2 km/s). An
+  intact element whose EOS reads the energy takes the pressure of the re-booked energy, and
+  that change's corner forces join the coming step's force (``consistent_pressure``).
 """
 
 from __future__ import annotations
@@ -662,7 +665,13 @@ class SeparationPass:
         order in the jump of q over a step, nothing in a resolved flow). A tet cut loose rings in
         its breathing mode at about six steps a period: its q jumps from 0 to ~25 GPa in one
         step of the rebound and the heat booked exceeded the work of its q forces by 4.3 J in
-        the warm-up's dragged block at 2 km/s (+10.9 % of the balance; docs/fracture.md)."""
+        the warm-up's dragged block at 2 km/s (+10.9 % of the balance; docs/fracture.md).
+
+        With ``consistent_pressure`` an intact Mie-Grueneisen element also takes the pressure
+        of its EOS at the re-booked energy (as the kernel's implicit update with the centred q
+        gives it), and the corner forces of that pressure change are added to ``model.force``,
+        which the next predictor reads: left as the kernel set it, the stored pressure was off
+        the EOS by up to 1.2 |p| (tet4) until the next update (docs/fracture.md)."""
         terms = model.energy_terms
         for s in self.sep.sets:
             if not s.q_ids.shape[0]:
@@ -728,9 +737,9 @@ class SeparationPass:
 
     def refresh(self, model) -> None:
         """What depends on the connectivity, after a release: in place at the cost of the moved
-        corners (fracture/separation_refresh.py, Surface.reconnect) when ``incremental``, else
-        rebuilt (the reference); the node-to-element index is rebuilt either way, and a model
-        with hexes rebuilds the contact surface and the free quads."""
+        corners (fracture/separation_refresh.py, hexes.reconnect_hex_boundary, Surface.reconnect)
+        when ``incremental``, else rebuilt (the reference); a model with hexes rebuilds the
+        contact surface either way (contact/hexes.py has no in-place update)."""
         from impactsim.solver.build import node_to_element
         from impactsim.solver.scatter import force_rows
 

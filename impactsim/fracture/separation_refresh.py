@@ -19,6 +19,12 @@ that was dormant until then (no element corner, no mass, no force row); it only 
   old rep keeps its rows (a part that no longer touches it adds nothing there). Every row keeps
   one writer and every node sums its rows in part order, so the forces are the bits of rows
   built afresh (a row left empty adds +0.0), on any thread count.
+- Node-to-element indices (``move_node_elements``, solver/build.py ``node_to_element``): each
+  moved corner's entry leaves its old node's list for its new node's, lists kept ascending; the
+  entry count is unchanged, so only the nodes between the smallest and the largest moved node
+  are rewritten (no sort).
+- The hex blocks' free quads: ``fracture.hexes.reconnect_hex_boundary`` (with
+  ``_open_faces_k``, the adjacency cut for any face shape).
 """
 
 from __future__ import annotations
