@@ -124,8 +124,8 @@ def element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev, damage, eps_
     """Steps 1-3 of the module docstring for live element e of any type (the per-element
     arrays of the tets and of a hex block have one layout): spall with the pressure p
     (``spall.spalls``: the Tuler-Butcher integral spall_k[e] when integrate), loosening,
-    Johnson-Cook damage (updates damage[e] and eps_p_prev[e]). Returns (status, newly damaged
-    0/1, newly fractured 0/1)."""
+    Johnson-Cook damage (updates damage[e] and eps_p_prev[e]). Returns (status, newly damaged:
+    0, 1 by spall or 2 by the ductile criterion, newly fractured 0/1)."""
     dam = 0
     frac = 0
     sxx, syy, szz = sdev[e, 0], sdev[e, 1], sdev[e, 2]
@@ -151,7 +151,7 @@ def element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev, damage, eps_
                                       temperature[e], duct)
     if duct and st == INTACT and damage[e] >= 1.0:
         st = DAMAGED  # ductile fracture (fracture/ductile.py): as spall damages it
-        dam = 1
+        dam = 2
     if st == DAMAGED and 1.0 - vol0[e] / vol[e] > mat_params[mk, P.CHI_STAR]:
         st = FRACTURED
         frac = 1
@@ -211,7 +211,8 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
     `patch_fields` (not read for "cell"; jnode is not read). spall_k (e,) the Tuler-Butcher
     accumulators, integrate: `[fracture] spall_criterion = "tuler-butcher"` (spall.py).
     eps_p_prev (e,) plastic strain at the previous call (updated here). Returns
-    (newly damaged, newly fractured, elements with an action). The pointwise steps
+    (newly damaged, newly fractured, elements with an action, newly damaged by the ductile
+    criterion). The pointwise steps
     (``element_state``, ``element_action``) are shared with the hexes' kernel
     (impactsim.fracture.hexes).
     """
@@ -219,6 +220,7 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
     n_dam = 0
     n_frac = 0
     n_act = 0
+    n_duct = 0
     for e in numba.prange(n_elem):
         action[e] = NONE
         st = status[e]
@@ -232,7 +234,8 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
                                                      + pnode[i3]))
         st, dam, frac = element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev, damage,
                                       eps_rate, temperature, mat_params, dt, spall_k, integrate)
-        n_dam += dam
+        n_dam += 1 if dam > 0 else 0
+        n_duct += 1 if dam == 2 else 0
         n_frac += frac
         status[e] = st
         on_surface = (face_flag[4 * e] or face_flag[4 * e + 1] or face_flag[4 * e + 2]
@@ -253,7 +256,7 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
         action[e] = act
         if act != NONE:
             n_act += 1
-    return n_dam, n_frac, n_act
+    return n_dam, n_frac, n_act, n_duct
 
 
 @numba.njit(cache=True)

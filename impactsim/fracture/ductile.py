@@ -18,9 +18,13 @@ strength, so spall alone never opens it.
 Below the triaxiality eta_c = -1/3 (uniaxial compression) no damage accumulates: Bao &
 Wierzbicki (2005, Eng. Fract. Mech. 72:1049) found no fracture there in upsetting tests, where
 the exponential of the fit keeps a finite eps_f. The foot of a Taylor bar, pressed far below
-eta_c, gains nothing. Above 1.5 (a cell in near-hydrostatic tension, the fit's range ends) the
-triaxiality is capped, as for the erosion criterion `erosion = "jc-damage"` [R20]
-(criteria.py step 3), which keeps the fit as it was given (no cut-off) and erodes instead.
+eta_c, gains nothing. Above eta = 2/3 (equibiaxial tension, the stretched membrane of a doming
+plate) the ductile criterion reads eps_f at 2/3: a larger triaxiality is a near-hydrostatic
+tension, where voids grow and the cell spalls (spall.py), and where the fits extrapolate beyond
+their notched-bar data into negative strains (6061-T6's D1..D3 give eps_f < 0 above 1.35; the
+lateral release behind a Taylor bar's impact face reaches that and broke cells at plastic
+strains of 0.07-0.4). The erosion criterion `erosion = "jc-damage"` [R20] (criteria.py step
+2b) keeps the fit as it was given up to 1.5 and erodes instead.
 """
 
 from __future__ import annotations
@@ -33,6 +37,9 @@ from impactsim.materials import params as P
 
 TRIAXIALITY_CAP = 1.5  # [-] above it the fit is not used (near-hydrostatic tension)
 TRIAXIALITY_CUTOFF = -1.0 / 3.0  # [-] at or below it no ductile damage (Bao & Wierzbicki 2005)
+# [-] the ductile criterion reads eps_f at most at equibiaxial tension (a stretched membrane);
+# above it the tension is near hydrostatic, the regime of spall (module docstring)
+DUCTILE_CAP = 2.0 / 3.0
 OFF, JOHNSON_COOK = 0, 1
 CRITERIA = {"none": OFF, "johnson-cook": JOHNSON_COOK}
 
@@ -69,8 +76,10 @@ def damage_increment(mat_params, mk, deps, pressure, seq, rate, temperature, cut
     triaxiality TRIAXIALITY_CUTOFF (the ductile criterion; the erosion criterion keeps the fit
     everywhere)."""
     tri = triaxiality(pressure, seq)
-    if cutoff and tri <= TRIAXIALITY_CUTOFF:
-        return 0.0
+    if cutoff:
+        if tri <= TRIAXIALITY_CUTOFF:
+            return 0.0
+        tri = min(tri, DUCTILE_CAP)
     return deps / fracture_strain(mat_params, mk, tri, rate, temperature)
 
 
