@@ -72,7 +72,7 @@ class FractureState:
         self.eps_p_prev = model.eps_p.copy()
         self.mass_initial = float(model.mass.sum())
         self.counts = {"damaged": 0, "fractured": 0, "eroded": 0, "converted": 0, "guard": 0,
-                       "melt": 0}
+                       "melt": 0, "ductile": 0}
         # nodal means of pressure and volume ratio over the live elements (criteria.patch_fields)
         self.spall_mode = PRESSURE_CODES[case.fracture.spall_pressure]
         self.spall_integrate = case.fracture.spall_criterion == "tuler-butcher"
@@ -161,13 +161,14 @@ class FracturePass(Pass):
         if s.spall_mode != SPALL_CELL:
             C.patch_fields(model.vol, model.vol0, model.pressure, model.status, model.n2e_ptr,
                            model.n2e, s.pnode, s.jnode, 4)
-        n_dam, n_frac, n_act = C.fracture_criteria(
+        n_dam, n_frac, n_act, n_duct = C.fracture_criteria(
             model.x, model.v, model.x0, model.conn, model.elem_mat, model.status, model.sdev,
             model.pressure, model.vol, model.vol0, model.eps_p, s.eps_p_prev, model.damage,
             model.eps_rate, model.temperature, model.mat_params, b.face_flag, b.adj,
             s.surface_only, dt, s.action, s.spall_mode, s.pnode, s.jnode, s.spall_k,
             s.spall_integrate)
         s.counts["damaged"] += int(n_dam)
+        s.counts["ductile"] += int(n_duct)
         s.counts["fractured"] += int(n_frac)
         if n_act:
             self._remove(model, s.ids[:C.action_ids(s.action, s.ids)])
@@ -250,6 +251,9 @@ class FracturePass(Pass):
                 "bodies": bodies,
                 "fragments": cloud_summary(model, s.axis, pa),
                 "fracture": {"damaged_total": s.counts["damaged"],
+                             # of which by the ductile criterion (fracture/ductile.py)
+                             "damaged_ductile": s.counts["ductile"] + sum(
+                                 h.ductile for h in s.hexes),
                              "fractured_total": s.counts["fractured"],
                              "eroded": s.counts["eroded"],
                              "converted_to_particles": s.counts["converted"],
