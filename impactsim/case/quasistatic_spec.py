@@ -69,6 +69,11 @@ PAIR = Table("pair", "Properties of the contacts between bodies matching two nam
         dim="length", default_doc="[contact].gap_tolerance"),
     Key("tied", "bool", "Bonded contact: the surfaces stay together (tension allowed, no "
         "active set).", False),
+    Key("robin", "number", "Robin (mixed) conditions instead of kinematic / force sides: the "
+        "spring stiffness alpha in Pa/m of the contact law both bodies see each iteration, "
+        "p = p_other - alpha gap (about the stiffness of the softer side's contact surface; "
+        "docs/quasistatic.md). 0: the Dirichlet-Neumann split of [G15]. Frictionless pairs "
+        "only.", 0.0),
 ), array=True)
 
 QS_CONTACT = Table("contact", "Contact between bodies (quasistatic).", (

@@ -100,7 +100,7 @@ def problem(case) -> Problem:
                         regularization=s["regularization"], detect_tolerance=case.gap_tolerance,
                         detect=case.detect)
     rules = [ContactRule(p.bodies[0], p.bodies[1], p.friction, p.conductance, p.gap_tolerance,
-                         p.tied) for p in case.pairs]
+                         p.tied, p.robin) for p in case.pairs]
     pairs = None
     if not case.detect:
         import fnmatch

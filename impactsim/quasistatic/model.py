@@ -90,6 +90,9 @@ class ContactRule:
     conductance: float = 0.0  # gap heat-transfer coefficient [W/(m^2 K)]; 0: no heat exchange
     gap_tolerance: float | None = None
     tied: bool = False  # bonded: every matched node stays in contact, tension allowed
+    # Robin (mixed) conditions on both sides instead of kinematic / force: the spring
+    # stiffness alpha [Pa/m] of p = p_other - alpha gap; 0: Dirichlet-Neumann (schwarz.py)
+    robin: float = 0.0
 
 
 @dataclass

@@ -52,6 +52,10 @@ class ContactState:
     ua: list[np.ndarray] = field(default_factory=list)
     ub: list[np.ndarray] = field(default_factory=list)
     friction: list = field(default_factory=list)  # friction.FrictionState or None per interface
+    # Robin interfaces: B's target t_B = u_A . n - delta and the pressure p_B that A gets
+    # (state.g is A's target, state.p the pressure B gets, as on the other interfaces)
+    tb: list = field(default_factory=list)
+    pb: list = field(default_factory=list)
 
 
 def update_active(itf: Interface, act: np.ndarray, p: np.ndarray, penetration: np.ndarray,
@@ -108,6 +112,8 @@ def _anchor_tree(interfaces, active) -> tuple[dict, list]:
     # the anchor alone, moments included (elsewhere the side contacts share it by stiffness)
     others = {itf.a for c, itf in enumerate(interfaces)
               if not itf.anchor and active[c].any()}
+    # a body on an active Robin contact shares every change with that spring
+    others |= {itf.b for c, itf in enumerate(interfaces) if itf.robin and active[c].any()}
     alone = {b for b in parent if b not in others}
     return parent, sorted(parent, key=lambda x: -depth[x]), alone
 
@@ -213,6 +219,13 @@ def _coarse_forces(interfaces, p_old, p_new, active, tree=None) -> dict:
     return dp
 
 
+def _predicted(itf: Interface, m) -> np.ndarray | float:
+    """n . u at the interface's points of the rigid motion m (t, theta) of the coarse step."""
+    if m is None:
+        return 0.0
+    return itf.normals @ m[:3] + np.einsum("ij,ij->i", itf.normals, np.cross(m[3:], itf.points))
+
+
 def initial_state(interfaces: list[Interface]) -> ContactState:
     act = []
     for itf in interfaces:
@@ -220,7 +233,9 @@ def initial_state(interfaces: list[Interface]) -> ContactState:
         act.append(itf.matched & ((itf.gap <= 1e-6 * scale) | itf.tied))
     return ContactState([itf.gap.copy() for itf in interfaces], act,
                         [np.zeros(len(itf.gap)) for itf in interfaces],
-                        friction=friction.initial(interfaces, act))
+                        friction=friction.initial(interfaces, act),
+                        tb=[-itf.gap for itf in interfaces],
+                        pb=[np.zeros(len(itf.gap)) for itf in interfaces])
 
 
 def heat_phase(pool, route: dict, settings: Settings, dt: float | None, log: list) -> int:
@@ -263,8 +278,13 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
     for it in range(1, settings.max_iterations + 1):
         inputs: dict = {}
         for c, itf in enumerate(interfaces):
-            inputs.setdefault(itf.a, ({}, {}, {}))
-            inputs.setdefault(itf.b, ({}, {}, {}))
+            inputs.setdefault(itf.a, ({}, {}, {}, {}, {}))
+            inputs.setdefault(itf.b, ({}, {}, {}, {}, {}))
+            if itf.robin:
+                # A: p = p_B + alpha (u_A . n - t_A); B: p = p_A + alpha (-u_B . n - t_B)
+                inputs[itf.a][4][("a", c)] = (state.g[c], state.active[c], state.pb[c])
+                inputs[itf.b][4][("b", c)] = (state.tb[c], state.active[c], state.p[c])
+                continue
             inputs[itf.a][0][c] = state.g[c]
             inputs[itf.a][1][c] = state.active[c]
             inputs[itf.b][2][c] = state.p[c]
@@ -277,22 +297,30 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
         changed = False
         residuals = []
         new_active = []
-        ua_all, ub_all, pa_all = [], [], []
+        ua_all, ub_all, pa_all, pb_all = [], [], [], []
         # nodes that penetrate enter at once; nodes leave only once the iteration has settled
         # for the current active set (an outer loop): releasing at every iteration makes the
         # contact chatter
         for c, itf in enumerate(interfaces):
-            ua, pa = out[itf.a][("a", c)]
-            ub = out[itf.b][("b", c)]
+            if itf.robin:
+                ua, pa = out[itf.a][("ra", c)]
+                ub, pb = out[itf.b][("rb", c)]
+            else:
+                ua, pa = out[itf.a][("a", c)]
+                ub, pb = out[itf.b][("b", c)], None
+            pb_all.append(pb)
             ua_all.append(ua)
             ub_all.append(ub)
             pa_all.append(pa)
             u_scale = max(u_scale, np.max(np.abs(ua), initial=0), np.max(np.abs(ub), initial=0))
             p_scale = max(p_scale, np.max(np.abs(pa), initial=0))
-        pre_gap = max((np.max(np.abs(np.where(state.active[c], ub_all[c] + itf.gap - state.g[c],
-                                                   0.0)), initial=0) / u_scale
-                       for c, itf in enumerate(interfaces)), default=0.0)
-        pre_p = max((np.max(np.abs(pa_all[c] - state.p[c]), initial=0) / p_scale
+        # (on a Robin interface the mismatches are the gap between the new iterates and the
+        # difference of the two sides' pressures)
+        pre_gap = max((np.max(np.abs(np.where(
+            state.active[c], ub_all[c] + itf.gap - (ua_all[c] if itf.robin else state.g[c]),
+            0.0)), initial=0) / u_scale for c, itf in enumerate(interfaces)), default=0.0)
+        pre_p = max((np.max(np.abs(pa_all[c] - (pb_all[c] if interfaces[c].robin
+                                                 else state.p[c])), initial=0) / p_scale
                      for c in range(n_b)), default=0.0)
         settle = it == 1 or (pre_gap <= SETTLE * max(settings.gap_tolerance, 1e-3) and
                              pre_p <= SETTLE * max(settings.pressure_tolerance, 1e-3)) or \
@@ -301,12 +329,21 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
             ua, ub, pa = ua_all[c], ub_all[c], pa_all[c]
             act = state.active[c]
             target = ub + itf.gap
-            r = np.where(act, target - state.g[c], 0.0)
+            if itf.robin:
+                pb = pb_all[c]
+                r = np.where(act, target - ua, 0.0)  # the gap itself
+                p_change = max(p_change, np.max(np.abs(pa - pb), initial=0) / p_scale,
+                               np.max(np.abs(pa - state.p[c]), initial=0) / p_scale)
+                p_act = 0.5 * (pa + pb)
+            else:
+                r = np.where(act, target - state.g[c], 0.0)
+                p_change = max(p_change, np.max(np.abs(pa - state.p[c]), initial=0) / p_scale)
+                p_act = pa
             residuals.append(r)
             gap_res = max(gap_res, np.max(np.abs(r), initial=0) / u_scale)
-            p_change = max(p_change, np.max(np.abs(pa - state.p[c]), initial=0) / p_scale)
-            na = update_active(itf, act, pa, ua - target, ACTIVATE * settings.gap_tolerance * u_scale,
-                               p_scale, release=settle)
+            na = update_active(itf, act, p_act, ua - target,
+                               ACTIVATE * settings.gap_tolerance * u_scale, p_scale,
+                               release=settle)
             changed |= bool((na != act).any())
             new_active.append(na)
         # (stick and slip are decided on settled iterates, never on the first one)
@@ -341,11 +378,15 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
             dp = _coarse_forces(interfaces, state.p, p_new, new_active, tree)
         for c in range(n_b):
             itf = interfaces[c]
-            pred = 0.0
-            if itf.b in shift:
-                m = shift[itf.b]
-                pred = itf.normals @ m[:3] + np.einsum("ij,ij->i", itf.normals,
-                                                       np.cross(m[3:], itf.points))
+            pred = _predicted(itf, shift.get(itf.b))
+            if itf.robin:
+                # no relaxation: each side's next target is the other's new position (Lions'
+                # Robin-Robin iteration converges without it), its pressure the other's
+                state.g[c] = ub_all[c] + itf.gap + pred
+                state.tb[c] = ua_all[c] - itf.gap + _predicted(itf, shift.get(itf.a))
+                state.p[c] = p_new[c]
+                state.pb[c] = np.where(new_active[c], pb_all[c], 0.0)
+                continue
             state.g[c] = np.where(new_active[c], state.g[c] + om[c] * residuals[c] + pred,
                                   ub_all[c] + interfaces[c].gap)
             state.p[c] = p_new[c] + dp.get(c, 0.0)
