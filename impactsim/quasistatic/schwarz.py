@@ -52,7 +52,7 @@ class ContactState:
     ua: list[np.ndarray] = field(default_factory=list)
     ub: list[np.ndarray] = field(default_factory=list)
     friction: list = field(default_factory=list)  # friction.FrictionState or None per interface
-    # Robin interfaces: B's target t_B = u_A . n - delta and the pressure p_B that A gets
+    # Robin interfaces: B's target t_B = delta - u_A . n and the pressure p_B that A gets
     # (state.g is A's target, state.p the pressure B gets, as on the other interfaces)
     tb: list = field(default_factory=list)
     pb: list = field(default_factory=list)
@@ -234,7 +234,7 @@ def initial_state(interfaces: list[Interface]) -> ContactState:
     return ContactState([itf.gap.copy() for itf in interfaces], act,
                         [np.zeros(len(itf.gap)) for itf in interfaces],
                         friction=friction.initial(interfaces, act),
-                        tb=[-itf.gap for itf in interfaces],
+                        tb=[itf.gap.copy() for itf in interfaces],
                         pb=[np.zeros(len(itf.gap)) for itf in interfaces])
 
 
@@ -383,7 +383,7 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
                 # no relaxation: each side's next target is the other's new position (Lions'
                 # Robin-Robin iteration converges without it), its pressure the other's
                 state.g[c] = ub_all[c] + itf.gap + pred
-                state.tb[c] = ua_all[c] - itf.gap + _predicted(itf, shift.get(itf.a))
+                state.tb[c] = itf.gap - ua_all[c] - _predicted(itf, shift.get(itf.a))
                 state.p[c] = p_new[c]
                 state.pb[c] = np.where(new_active[c], pb_all[c], 0.0)
                 continue
