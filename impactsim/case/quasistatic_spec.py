@@ -32,6 +32,9 @@ QUASISTATIC = Table("quasistatic", "Solver settings of the quasi-static analysis
     Key("relaxation", "number", "Relaxation omega of eq. 7 of [G15], in (0, 2) (Aitken's "
         "first value when aitken = true).", 0.5),
     Key("aitken", "bool", "Adapt omega by Aitken's delta-squared (Irons-Tuck).", True),
+    Key("anderson", "int", "Anderson acceleration of the interface values (gaps and pressures "
+        "of every interface) over this many past iterates, restarted when an active set "
+        "changes; 0: off (>= 0).", 0),
     Key("coarse", "bool", "Coarse step along the anchor tree after each Schwarz iteration: "
         "each body held by its contacts moves with its support and passes on at once the "
         "force its subtree carries (columns of bodies).", True),

@@ -92,6 +92,7 @@ def problem(case) -> Problem:
     s = case.settings
     settings = Settings(times=case.times, heat_transient=s["heat"] == "transient",
                         relaxation=s["relaxation"], aitken=s["aitken"], coarse=s["coarse"],
+                        anderson=s["anderson"],
                         solver=s["solver"], direct_limit=s["direct_limit"],
                         max_iterations=s["max_iterations"], gap_tolerance=s["gap_tolerance"],
                         pressure_tolerance=s["pressure_tolerance"],

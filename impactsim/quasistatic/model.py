@@ -112,6 +112,7 @@ class Settings:
     regularization: float = 1e-6  # weak springs, relative to diag(K) (floating bodies)
     detect: bool = True
     coarse: bool = True  # rigid shifts passed down the anchor tree in one iteration
+    anderson: int = 0  # depth of Anderson acceleration of the interface values (0: off)
     solver: str = "auto"  # direct (SuperLU), amg (pyamg + CG), auto: amg above direct_limit
     direct_limit: int = 300_000  # free dofs of a body above which auto uses amg
 

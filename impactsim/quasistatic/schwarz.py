@@ -219,6 +219,63 @@ def _coarse_forces(interfaces, p_old, p_new, active, tree=None) -> dict:
     return dp
 
 
+class Anderson:
+    """Anderson acceleration (type II, as in Walker and Ni 2011) of the fixed-point map the
+    iteration is, x_k -> G(x_k), x the interfaces' gaps g, t_B and pressures p, p_B (scaled
+    by the largest displacement and pressure): x_k+1 = G(x_k) - dG gamma, gamma the least-
+    squares fit of the last `depth` residual differences dF to the residual G(x_k) - x_k.
+    Within one active set the map is affine and this is GMRES on it: the smooth, slow modes
+    of a Robin iteration (a tube bowing with the pellets it touches, both far softer than
+    alpha) converge in a few dozen iterations instead of thousands. Restarted when an active
+    or stick/slip set changes (the map changes)."""
+
+    def __init__(self, depth: int):
+        self.depth = depth
+        self.reset()
+
+    def reset(self):
+        self.x = None  # the last iterate x_k (scaled)
+        self.f = self.gx = None
+        self.dF, self.dG = [], []
+
+    def _pack(self, state, us, ps):
+        return np.concatenate([v / us for v in state.g] + [v / ps for v in state.p] +
+                              [v / us for v in state.tb] + [v / ps for v in state.pb])
+
+    def _unpack(self, state, x, us, ps):
+        k = 0
+        for arrays, s in ((state.g, us), (state.p, ps), (state.tb, us), (state.pb, ps)):
+            for i, v in enumerate(arrays):
+                arrays[i] = x[k:k + len(v)] * s
+                k += len(v)
+
+    def step(self, state, changed: bool, us: float, ps: float) -> None:
+        if changed:
+            self.reset()
+            return
+        # fixed scales for the whole history (the first of a restart)
+        if self.x is None:
+            self.us, self.ps = us, ps
+            self.x = self._pack(state, self.us, self.ps)
+            return
+        gx = self._pack(state, self.us, self.ps)
+        f = gx - self.x
+        if self.f is not None:
+            self.dF.append(f - self.f)
+            self.dG.append(gx - self.gx)
+            if len(self.dF) > self.depth:
+                self.dF.pop(0)
+                self.dG.pop(0)
+        self.f, self.gx = f, gx
+        x = gx
+        if self.dF:
+            F = np.array(self.dF).T
+            gamma = np.linalg.lstsq(F, f, rcond=1e-10)[0]
+            x = gx - np.array(self.dG).T @ gamma
+        self.x = x
+        self._unpack(state, x, self.us, self.ps)
+
+
 def _predicted(itf: Interface, m) -> np.ndarray | float:
     """n . u at the interface's points of the rigid motion m (t, theta) of the coarse step."""
     if m is None:
@@ -274,6 +331,7 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
     om = np.full(n_b, omega)  # per interface (one value today)
     r_old = None
     last_change = 0
+    accel = Anderson(settings.anderson)
     result = {"iterations": 0, "gap_residual": np.inf, "pressure_residual": np.inf}
     for it in range(1, settings.max_iterations + 1):
         inputs: dict = {}
@@ -391,6 +449,8 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
                                   ub_all[c] + interfaces[c].gap)
             state.p[c] = p_new[c] + dp.get(c, 0.0)
         friction.advance(state, pending, om)
+        if settings.anderson:
+            accel.step(state, changed or fm.changed, u_scale, p_scale)
         if changed:
             last_change = it
         state.active = new_active
