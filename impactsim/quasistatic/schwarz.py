@@ -383,8 +383,10 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
         settle = it == 1 or (pre_gap <= SETTLE * max(settings.gap_tolerance, 1e-3) and
                              pre_p <= SETTLE * max(settings.pressure_tolerance, 1e-3)) or \
             it - last_change >= MAX_INNER
+        worst = [(0.0, -1), (0.0, -1)]  # (mismatch, interface) of the gap and the pressure
         for c, itf in enumerate(interfaces):
             ua, ub, pa = ua_all[c], ub_all[c], pa_all[c]
+            g0, p0 = gap_res, p_change
             act = state.active[c]
             target = ub + itf.gap
             if itf.robin:
@@ -399,6 +401,10 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
                 p_act = pa
             residuals.append(r)
             gap_res = max(gap_res, np.max(np.abs(r), initial=0) / u_scale)
+            if gap_res > g0:
+                worst[0] = (gap_res, c)
+            if p_change > p0:
+                worst[1] = (p_change, c)
             na = update_active(itf, act, p_act, ua - target,
                                ACTIVATE * settings.gap_tolerance * u_scale, p_scale,
                                release=settle)
@@ -427,7 +433,8 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
         log.append({"phase": "mechanics", "step": step, "iteration": it,
                     "gap_residual": gap_res, "pressure_residual": p_change,
                     "relaxation": omega, "active": int(sum(a.sum() for a in new_active)),
-                    "active_changed": changed})
+                    "active_changed": changed, "worst_gap_interface": worst[0][1],
+                    "worst_pressure_interface": worst[1][1]})
         p_new = [np.where(new_active[c], pa_all[c], 0.0) for c in range(n_b)]
         shift, dp = {}, {}
         if settings.coarse:
