@@ -23,6 +23,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sp
 
 from impactsim.quasistatic import friction
 from impactsim.quasistatic.coupling import Interface
@@ -80,7 +81,8 @@ def update_active(itf: Interface, act: np.ndarray, p: np.ndarray, penetration: n
         # tet4: the nodal reactions themselves (M_aa p) say which nodes pull
         idx = np.nonzero(act)[0]
         lam = np.zeros(len(p))
-        lam[idx] = itf.M_a[idx][:, idx] @ p[idx]
+        M = itf.M_a if not itf.robin else sp.diags(np.asarray(itf.M_a.sum(axis=1)).ravel())
+        lam[idx] = M.tocsr()[idx][:, idx] @ p[idx]
         scale = max(np.max(np.abs(lam), initial=0), 1e-300)
         release = act & (lam < -RELEASE * scale)
     else:
