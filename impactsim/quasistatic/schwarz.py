@@ -410,13 +410,9 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
                 worst[0] = (gap_res, c)
             if p_change > p0:
                 worst[1] = (p_change, c)
-            # a Robin interface is a penalty law, p = p_other - alpha gap: its nodes in
-            # tension leave at every iteration, as in an augmented-Lagrangian (Uzawa) contact
-            # iteration; waiting for a settled state, ~100 nodes of the 50-pellet stack left
-            # together at each one and came back within 30 iterations, over and over
             na = update_active(itf, act, p_act, ua - target,
                                ACTIVATE * settings.gap_tolerance * u_scale, p_scale,
-                               release=settle or bool(itf.robin))
+                               release=settle)
             changed |= bool((na != act).any())
             new_active.append(na)
         # (stick and slip are decided on settled iterates, never on the first one)
