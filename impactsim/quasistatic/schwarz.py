@@ -410,9 +410,16 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
                 worst[0] = (gap_res, c)
             if p_change > p0:
                 worst[1] = (p_change, c)
-            na = update_active(itf, act, p_act, ua - target,
-                               ACTIVATE * settings.gap_tolerance * u_scale, p_scale,
-                               release=settle)
+            if itf.robin and not settle:
+                # a Robin interface's set changes only on settled iterates (an outer loop):
+                # a penetration is no instability there (the spring pushes back), and the
+                # early iterates of the pellet stack threw pellets into their tube and out
+                # again, resetting the acceleration at each change
+                na = act
+            else:
+                na = update_active(itf, act, p_act, ua - target,
+                                   ACTIVATE * settings.gap_tolerance * u_scale, p_scale,
+                                   release=settle)
             changed |= bool((na != act).any())
             new_active.append(na)
         # (stick and slip are decided on settled iterates, never on the first one)
