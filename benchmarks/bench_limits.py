@@ -86,7 +86,7 @@ def _vector_parts(level, x, v, conn, rows, sdev, pressure, q, eps_rate, energy, 
     """The vector path of every full block, cut short after part `level` (0 load, 1
     kinematics, 2 EOS and forces, 3 store); one material, no radial return."""
     B = E.B
-    buf = np.empty(E.ROWS * B)
+    buf = np.zeros(E.TET_ROWS * B)  # row R_STAT zero: every lane intact
     shear = mat_params[0, P.G]
     acc = 0.0
     for b in range(conn.shape[0] // B):
