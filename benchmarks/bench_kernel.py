@@ -58,7 +58,7 @@ def main(argv=None) -> dict:
                              a["hard"], a["thermal"], a["energy"], a["vol"], a["vol"], model.vol0,
                              model.elem_mass, mp, sim.jnode, False, dt, sim.cq, sim.cl,
                              model.force, fr.rows, sim.fext, fr.extra_ptr, fr.extra_rows,
-                             fr.part_size // E.CHUNK, sim.chunk_out, 1)
+                             fr.part_size // E.CHUNK, sim.chunk_out, 1, True)
             if rep:  # the first round compiles nothing but warms the caches
                 times[label].append(1e9 * (time.process_time() - c0) / model.n_elem)
             if label == "JC":

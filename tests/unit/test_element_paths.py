@@ -171,7 +171,7 @@ def test_inverted_element_is_counted_and_left_alone():
                      m.eps_rate, m.temperature, sim.hardening, sim.thermal, m.energy, m.vol,
                      m.vol, m.vol0, m.elem_mass, m.mat_params, sim.jnode, False, dt, sim.cq,
                      sim.cl, m.force, fr.rows, sim.fext, fr.extra_ptr, fr.extra_rows,
-                     fr.part_size // E.CHUNK, sim.chunk_out, 1)
+                     fr.part_size // E.CHUNK, sim.chunk_out, 1, True)
     # the swap inverts e and the other tets sharing both nodes
     assert inverted_ref >= 1 and sim.chunk_out[:, E.OUT_INVERTED].sum() == inverted_ref
     for k in names:
