@@ -832,6 +832,19 @@ def _store_block(rows, sdev, pressure, q, eps_rate, energy, vol, vol_eos, fext, 
     return dt_min, worst, qwork
 
 
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _vector_block(elem_mat, status, e0):
+    """The block's material row if it is a full block of intact elements of one material, else
+    -1."""
+    mat = elem_mat[e0:e0 + B]
+    st = status[e0:e0 + B]
+    mk = mat[0]
+    for i in range(B):
+        if st[i] != 0 or mat[i] != mk:
+            return -1
+    return mk
+
+
 @numba.njit(cache=True, error_model="numpy")
 def _store_masked(rows, sdev, pressure, q, eps_rate, energy, vol, vol_eos, fext, use_anp, e0,
                   buf):
@@ -864,7 +877,7 @@ def _store_masked(rows, sdev, pressure, q, eps_rate, energy, vol, vol_eos, fext,
     return dt_min, worst, qwork
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def _return(buf, mat_params, mk, shear, eps_p, temperature, hard, thermal, e0):
     """The radial return of the block's lanes for material row mk: Johnson-Cook with C >= 0 as
     vector loops, other strength models lane by lane, none for an elastic material."""
@@ -876,45 +889,23 @@ def _return(buf, mat_params, mk, shear, eps_p, temperature, hard, thermal, e0):
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
-def _block(e0, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
+def _masked_block(e0, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
            hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp,
            half, dt, cq, cl, rows, fext, buf, plastic):
-    """Elements e0 .. e0 + B - 1 through the vector path; returns (min stable dt, its element,
+    """Elements e0 .. e0 + B - 1 of a block that is not a full block of intact elements of one
+    material, through the vector path in masked passes; returns (min stable dt, its element,
     viscous work, inverted elements).
 
-    A block of intact elements of one material (nearly every block) runs once, every lane
-    stored. Any other block runs one masked pass per material among its elements that are not
-    eroded: the other lanes get a copy of the pass's first lane's data (so that they compute
-    finite numbers), the yield check of the return never fires for them (R_SEQ = 0), and
-    `_store_masked` stores only the pass's lanes (row R_LIVE). Damaged and fractured lanes take
-    no return and zero deviator, and `_pressure_block` applies their rules (row R_STAT); an
-    eroded or inverted element is stored nowhere and adds no force, as in `_element_scalar`.
-    With `plastic` None (a model whose tets are all elastic, `plastic_kernel`) the radial return
-    is left out at compile time."""
+    One masked pass runs per material among the block's elements that are not eroded: the other
+    lanes get a copy of the pass's first lane's data (so that they compute finite numbers), the
+    yield check of the return never fires for them (R_SEQ = 0), and `_store_masked` stores only
+    the pass's lanes (row R_LIVE). Damaged and fractured lanes take no return and zero deviator,
+    and `_pressure_block` applies their rules (row R_STAT); an eroded or inverted element is
+    stored nowhere and adds no force, as in `_element_scalar`. With `plastic` None (a model
+    whose tets are all elastic, `plastic_kernel`) the radial return is left out at compile
+    time."""
     mat = elem_mat[e0:e0 + B]
     st = status[e0:e0 + B]
-    mk = mat[0]
-    full = True
-    for i in range(B):
-        if st[i] != 0 or mat[i] != mk:
-            full = False
-    if full:
-        _load_block(x, v, conn, sdev, pressure, energy, vol, vol_eos, vol0, elem_mass, jnode,
-                    use_anp, e0, buf)
-        shear = mat_params[mk, P.G]
-        _kinematics_block(buf, half, dt, shear)
-        for i in range(B):
-            if not buf[R_DET * B + i] > 0.0:
-                full = False  # an inverted element: the masked pass leaves it out and counts it
-        if full:
-            if plastic is not None:
-                _return(buf, mat_params, mk, shear, eps_p, temperature, hard, thermal, e0)
-            _pressure_block(buf, dt, use_anp, int(mat_params[mk, P.EOS]), mat_params[mk, P.RHO0],
-                            mat_params[mk, P.K], mat_params[mk, P.C0], mat_params[mk, P.S],
-                            mat_params[mk, P.GAMMA0], shear, cq, cl, None)
-            bdt, bworst, bq = _store_block(rows, sdev, pressure, q, eps_rate, energy, vol,
-                                           vol_eos, fext, use_anp, e0, buf)
-            return bdt, bworst, bq, 0
     dt_min = math.inf
     worst = -1
     qwork = 0.0
@@ -980,7 +971,7 @@ def _tail_block(e0, n, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, e
     t_sdev, t_p, t_q, t_ep = sdev[idx], pressure[idx], q[idx], eps_p[idx]
     t_rate, t_temp, t_hard, t_th = eps_rate[idx], temperature[idx], hard[idx], thermal[idx]
     t_en, t_vol, t_veos = energy[idx], vol[idx], vol_eos[idx]
-    bdt, bworst, bq, binv = _block(
+    bdt, bworst, bq, binv = _masked_block(
         0, x, v, conn[idx], elem_mat[idx], t_st, t_sdev, t_p, t_q, t_ep, t_rate, t_temp, t_hard,
         t_th, t_en, t_vol, t_veos, vol0[idx], elem_mass[idx], mat_params, jnode, use_anp, half,
         dt, cq, cl, rows[idx], fext, buf, plastic)
@@ -999,8 +990,11 @@ def _tail_block(e0, n, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, e
 def _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
            hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp,
            half, dt, cq, cl, rows, fext, chunk_out, buf, plastic):
-    """The elements of chunk ch, block by block (`_block`, the last one `_tail_block`); `buf`
-    the block buffer (TET_ROWS * B) of the calling thread."""
+    """The elements of chunk ch, block by block: a full block of intact elements of one material
+    here (the vector path, written out in this function: called as a function of its own, it
+    took the kernel 62 -> 66 ns per element), any other block in `_masked_block`, the last one
+    of the mesh in `_tail_block`; `buf` the block buffer (TET_ROWS * B) of the calling
+    thread."""
     n_elem = conn.shape[0]
     dt_min = math.inf
     worst = -1
@@ -1009,10 +1003,29 @@ def _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
     e_end = min(n_elem, (ch + 1) * CHUNK)
     for e0 in range(ch * CHUNK, e_end, B):
         if e0 + B <= e_end:
-            bdt, bworst, bq, binv = _block(
-                e0, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
-                temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
-                jnode, use_anp, half, dt, cq, cl, rows, fext, buf, plastic)
+            mk = _vector_block(elem_mat, status, e0)
+            if mk >= 0:
+                _load_block(x, v, conn, sdev, pressure, energy, vol, vol_eos, vol0, elem_mass,
+                            jnode, use_anp, e0, buf)
+                shear = mat_params[mk, P.G]
+                _kinematics_block(buf, half, dt, shear)
+                for i in range(B):
+                    if not buf[R_DET * B + i] > 0.0:
+                        mk = -1
+            if mk >= 0:
+                if plastic is not None:
+                    _return(buf, mat_params, mk, shear, eps_p, temperature, hard, thermal, e0)
+                _pressure_block(buf, dt, use_anp, int(mat_params[mk, P.EOS]),
+                                mat_params[mk, P.RHO0], mat_params[mk, P.K], mat_params[mk, P.C0],
+                                mat_params[mk, P.S], mat_params[mk, P.GAMMA0], shear, cq, cl, None)
+                bdt, bworst, bq = _store_block(rows, sdev, pressure, q, eps_rate, energy, vol,
+                                               vol_eos, fext, use_anp, e0, buf)
+                binv = 0
+            else:
+                bdt, bworst, bq, binv = _masked_block(
+                    e0, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+                    temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
+                    jnode, use_anp, half, dt, cq, cl, rows, fext, buf, plastic)
         else:
             bdt, bworst, bq, binv = _tail_block(
                 e0, e_end - e0, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
