@@ -956,25 +956,35 @@ def _masked_block(e0, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, ep
     return dt_min, worst, qwork, inverted
 
 
+@numba.njit(cache=True)
+def _lanes(a, e0, n):
+    """A block of B rows: rows e0 .. e0 + n - 1 of `a` (1-D or 2-D), then copies of row e0
+    (plain loops: numpy's fancy indexing cost `_tail_block` seconds of compile)."""
+    out = np.empty((B,) + a.shape[1:], a.dtype)
+    for i in range(B):
+        out[i] = a[e0 + (i if i < n else 0)]
+    return out
+
+
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
 def _tail_block(e0, n, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                 temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
                 jnode, use_anp, half, dt, cq, cl, rows, fext, buf, plastic):
     """The last block of the mesh, n < B elements: copied into arrays of one full block whose
-    other lanes are eroded copies of its first element, run by `_block`, copied back."""
-    idx = np.empty(B, np.int64)
-    for i in range(B):
-        idx[i] = e0 + (i if i < n else 0)
-    t_st = status[idx]
+    other lanes are eroded copies of its first element, run by `_masked_block`, copied back."""
+    t_st = _lanes(status, e0, n)
     for i in range(n, B):
         t_st[i] = ERODED
-    t_sdev, t_p, t_q, t_ep = sdev[idx], pressure[idx], q[idx], eps_p[idx]
-    t_rate, t_temp, t_hard, t_th = eps_rate[idx], temperature[idx], hard[idx], thermal[idx]
-    t_en, t_vol, t_veos = energy[idx], vol[idx], vol_eos[idx]
+    t_sdev, t_p, t_q, t_ep = _lanes(sdev, e0, n), _lanes(pressure, e0, n), _lanes(q, e0, n), \
+        _lanes(eps_p, e0, n)
+    t_rate, t_temp = _lanes(eps_rate, e0, n), _lanes(temperature, e0, n)
+    t_hard, t_th = _lanes(hard, e0, n), _lanes(thermal, e0, n)
+    t_en, t_vol, t_veos = _lanes(energy, e0, n), _lanes(vol, e0, n), _lanes(vol_eos, e0, n)
     bdt, bworst, bq, binv = _masked_block(
-        0, x, v, conn[idx], elem_mat[idx], t_st, t_sdev, t_p, t_q, t_ep, t_rate, t_temp, t_hard,
-        t_th, t_en, t_vol, t_veos, vol0[idx], elem_mass[idx], mat_params, jnode, use_anp, half,
-        dt, cq, cl, rows[idx], fext, buf, plastic)
+        0, x, v, _lanes(conn, e0, n), _lanes(elem_mat, e0, n), t_st, t_sdev, t_p, t_q, t_ep,
+        t_rate, t_temp, t_hard, t_th, t_en, t_vol, t_veos, _lanes(vol0, e0, n),
+        _lanes(elem_mass, e0, n), mat_params, jnode, use_anp, half, dt, cq, cl,
+        _lanes(rows, e0, n), fext, buf, plastic)
     for i in range(n):
         e = e0 + i
         for c in range(6):
@@ -1042,8 +1052,13 @@ def _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
     chunk_out[ch, OUT_WORST] = worst
 
 
-# nogil: the frame writer's thread (output/series.py) runs while the kernel does
-@numba.njit(cache=True, parallel=True, nogil=True, error_model="numpy", fastmath=FAST)
+# element_update runs on one thread below this many tets (`_update_serial`): four parts or
+# fewer, where a second thread saves little, and the parallel kernel's compile (about 5 s with
+# a cold cache) would cost a small case more than its whole run. The warm-up sets it to 0 for
+# its PARALLEL_SCENES so that both versions are compiled.
+PARALLEL_ELEMENTS = 4 * PART
+
+
 def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                    hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
                    use_anp, dt, cq, cl, force, rows, fext, extra_ptr, extra_rows, part_chunks,
@@ -1072,22 +1087,64 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     a case of elastic bodies waits that much less for its first step with a cold cache), else
     True (`plastic_kernel`).
 
+    Below PARALLEL_ELEMENTS tets the kernel runs on one thread (`_update_serial`: the same
+    parts in the same order, so the same bits), which also spares a small case the compile of
+    the parallel kernel (about 5 s of a cold cache).
+
     The stable dt of an element is L / (Q + sqrt(Q^2 + c^2)), L = 3V / max face area (smallest
     altitude), Q = C_l c + C_q^2 L |tr D| in compression, c the EOS sound speed with 4G/3rho.
     """
+    kernel = _update_parallel if conn.shape[0] >= PARALLEL_ELEMENTS else _update_serial
+    kernel(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature, hard,
+           thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp, dt, cq,
+           cl, force, rows, fext, extra_ptr, extra_rows, part_chunks, chunk_out, threads,
+           plastic)
+
+
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def _thread_parts(t, threads, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+                  temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
+                  jnode, use_anp, dt, cq, cl, rows, fext, part_chunks, chunk_out, plastic):
+    """Parts t, t + threads, t + 2 threads, ... of element_update, each in chunk order."""
     n_elem = conn.shape[0]
     half = 0.5 * dt
     n_ch = (n_elem + CHUNK - 1) // CHUNK
     n_parts = (n_ch + part_chunks - 1) // part_chunks
+    buf = aligned_empty(TET_ROWS * B)  # one block buffer per thread and step
+    for part in range(t, n_parts, threads):
+        for ch in range(part * part_chunks, min(n_ch, (part + 1) * part_chunks)):
+            _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+                   temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass,
+                   mat_params, jnode, use_anp, half, dt, cq, cl, rows, fext, chunk_out,
+                   buf, plastic)
+
+
+# nogil: the frame writer's thread (output/series.py) runs while the kernel does
+@numba.njit(cache=True, parallel=True, nogil=True, error_model="numpy", fastmath=FAST)
+def _update_parallel(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
+                     hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
+                     use_anp, dt, cq, cl, force, rows, fext, extra_ptr, extra_rows, part_chunks,
+                     chunk_out, threads, plastic):
+    """element_update on `threads` threads."""
     for t in numba.prange(threads):
-        buf = aligned_empty(TET_ROWS * B)  # one block buffer per thread and step
-        for part in range(t, n_parts, threads):
-            for ch in range(part * part_chunks, min(n_ch, (part + 1) * part_chunks)):
-                _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
-                       temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass,
-                       mat_params, jnode, use_anp, half, dt, cq, cl, rows, fext, chunk_out,
-                       buf, plastic)
+        _thread_parts(t, threads, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
+                      eps_rate, temperature, hard, thermal, energy, vol, vol_eos, vol0,
+                      elem_mass, mat_params, jnode, use_anp, dt, cq, cl, rows, fext,
+                      part_chunks, chunk_out, plastic)
     for i in numba.prange(force.shape[0]):
+        force[i, 0], force[i, 1], force[i, 2] = take_node(i, fext, extra_ptr, extra_rows)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=FAST)
+def _update_serial(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
+                   hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
+                   use_anp, dt, cq, cl, force, rows, fext, extra_ptr, extra_rows, part_chunks,
+                   chunk_out, threads, plastic):
+    """element_update on one thread."""
+    _thread_parts(0, 1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+                  temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
+                  jnode, use_anp, dt, cq, cl, rows, fext, part_chunks, chunk_out, plastic)
+    for i in range(force.shape[0]):
         force[i, 0], force[i, 1], force[i, 2] = take_node(i, fext, extra_ptr, extra_rows)
 
 
