@@ -958,42 +958,23 @@ def _masked_block(e0, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, ep
 
 @numba.njit(cache=True)
 def _lanes(a, e0, n):
-    """A block of B rows: rows e0 .. e0 + n - 1 of `a` (1-D or 2-D), then copies of row e0
-    (plain loops: numpy's fancy indexing cost `_tail_block` seconds of compile)."""
-    out = np.empty((B,) + a.shape[1:], a.dtype)
+    """A block of B lanes: a[e0 .. e0 + n - 1] (1-D), then copies of a[e0] (element by element:
+    numpy's fancy indexing, or a row assignment, cost seconds of compile)."""
+    out = np.empty(B, a.dtype)
     for i in range(B):
         out[i] = a[e0 + (i if i < n else 0)]
     return out
 
 
-@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
-def _tail_block(e0, n, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
-                temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
-                jnode, use_anp, half, dt, cq, cl, rows, fext, buf, plastic):
-    """The last block of the mesh, n < B elements: copied into arrays of one full block whose
-    other lanes are eroded copies of its first element, run by `_masked_block`, copied back."""
-    t_st = _lanes(status, e0, n)
-    for i in range(n, B):
-        t_st[i] = ERODED
-    t_sdev, t_p, t_q, t_ep = _lanes(sdev, e0, n), _lanes(pressure, e0, n), _lanes(q, e0, n), \
-        _lanes(eps_p, e0, n)
-    t_rate, t_temp = _lanes(eps_rate, e0, n), _lanes(temperature, e0, n)
-    t_hard, t_th = _lanes(hard, e0, n), _lanes(thermal, e0, n)
-    t_en, t_vol, t_veos = _lanes(energy, e0, n), _lanes(vol, e0, n), _lanes(vol_eos, e0, n)
-    bdt, bworst, bq, binv = _masked_block(
-        0, x, v, _lanes(conn, e0, n), _lanes(elem_mat, e0, n), t_st, t_sdev, t_p, t_q, t_ep,
-        t_rate, t_temp, t_hard, t_th, t_en, t_vol, t_veos, _lanes(vol0, e0, n),
-        _lanes(elem_mass, e0, n), mat_params, jnode, use_anp, half, dt, cq, cl,
-        _lanes(rows, e0, n), fext, buf, plastic)
-    for i in range(n):
-        e = e0 + i
-        for c in range(6):
-            sdev[e, c] = t_sdev[i, c]
-        pressure[e], q[e], eps_p[e], eps_rate[e] = t_p[i], t_q[i], t_ep[i], t_rate[i]
-        temperature[e], hard[e], thermal[e], energy[e] = t_temp[i], t_hard[i], t_th[i], t_en[i]
-        vol[e] = t_vol[i]
-        vol_eos[e] = t_veos[i] if use_anp else t_vol[i]
-    return bdt, (e0 + bworst if bworst >= 0 else -1), bq, binv
+@numba.njit(cache=True)
+def _lanes2(a, e0, n):
+    """`_lanes` of a 2-D array (its rows)."""
+    out = np.empty((B, a.shape[1]), a.dtype)
+    for i in range(B):
+        j = e0 + (i if i < n else 0)
+        for c in range(a.shape[1]):
+            out[i, c] = a[j, c]
+    return out
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
@@ -1003,7 +984,7 @@ def _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
     """The elements of chunk ch, block by block: a full block of intact elements of one material
     here (the vector path, written out in this function: called as a function of its own, it
     took the kernel 62 -> 66 ns per element), any other block in `_masked_block`, the last one
-    of the mesh in `_tail_block`; `buf` the block buffer (TET_ROWS * B) of the calling
+    of the mesh as well, on copies of its lanes; `buf` the block buffer (TET_ROWS * B) of the calling
     thread."""
     n_elem = conn.shape[0]
     dt_min = math.inf
@@ -1037,10 +1018,36 @@ def _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                     temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
                     jnode, use_anp, half, dt, cq, cl, rows, fext, buf, plastic)
         else:
-            bdt, bworst, bq, binv = _tail_block(
-                e0, e_end - e0, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
-                eps_rate, temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass,
-                mat_params, jnode, use_anp, half, dt, cq, cl, rows, fext, buf, plastic)
+            # the last block of the mesh, n < B elements: copied into arrays of one full block
+            # whose other lanes are eroded copies of its first element, run in masked passes,
+            # copied back (its first lane is passed as e0 - e0: a literal 0 would compile
+            # `_masked_block` again; and this code is here, not in a function of its own: numba
+            # links a called kernel's code into its caller and optimises it again there, so
+            # every level of calls costs compile time)
+            n = e_end - e0
+            t_st = _lanes(status, e0, n)
+            for i in range(n, B):
+                t_st[i] = ERODED
+            t_sdev, t_p, t_q = _lanes2(sdev, e0, n), _lanes(pressure, e0, n), _lanes(q, e0, n)
+            t_ep, t_rate = _lanes(eps_p, e0, n), _lanes(eps_rate, e0, n)
+            t_temp, t_hard, t_th = (_lanes(temperature, e0, n), _lanes(hard, e0, n),
+                                    _lanes(thermal, e0, n))
+            t_en, t_vol, t_veos = _lanes(energy, e0, n), _lanes(vol, e0, n), _lanes(vol_eos, e0, n)
+            bdt, bworst, bq, binv = _masked_block(
+                e0 - e0, x, v, _lanes2(conn, e0, n), _lanes(elem_mat, e0, n), t_st, t_sdev, t_p,
+                t_q, t_ep, t_rate, t_temp, t_hard, t_th, t_en, t_vol, t_veos, _lanes(vol0, e0, n),
+                _lanes(elem_mass, e0, n), mat_params, jnode, use_anp, half, dt, cq, cl,
+                _lanes2(rows, e0, n), fext, buf, plastic)
+            bworst = e0 + bworst if bworst >= 0 else -1
+            for i in range(n):
+                e = e0 + i
+                for c in range(6):
+                    sdev[e, c] = t_sdev[i, c]
+                pressure[e], q[e], eps_p[e], eps_rate[e] = t_p[i], t_q[i], t_ep[i], t_rate[i]
+                temperature[e], hard[e], thermal[e] = t_temp[i], t_hard[i], t_th[i]
+                energy[e] = t_en[i]
+                vol[e] = t_vol[i]
+                vol_eos[e] = t_veos[i] if use_anp else t_vol[i]
         qwork += bq
         inverted += binv
         if bdt < dt_min:
@@ -1101,36 +1108,25 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
            plastic)
 
 
-@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
-def _thread_parts(t, threads, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
-                  temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
-                  jnode, use_anp, dt, cq, cl, rows, fext, part_chunks, chunk_out, plastic):
-    """Parts t, t + threads, t + 2 threads, ... of element_update, each in chunk order."""
-    n_elem = conn.shape[0]
-    half = 0.5 * dt
-    n_ch = (n_elem + CHUNK - 1) // CHUNK
-    n_parts = (n_ch + part_chunks - 1) // part_chunks
-    buf = aligned_empty(TET_ROWS * B)  # one block buffer per thread and step
-    for part in range(t, n_parts, threads):
-        for ch in range(part * part_chunks, min(n_ch, (part + 1) * part_chunks)):
-            _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
-                   temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass,
-                   mat_params, jnode, use_anp, half, dt, cq, cl, rows, fext, chunk_out,
-                   buf, plastic)
-
-
 # nogil: the frame writer's thread (output/series.py) runs while the kernel does
 @numba.njit(cache=True, parallel=True, nogil=True, error_model="numpy", fastmath=FAST)
 def _update_parallel(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                      hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
                      use_anp, dt, cq, cl, force, rows, fext, extra_ptr, extra_rows, part_chunks,
                      chunk_out, threads, plastic):
-    """element_update on `threads` threads."""
+    """element_update on `threads` threads: parts t, t + threads, t + 2 threads, ... on thread
+    t, each in chunk order."""
+    half = 0.5 * dt
+    n_ch = (conn.shape[0] + CHUNK - 1) // CHUNK
+    n_parts = (n_ch + part_chunks - 1) // part_chunks
     for t in numba.prange(threads):
-        _thread_parts(t, threads, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
-                      eps_rate, temperature, hard, thermal, energy, vol, vol_eos, vol0,
-                      elem_mass, mat_params, jnode, use_anp, dt, cq, cl, rows, fext,
-                      part_chunks, chunk_out, plastic)
+        buf = aligned_empty(TET_ROWS * B)  # one block buffer per thread and step
+        for part in range(t, n_parts, threads):
+            for ch in range(part * part_chunks, min(n_ch, (part + 1) * part_chunks)):
+                _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+                       temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass,
+                       mat_params, jnode, use_anp, half, dt, cq, cl, rows, fext, chunk_out,
+                       buf, plastic)
     for i in numba.prange(force.shape[0]):
         force[i, 0], force[i, 1], force[i, 2] = take_node(i, fext, extra_ptr, extra_rows)
 
@@ -1140,10 +1136,14 @@ def _update_serial(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
                    hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
                    use_anp, dt, cq, cl, force, rows, fext, extra_ptr, extra_rows, part_chunks,
                    chunk_out, threads, plastic):
-    """element_update on one thread."""
-    _thread_parts(0, 1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
-                  temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
-                  jnode, use_anp, dt, cq, cl, rows, fext, part_chunks, chunk_out, plastic)
+    """element_update on one thread: the chunks in order (the parts' order), `_chunk` called
+    from here directly (numba links a called kernel's code into its caller and optimises it
+    again there, so every level of calls costs compile time: one more, 1.5 s)."""
+    buf = aligned_empty(TET_ROWS * B)
+    for ch in range((conn.shape[0] + CHUNK - 1) // CHUNK):
+        _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+               temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
+               jnode, use_anp, 0.5 * dt, dt, cq, cl, rows, fext, chunk_out, buf, plastic)
     for i in range(force.shape[0]):
         force[i, 0], force[i, 1], force[i, 2] = take_node(i, fext, extra_ptr, extra_rows)
 
