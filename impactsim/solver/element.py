@@ -984,8 +984,8 @@ def _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
     """The elements of chunk ch, block by block: a full block of intact elements of one material
     here (the vector path, written out in this function: called as a function of its own, it
     took the kernel 62 -> 66 ns per element), any other block in `_masked_block`, the last one
-    of the mesh as well, on copies of its lanes; `buf` the block buffer (TET_ROWS * B) of the calling
-    thread."""
+    of the mesh as well, on copies of its lanes; `buf` the block buffer (TET_ROWS * B) of the
+    calling thread."""
     n_elem = conn.shape[0]
     dt_min = math.inf
     worst = -1
