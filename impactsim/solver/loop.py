@@ -64,9 +64,12 @@ class Simulation:
         self.vol_now = np.zeros(ne)
         self.vol_eos = model.vol.copy() if self.use_anp else model.vol
         # the element kernel's caches: hardening term and thermal factor of the yield stress
+        # (only when a tet is plastic: with elastic tets the kernel compiled has no return)
         self.hardening, self.thermal = np.zeros(ne), np.zeros(ne)
-        E.yield_cache(model.elem_mat, model.mat_params, model.eps_p, model.temperature,
-                      self.hardening, self.thermal)
+        self.plastic = E.plastic_kernel(model.elem_mat, model.mat_params)
+        if self.plastic is not None:
+            E.yield_cache(model.elem_mat, model.mat_params, model.eps_p, model.temperature,
+                          self.hardening, self.thermal)
         self.block_runners = []  # further element blocks (hexahedra: solver/blocks.py)
         if getattr(model, "blocks", None):
             from impactsim.solver.blocks import BlockRunner
@@ -183,7 +186,7 @@ class Simulation:
                 m.eps_rate, m.temperature, self.hardening, self.thermal, m.energy, m.vol,
                 self.vol_eos, m.vol0, m.elem_mass, m.mat_params, self.jnode, self.use_anp, dt,
                 self.cq, self.cl, m.force, fr.rows, self.fext, fr.extra_ptr, fr.extra_rows,
-                fr.part_size // E.CHUNK, self.chunk_out, numba.get_num_threads())
+                fr.part_size // E.CHUNK, self.chunk_out, numba.get_num_threads(), self.plastic)
         out = self.chunk_out
         k = int(np.argmin(out[:, E.OUT_DT]))
         self.dt_stable = float(out[k, E.OUT_DT])
