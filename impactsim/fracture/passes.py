@@ -40,8 +40,9 @@ from impactsim.fracture.fragments import cloud_axis, cloud_summary, leading_edge
 from impactsim.solver.blocks import hex_corner_forces
 from impactsim.fracture.hexes import HexFracture, pass_orphan_forces
 from impactsim.fracture.measures import body_measures, shield_summary
-from impactsim.fracture.particles import (Particles, faces_near, move_particles, particle_boxes,
-                                          particle_face_sweep, particle_particle_sweep,
+from impactsim.fracture.particles import (NODE_COLS, Particles, faces_near, move_particles,
+                                          pack_face_nodes, particle_boxes,
+                                          particle_face_sweep_packed, particle_particle_sweep,
                                           particle_walls)
 from impactsim.fracture.removal import remove_elements
 from impactsim.fracture.spall import PRESSURE_CODES, SPALL_CELL
@@ -287,6 +288,7 @@ class ParticlePass(Pass):
         self.bounds = np.zeros((2, 3))  # ... and of the faces near them
         self.locks = PrescribedLock()  # prescribed velocity components of face nodes
         self._buf = {}
+        self.nodes = np.zeros((0, NODE_COLS))  # the sweep's face-node table (pack_face_nodes)
 
     def _buffer(self, name, rows, dtype=np.float64, cols=3):
         """Reusable scratch rows (grows by half when short): no allocation in the time loop."""
@@ -327,10 +329,12 @@ class ParticlePass(Pass):
                 pairs = self.hash.query(plo, phi, pa.ids[:n], pa.no_body[:n], sel[:k],
                                         sel_body[:k], False, False)
                 if pairs.shape[0]:
-                    applied, w = particle_face_sweep(pairs, pa.x, pa.v, pa.m, pa.radius, sel,
-                                                     model.x, model.v, model.mass, model.force,
-                                                     model.dtv, dt, EPS_BARY,
-                                                     self.locks.get(model))
+                    if self.nodes.shape[0] != model.n_node:
+                        self.nodes = np.zeros((model.n_node, NODE_COLS))
+                    pack_face_nodes(sel, k, model.x, model.v, model.mass, self.nodes)
+                    applied, w = particle_face_sweep_packed(
+                        pairs, pa.x, pa.v, pa.m, pa.radius, sel, self.nodes, model.v,
+                        model.mass, model.force, model.dtv, dt, EPS_BARY, self.locks.get(model))
                     self.impacts += int(applied)
                     work += float(w)
         if s.collisions and n > 1:
