@@ -118,10 +118,11 @@ def hex_fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol,
     (n, 6) quad neighbours at t = 0 (``HexBoundary``); pnode the nodal means of
     ``criteria.patch_fields`` over the block (read unless spall_mode is "cell"); spall_k, integrate
     the Tuler-Butcher accumulators and criterion (``spall.spalls``). Returns (newly damaged,
-    newly fractured, hexes with an action)."""
+    newly fractured, hexes with an action, newly damaged by the ductile criterion)."""
     n_dam = 0
     n_frac = 0
     n_act = 0
+    n_duct = 0
     for e in numba.prange(conn.shape[0]):
         action[e] = C.NONE
         st = status[e]
@@ -137,7 +138,8 @@ def hex_fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol,
         st, dam, frac = C.element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev,
                                         damage, eps_rate, temperature, mat_params, dt, spall_k,
                                         integrate)
-        n_dam += dam
+        n_dam += 1 if dam > 0 else 0
+        n_duct += 1 if dam == 2 else 0
         n_frac += frac
         status[e] = st
         free = 0
@@ -160,7 +162,7 @@ def hex_fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol,
         action[e] = act
         if act != C.NONE:
             n_act += 1
-    return n_dam, n_frac, n_act
+    return n_dam, n_frac, n_act, n_duct
 
 
 @numba.njit(cache=True)
@@ -385,6 +387,7 @@ class HexFracture:
         self.ids = np.zeros(blk.n_elem, dtype=np.int64)
         self.eps_p_prev = blk.eps_p.copy()
         self.spall_k = np.zeros(blk.n_elem)  # [s] Tuler-Butcher accumulators (spall.py)
+        self.ductile = 0  # cells the ductile criterion damaged (fracture/ductile.py)
         self.status_before = blk.status.copy()  # before the criteria of the step
         self.pnode = np.zeros(model.n_node)
         self.jnode = np.ones(model.n_node)
@@ -410,7 +413,7 @@ class HexFracture:
 
     def criteria(self, model, dt: float, surface_only: bool, spall_mode: int, integrate: bool):
         """Run the criteria on the block; returns (newly damaged, newly fractured, ascending ids
-        of the hexes with an action)."""
+        of the hexes with an action); adds the ductile criterion's share to self.ductile."""
         b, blk = self.boundary, self.blk
         np.copyto(self.status_before, blk.status)  # what the element update saw
         if spall_mode != SPALL_CELL:
@@ -420,11 +423,12 @@ class HexFracture:
                 self._n2e = (*node_to_element(blk.conn, model.n_node), blk.conn)
             C.patch_fields(blk.vol, blk.vol0, blk.pressure, blk.status, self._n2e[0],
                            self._n2e[1], self.pnode, self.jnode, 8)
-        n_dam, n_frac, n_act = hex_fracture_criteria(
+        n_dam, n_frac, n_act, n_duct = hex_fracture_criteria(
             model.x, model.v, model.x0, blk.conn, blk.elem_mat, blk.status, blk.sdev,
             blk.pressure, blk.vol, blk.vol0, blk.eps_p, self.eps_p_prev, blk.damage,
             blk.eps_rate, blk.temperature, model.mat_params, b.face_flag, b.adj, surface_only,
             dt, self.action, spall_mode, self.pnode, XI, self.spall_k, integrate)
         ids = self.ids[:C.action_ids(self.action, self.ids)] if n_act else self.ids[:0]
+        self.ductile += int(n_duct)
         return int(n_dam), int(n_frac), ids
 
