@@ -133,8 +133,11 @@ class FracturePass(Pass):
     def run(self, model, dt):
         if self.criteria is None:
             mp = model.mat_params
+            # criteria.failing_material or the ductile criterion (fracture/ductile.py) of any
+            # material: a new failure mode of element_state must be named here too
             self.criteria = bool(np.any((mp[:, P.EROSION] != 0) | (mp[:, P.SPALL] < np.inf)
-                                        | (mp[:, P.CHI_STAR] < np.inf)))
+                                        | (mp[:, P.CHI_STAR] < np.inf)
+                                        | (mp[:, P.DUCTILE] > 0.0)))
         if self.criteria:
             self._criteria(model, dt)
         s = self.s
@@ -154,8 +157,8 @@ class FracturePass(Pass):
     def _criteria(self, model, dt):
         """Spall, loosening, damage and the element actions on the tets and the hex blocks.
         Skipped when no material has failure data (``criteria.failing_material``: no erosion
-        criterion, spall or loosening; node separation or distortion erosion alone): they
-        change nothing then (no status change, no action, no guard; eps_p_prev is read by
+        criterion, spall or loosening, and no ductile criterion; node separation or distortion
+        erosion alone): they change nothing then (no status change, no action, no guard; eps_p_prev is read by
         damage erosion only), and cost more than the separation pass on a tied hex body."""
         s = self.s
         b = s.boundary
