@@ -8,8 +8,10 @@ averaged nodal volume, which this measure does not: tet4 and hexes only).
     python benchmarks/bench_centre_pressure.py [steps]
 """
 import sys
+
 import numba
 import numpy as np
+
 from impactsim.case import load_case_text
 from impactsim.solver.build import build_model
 from impactsim.solver.loop import Simulation
@@ -18,8 +20,6 @@ from impactsim.fracture.separation import SeparationPass
 from impactsim.materials import params as P
 from impactsim.warmup import scenes
 
-numba.set_num_threads(1)
-STEPS = int(sys.argv[1]) if len(sys.argv) > 1 else 60
 
 
 def mismatch(model, sp):
@@ -41,11 +41,12 @@ def mismatch(model, sp):
         den = np.maximum(1.0 - sc * np.maximum(eta, 0.0), 0.05)
         ph = np.where(eta > 0, k * eta / den**2, k * eta)
         a = ph * (1.0 - 0.5 * g0 * eta)
-        worst = max(worst, float(np.max(np.abs(a_stored - a) / np.maximum(np.abs(h.pressure[ids]), 1e8))))
+        rel = np.abs(a_stored - a) / np.maximum(np.abs(h.pressure[ids]), 1e8)
+        worst = max(worst, float(np.max(rel)))
     return worst
 
 
-def run(text, element, consistent):
+def run(text, element, consistent, steps):
     case = load_case_text(text)
     model = build_model(case)
     kw = {"element": element} if element else {}
@@ -56,7 +57,7 @@ def run(text, element, consistent):
     e = sim.energies()
     e0, ref, worst, last = e["total_energy"], abs(e["total_energy"]), 0.0, 0.0
     mm = 0.0
-    for _ in range(STEPS):
+    for _ in range(steps):
         sim.step()
         mm = max(mm, mismatch(model, sp))
         e = sim.energies()
@@ -66,10 +67,18 @@ def run(text, element, consistent):
     return worst, last, (mm if element != "anp" else float("nan")), sp.sep.counts["new_nodes"]
 
 
-sc = dict((n, t) for n, t, _ in scenes())
-for name, element in (("separation", "anp"), ("separation", "tet4"), ("separation-hex", None)):
-    for consistent in (False, True):
-        w, l, mm, nn = run(sc[name], element, consistent)
-        print(f"{name:16} {str(element):5} consistent={consistent!s:5} steps={STEPS} "
-              f"worst balance {100*w:.2f} %  end {100*l:+.2f} %  max |p - EOS|/|p| {mm:.2e}  new nodes {nn}",
-              flush=True)
+def main(steps: int = 40) -> int:
+    numba.set_num_threads(1)
+    sc = dict((n, t) for n, t, _ in scenes())
+    for name, element in (("separation", "anp"), ("separation", "tet4"),
+                          ("separation-hex", None)):
+        for consistent in (False, True):
+            w, last, mm, nn = run(sc[name], element, consistent, steps)
+            print(f"{name:16} {str(element):5} consistent={consistent!s:5} steps={steps} "
+                  f"worst balance {100 * w:.2f} %  end {100 * last:+.2f} %  "
+                  f"max |p - EOS|/|p| {mm:.2e}  new nodes {nn}", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(int(sys.argv[1]) if len(sys.argv) > 1 else 40))
