@@ -361,7 +361,7 @@ def _project(model, group, stamp, first) -> None:
     velocities after it matter only through the detection sweeps that follow, which push
     whatever still approaches."""
     ctx = group[0].ctx
-    rows = [np.flatnonzero(p._active[:p._pairs.shape[0]]) for p in group]
+    rows = [np.flatnonzero(p._active[:p._pairs.shape[0]] == 1) for p in group]
     n = sum(r.shape[0] for r in rows)
     if n == 0:
         return
