@@ -933,7 +933,10 @@ def _masked_block(e0, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, ep
         shear = mat_params[mk, P.G]
         _kinematics_block(buf, half, dt, shear)
         for i in range(B):
-            if buf[R_LIVE * B + i] != 0.0 and not buf[R_DET * B + i] > 0.0:
+            # inverted as in `_element_scalar` (V <= 0): a NaN volume is not, and goes on, so
+            # that the run's non-finite check names the node (the full block's test, not V > 0,
+            # sends such a block here)
+            if buf[R_LIVE * B + i] != 0.0 and buf[R_DET * B + i] <= 0.0:
                 inverted += 1
                 buf[R_LIVE * B + i] = 0.0
             if buf[R_LIVE * B + i] == 0.0 or buf[R_STAT * B + i] != 0.0:
