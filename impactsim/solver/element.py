@@ -62,7 +62,8 @@ B = 32  # lanes of a block; the buffer (ROWS x B doubles, 23 kB) stays in the L1
 FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
 # columns of the per-chunk reduction array
 OUT_DT, OUT_QWORK, OUT_INVERTED, OUT_WORST = 0, 1, 2, 3
-N_OUT = 4
+OUT_DEFERRED = 4  # the chunk's blocks left to `_deferred_chunk`, a bit mask (block b: 2^b)
+N_OUT = 5
 
 # rows of the block buffer: row r of lane i is buf[r * B + i]
 R_X = 0  # 12 rows: x^{n+1} of corners 0..3 (x, y, z each)
@@ -933,7 +934,10 @@ def _masked_block(e0, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, ep
         shear = mat_params[mk, P.G]
         _kinematics_block(buf, half, dt, shear)
         for i in range(B):
-            if buf[R_LIVE * B + i] != 0.0 and not buf[R_DET * B + i] > 0.0:
+            # inverted as in `_element_scalar` (V <= 0): a NaN volume is not, and goes on, so
+            # that the run's non-finite check names the node (the full block's test, not V > 0,
+            # sends such a block here)
+            if buf[R_LIVE * B + i] != 0.0 and buf[R_DET * B + i] <= 0.0:
                 inverted += 1
                 buf[R_LIVE * B + i] = 0.0
             if buf[R_LIVE * B + i] == 0.0 or buf[R_STAT * B + i] != 0.0:
@@ -981,16 +985,16 @@ def _lanes2(a, e0, n):
 def _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
            hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp,
            half, dt, cq, cl, rows, fext, chunk_out, buf, plastic):
-    """The elements of chunk ch, block by block: a full block of intact elements of one material
-    here (the vector path, written out in this function: called as a function of its own, it
-    took the kernel 62 -> 66 ns per element), any other block in `_masked_block`, the last one
-    of the mesh as well, on copies of its lanes; `buf` the block buffer (TET_ROWS * B) of the
-    calling thread."""
+    """The full blocks of intact elements of one material of chunk ch (the vector path, written
+    out in this function: called as a function of its own, it took the kernel 62 -> 66 ns per
+    element); any other block is left to `_deferred_chunk`, marked in the chunk's
+    OUT_DEFERRED. `buf` the block buffer (TET_ROWS * B) of the calling thread."""
     n_elem = conn.shape[0]
     dt_min = math.inf
     worst = -1
     qwork = 0.0
     inverted = 0
+    deferred = 0
     e_end = min(n_elem, (ch + 1) * CHUNK)
     for e0 in range(ch * CHUNK, e_end, B):
         if e0 + B <= e_end:
@@ -1013,10 +1017,47 @@ def _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                                                vol_eos, fext, use_anp, e0, buf)
                 binv = 0
             else:
-                bdt, bworst, bq, binv = _masked_block(
-                    e0, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+                deferred |= 1 << ((e0 - ch * CHUNK) // B)
+                continue
+        else:
+            deferred |= 1 << ((e0 - ch * CHUNK) // B)
+            continue
+        qwork += bq
+        inverted += binv
+        if bdt < dt_min:
+            dt_min = bdt
+            worst = bworst
+    chunk_out[ch, OUT_DT] = dt_min
+    chunk_out[ch, OUT_QWORK] = qwork
+    chunk_out[ch, OUT_INVERTED] = inverted
+    chunk_out[ch, OUT_WORST] = worst
+    chunk_out[ch, OUT_DEFERRED] = deferred
+
+
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def _deferred_chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                     temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
-                    jnode, use_anp, half, dt, cq, cl, rows, fext, buf, plastic)
+                    jnode, use_anp, half, dt, cq, cl, rows, fext, chunk_out, buf, plastic):
+    """The blocks of chunk ch that `_chunk` left (OUT_DEFERRED): masked passes
+    (`_masked_block`), the last block of the mesh on copies of its lanes; their results merged
+    into the chunk's. A kernel of its own, called only when a chunk has such blocks, so that a
+    case without any (the demo) does not compile it."""
+    n_elem = conn.shape[0]
+    mask = int(chunk_out[ch, OUT_DEFERRED])
+    dt_min = chunk_out[ch, OUT_DT]
+    worst = int(chunk_out[ch, OUT_WORST])
+    qwork = chunk_out[ch, OUT_QWORK]
+    inverted = int(chunk_out[ch, OUT_INVERTED])
+    e_end = min(n_elem, (ch + 1) * CHUNK)
+    for blk in range(CHUNK // B):
+        if (mask >> blk) & 1 == 0:
+            continue
+        e0 = ch * CHUNK + blk * B
+        if e0 + B <= e_end:
+            bdt, bworst, bq, binv = _masked_block(
+                e0, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+                temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
+                jnode, use_anp, half, dt, cq, cl, rows, fext, buf, plastic)
         else:
             # the last block of the mesh, n < B elements: copied into arrays of one full block
             # whose other lanes are eroded copies of its first element, run in masked passes,
@@ -1094,28 +1135,38 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     a case of elastic bodies waits that much less for its first step with a cold cache), else
     True (`plastic_kernel`).
 
-    Below PARALLEL_ELEMENTS tets the kernel runs on one thread (`_update_serial`: the same
-    parts in the same order, so the same bits), which also spares a small case the compile of
-    the parallel kernel (about 5 s of a cold cache).
+    Three kernels: the full blocks of intact elements of one material (`_chunk`), then, only if
+    a chunk left any (OUT_DEFERRED), the other blocks in masked passes and the mesh's last
+    block (`_deferred_chunk`: after all full blocks of their part, on the same thread, so each
+    force row still has one writer and one order), then the rows' sum. A case with no such
+    block (the demo) never compiles the second. Below PARALLEL_ELEMENTS tets they run on one
+    thread (`_update_serial`, `_sum_serial`: the same parts in the same order, so the same
+    bits), which also spares a small case the compile of the parallel kernels (about 5 s of a
+    cold cache).
 
     The stable dt of an element is L / (Q + sqrt(Q^2 + c^2)), L = 3V / max face area (smallest
     altitude), Q = C_l c + C_q^2 L |tr D| in compression, c the EOS sound speed with 4G/3rho.
     """
-    kernel = _update_parallel if conn.shape[0] >= PARALLEL_ELEMENTS else _update_serial
-    kernel(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature, hard,
-           thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp, dt, cq,
-           cl, force, rows, fext, extra_ptr, extra_rows, part_chunks, chunk_out, threads,
-           plastic)
+    parallel = conn.shape[0] >= PARALLEL_ELEMENTS
+    args = (x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature, hard,
+            thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp, dt, cq,
+            cl, rows, fext, part_chunks, chunk_out, threads, plastic)
+    kernel = _update_parallel if parallel else _update_serial
+    kernel(*args, None)
+    if chunk_out[:, OUT_DEFERRED].any():  # blocks left: masked passes, the mesh's last block
+        kernel(*args, True)
+    (_sum_parallel if parallel else _sum_serial)(force, fext, extra_ptr, extra_rows)
 
 
 # nogil: the frame writer's thread (output/series.py) runs while the kernel does
 @numba.njit(cache=True, parallel=True, nogil=True, error_model="numpy", fastmath=FAST)
 def _update_parallel(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                      hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
-                     use_anp, dt, cq, cl, force, rows, fext, extra_ptr, extra_rows, part_chunks,
-                     chunk_out, threads, plastic):
-    """element_update on `threads` threads: parts t, t + threads, t + 2 threads, ... on thread
-    t, each in chunk order."""
+                     use_anp, dt, cq, cl, rows, fext, part_chunks, chunk_out, threads, plastic,
+                     deferred):
+    """element_update's blocks on `threads` threads: parts t, t + threads, t + 2 threads, ... on
+    thread t, each in chunk order; the full blocks (`_chunk`) with `deferred` None, else the
+    blocks they left (`_deferred_chunk`): two specialisations, pruned at compile time."""
     half = 0.5 * dt
     n_ch = (conn.shape[0] + CHUNK - 1) // CHUNK
     n_parts = (n_ch + part_chunks - 1) // part_chunks
@@ -1123,27 +1174,49 @@ def _update_parallel(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
         buf = aligned_empty(TET_ROWS * B)  # one block buffer per thread and step
         for part in range(t, n_parts, threads):
             for ch in range(part * part_chunks, min(n_ch, (part + 1) * part_chunks)):
-                _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
-                       temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass,
-                       mat_params, jnode, use_anp, half, dt, cq, cl, rows, fext, chunk_out,
-                       buf, plastic)
-    for i in numba.prange(force.shape[0]):
-        force[i, 0], force[i, 1], force[i, 2] = take_node(i, fext, extra_ptr, extra_rows)
+                if deferred is None:
+                    _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
+                           eps_rate, temperature, hard, thermal, energy, vol, vol_eos, vol0,
+                           elem_mass, mat_params, jnode, use_anp, half, dt, cq, cl, rows, fext,
+                           chunk_out, buf, plastic)
+                elif chunk_out[ch, OUT_DEFERRED] != 0.0:
+                    _deferred_chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
+                                    eps_rate, temperature, hard, thermal, energy, vol, vol_eos,
+                                    vol0, elem_mass, mat_params, jnode, use_anp, half, dt, cq,
+                                    cl, rows, fext, chunk_out, buf, plastic)
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=FAST)
 def _update_serial(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                    hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
-                   use_anp, dt, cq, cl, force, rows, fext, extra_ptr, extra_rows, part_chunks,
-                   chunk_out, threads, plastic):
-    """element_update on one thread: the chunks in order (the parts' order), `_chunk` called
+                   use_anp, dt, cq, cl, rows, fext, part_chunks, chunk_out, threads, plastic,
+                   deferred):
+    """`_update_parallel` on one thread: the chunks in order (the parts' order), `_chunk` called
     from here directly (numba links a called kernel's code into its caller and optimises it
     again there, so every level of calls costs compile time: one more, 1.5 s)."""
     buf = aligned_empty(TET_ROWS * B)
     for ch in range((conn.shape[0] + CHUNK - 1) // CHUNK):
-        _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
-               temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
-               jnode, use_anp, 0.5 * dt, dt, cq, cl, rows, fext, chunk_out, buf, plastic)
+        if deferred is None:
+            _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+                   temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
+                   jnode, use_anp, 0.5 * dt, dt, cq, cl, rows, fext, chunk_out, buf, plastic)
+        elif chunk_out[ch, OUT_DEFERRED] != 0.0:
+            _deferred_chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
+                            eps_rate, temperature, hard, thermal, energy, vol, vol_eos, vol0,
+                            elem_mass, mat_params, jnode, use_anp, 0.5 * dt, dt, cq, cl, rows,
+                            fext, chunk_out, buf, plastic)
+
+
+@numba.njit(cache=True, parallel=True, nogil=True)
+def _sum_parallel(force, fext, extra_ptr, extra_rows):
+    """Each node's rows summed in part order into force (`scatter.take_node`)."""
+    for i in numba.prange(force.shape[0]):
+        force[i, 0], force[i, 1], force[i, 2] = take_node(i, fext, extra_ptr, extra_rows)
+
+
+@numba.njit(cache=True, nogil=True)
+def _sum_serial(force, fext, extra_ptr, extra_rows):
+    """`_sum_parallel` on one thread."""
     for i in range(force.shape[0]):
         force[i, 0], force[i, 1], force[i, 2] = take_node(i, fext, extra_ptr, extra_rows)
 
