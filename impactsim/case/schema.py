@@ -177,7 +177,7 @@ class Fracture:
     spall_pressure: str = "lesser"
     # ductile fracture (fracture/ductile.py): Johnson-Cook damage D >= 1 damages a cell of a
     # material with failure.jc_damage and no erosion criterion ("johnson-cook"), or not ("none")
-    ductile_criterion: str = "johnson-cook"
+    ductile_criterion: str = "none"
     # distortion erosion [Z] (fracture/distortion.py): checked every interval [s]; None = off
     distortion_interval: float | None = None
     distortion_extent: float = 3.0  # r1: axis extent > r1 * L_ch deletes
