@@ -233,7 +233,9 @@ def stay_apart(ia, ib, ie, jf, x, v, tau, band):
     tau, so two intervals of projections that are apart by more than the tolerance on some unit
     axis keep the segments apart. The axes tried: the segments' common normal at t = 0, which
     separates the near-coplanar pairs of a flat contact that lie one above the other, then x,
-    y, z (tighter than the broad phase's boxes, padded by BOX_PAD of h). The tolerance is band
+    y, z (tighter than the broad phase's boxes, padded by BOX_PAD of h), then the two
+    directions in the segments' plane across each segment (common normal x segment), which
+    separate coplanar segments of a flat contact that do not cross. The tolerance is band
     plus APART_MARGIN of the longer segment: the segments extended by SEGMENT_EPS, and a root of
     the cubic accepted within round-off, whose lines miss by far less."""
     ax = x[ia, 0]
@@ -275,9 +277,33 @@ def stay_apart(ia, ib, ie, jf, x, v, tau, band):
                   ex * nx + ey * ny + ez * nz, fx * nx + fy * ny + fz * nz,
                   Ex * nx + Ey * ny + Ez * nz, Fx * nx + Fy * ny + Fz * nz, tol):
             return True
-    return (_apart(ax, bx, Ax, Bx, ex, fx, Ex, Fx, tol)
+    if (_apart(ax, bx, Ax, Bx, ex, fx, Ex, Fx, tol)
             or _apart(ay, by, Ay, By, ey, fy, Ey, Fy, tol)
-            or _apart(az, bz, Az, Bz, ez, fz, Ez, Fz, tol))
+            or _apart(az, bz, Az, Bz, ez, fz, Ez, Fz, tol)):
+        return True
+    if not nn > 0.0:
+        return False
+    # in the plane of the two segments (a flat contact: coplanar segments that do not cross)
+    for j in range(2):
+        ux = d1x if j == 0 else d2x
+        uy = d1y if j == 0 else d2y
+        uz = d1z if j == 0 else d2z
+        mx = ny * uz - nz * uy
+        my = nz * ux - nx * uz
+        mz = nx * uy - ny * ux
+        mm = mx * mx + my * my + mz * mz
+        if not mm > 0.0:
+            continue
+        inv = 1.0 / math.sqrt(mm)
+        mx *= inv
+        my *= inv
+        mz *= inv
+        if _apart(ax * mx + ay * my + az * mz, bx * mx + by * my + bz * mz,
+                  Ax * mx + Ay * my + Az * mz, Bx * mx + By * my + Bz * mz,
+                  ex * mx + ey * my + ez * mz, fx * mx + fy * my + fz * mz,
+                  Ex * mx + Ey * my + Ez * mz, Fx * mx + Fy * my + Fz * mz, tol):
+            return True
+    return False
 
 
 @numba.njit(cache=True)

@@ -105,19 +105,61 @@ def particle_face_sweep(pairs, px, pv, pm, pr, faces, x, v, mass, force, dtv, ta
     ``lock (n_node, 3)``: 0.0 on the face nodes' prescribed velocity components, else 1.0
     (empty: none), left alone by the impulse (``nodeface.point_face_impulse``); the geometry is
     ``impactsim.contact.geometry``'s, as in the node-face pass.
-    Returns (pairs corrected, work of the impulses on nodes and particles [J])."""
+    Returns (pairs corrected, work of the impulses on nodes and particles [J]).
+    ``particle_face_sweep_packed`` with a node table of its own."""
+    xv = np.empty((x.shape[0], NODE_COLS))
+    pack_face_nodes(faces, faces.shape[0], x, v, mass, xv)
+    return particle_face_sweep_packed(pairs, px, pv, pm, pr, faces, xv, v, mass, force, dtv, tau,
+                                      eps_bary, lock)
+
+
+NODE_COLS = 8  # a face node's row in the sweep's table: x (0-2), U* (3-5), mass (6), unused
+
+
+@numba.njit(cache=True)
+def pack_face_nodes(faces, k, x, v, mass, xv):
+    """The nodes of face rows [0, k) into the table ``xv (n_node, NODE_COLS)``: position,
+    predicted velocity and mass of a node in one row (one cache line), so that the sweep reads
+    a face's three nodes in three loads instead of nine (x, v and mass are arrays apart). Rows of
+    other nodes are left as they are."""
+    for f in range(k):
+        for j in range(3):
+            i = faces[f, j]
+            xv[i, 0] = x[i, 0]
+            xv[i, 1] = x[i, 1]
+            xv[i, 2] = x[i, 2]
+            xv[i, 3] = v[i, 0]
+            xv[i, 4] = v[i, 1]
+            xv[i, 5] = v[i, 2]
+            xv[i, 6] = mass[i]
+
+
+@numba.njit(cache=True, inline="always")
+def _end_of_step(xv, tau, i):
+    """Node i's position at the end of the step from its row of the table: x + tau U*, the
+    arithmetic of ``geometry.point_at``."""
+    return xv[i, 0] + tau * xv[i, 3], xv[i, 1] + tau * xv[i, 4], xv[i, 2] + tau * xv[i, 5]
+
+
+@numba.njit(cache=True)
+def particle_face_sweep_packed(pairs, px, pv, pm, pr, faces, xv, v, mass, force, dtv, tau,
+                               eps_bary, lock):
+    """``particle_face_sweep`` reading the face nodes' positions, predicted velocities and
+    masses from the table ``xv`` of ``pack_face_nodes`` (rows of every node of the faces the
+    pairs name), the same arithmetic: the same impulses bit for bit. An impulse writes the
+    nodes' new velocities to ``v`` and to their rows of the table."""
     applied = 0
     work = 0.0
     for k in range(pairs.shape[0]):
         p = pairs[k, 0]
         f = pairs[k, 1]
         ia, ib, ic = faces[f, 0], faces[f, 1], faces[f, 2]
-        if not (mass[ia] > 0.0 and mass[ib] > 0.0 and mass[ic] > 0.0):
+        if not (xv[ia, 6] > 0.0 and xv[ib, 6] > 0.0 and xv[ic, 6] > 0.0):
             continue
         # geometry at the end of the step (predicted positions)
-        ax, ay, az = point_at(x, v, tau, ia)
-        bx, by, bz = point_at(x, v, tau, ib)
-        cx, cy, cz = point_at(x, v, tau, ic)
+        ax, ay, az = _end_of_step(xv, tau, ia)
+        bx, by, bz = _end_of_step(xv, tau, ib)
+        cx, cy, cz = _end_of_step(xv, tau, ic)
         e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz, nn = triangle_normal(ax, ay, az, bx, by, bz,
                                                                        cx, cy, cz)
         if not nn > 0.0:
@@ -134,8 +176,8 @@ def particle_face_sweep(pairs, px, pv, pm, pr, faces, x, v, mass, force, dtv, ta
         nx, ny, nz = unit_normal(nx, ny, nz, nn)
         # the centre's distance from the face's plane at the start of the step: a particle
         # meets a face from its outer side only
-        d0 = ((px[p, 0] - x[ia, 0]) * nx + (px[p, 1] - x[ia, 1]) * ny
-              + (px[p, 2] - x[ia, 2]) * nz)
+        d0 = ((px[p, 0] - xv[ia, 0]) * nx + (px[p, 1] - xv[ia, 1]) * ny
+              + (px[p, 2] - xv[ia, 2]) * nz)
         if not d0 > 0.0:
             continue
         g0 = d0 - pr[p]
@@ -154,6 +196,11 @@ def particle_face_sweep(pairs, px, pv, pm, pr, faces, x, v, mass, force, dtv, ta
         work += _node_work(v, mass, force, dtv, ia, a0, a1, a2)
         work += _node_work(v, mass, force, dtv, ib, b0, b1, b2)
         work += _node_work(v, mass, force, dtv, ic, c0, c1, c2)
+        for j in range(3):
+            i = faces[f, j]
+            xv[i, 3] = v[i, 0]
+            xv[i, 4] = v[i, 1]
+            xv[i, 5] = v[i, 2]
         applied += 1
     return applied, work
 

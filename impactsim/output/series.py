@@ -39,8 +39,9 @@ _VOIGT_TO_FULL = np.array([0, 3, 5, 3, 1, 4, 5, 4, 2])
 
 
 def voigt_to_tensor(s: np.ndarray) -> np.ndarray:
-    """(k, 6) symmetric tensors xx, yy, zz, xy, yz, zx -> (k, 9) row-major 3x3 tensors."""
-    return np.ascontiguousarray(np.asarray(s)[:, _VOIGT_TO_FULL])
+    """(k, 6) symmetric tensors xx, yy, zz, xy, yz, zx -> (k, 9) row-major 3x3 tensors.
+    (np.take along the columns: a third of the time of the fancy index on 163k rows.)"""
+    return np.take(np.asarray(s), _VOIGT_TO_FULL, axis=1)
 
 
 class SeriesWriter:
