@@ -382,10 +382,12 @@ def describe_quasistatic(case: QSCase) -> str:
     from impactsim.case.units import format_quantity as fq
 
     s = case.settings
+    anderson = f" + Anderson {s['anderson']}" if s["anderson"] else ""
     lines = [f"case {case.name}: quasistatic thermoelastic contact (Schwarz method [G15])",
              f"  load steps: {len(case.times)} up to {fq(case.end_time, 'time')}; heat "
              f"{s['heat']}; element {s['element']}",
-             f"  Schwarz: relaxation {s['relaxation']:g}{' + Aitken' if s['aitken'] else ''}, "
+             f"  Schwarz: relaxation {s['relaxation']:g}{' + Aitken' if s['aitken'] else ''}"
+             f"{anderson}, "
              f"tolerances gap {s['gap_tolerance']:g} pressure {s['pressure_tolerance']:g}, at "
              f"most {s['max_iterations']} iterations; workers {s['workers']}",
              f"  contact: {'detected' if case.detect else 'listed pairs only'}, gap tolerance "

@@ -212,3 +212,16 @@ def test_robin_conditions_reach_the_dirichlet_neumann_and_monolithic_answer():
     assert np.abs(p_a - p_b).max() < 1e-6 * np.abs(p_a).max()
     gap = itf.gap + out.state.ub[0] - out.state.ua[0]
     assert np.abs(gap[act]).max() < 1e-7 * size
+
+
+@pytest.mark.slow
+def test_robin_conditions_give_the_same_answer_on_two_workers():
+    prob = problem(case(HELD, "contact.pair.0.robin=1e14", "quasistatic.anderson=10"))
+    local = solve(prob, 0)
+    two = solve(prob, 2)
+    assert local.stopped is None and two.stopped is None
+    assert local.steps[-1]["iterations"] == two.steps[-1]["iterations"]
+    size = max(np.abs(f["u"]).max() for f in local.fields.values())
+    for i in local.fields:
+        # (Dask's workers run BLAS on one thread: not bit for bit, see Friction)
+        assert np.abs(local.fields[i]["u"] - two.fields[i]["u"]).max() < 1e-9 * size
