@@ -202,3 +202,47 @@ def test_particle_pass_equals_the_sweeps_over_brute_force_pairs(monkeypatch, col
             assert m.energy_terms["contact_dissipated"] == -work
     finally:
         numba.set_num_threads(threads)
+
+
+def test_the_sweeps_node_table_follows_the_impulses():
+    """The sweep reads the face nodes from its table (particles.pack_face_nodes): after a sweep
+    with many impulses, every face node's row still holds its position, mass and current
+    velocity (a later pair reads the velocity an earlier impulse left), and the sweep over the
+    table gives what it gives on the arrays, node by node and particle by particle."""
+    from impactsim.fracture import passes as FPass
+    from impactsim.fracture.particles import (NODE_COLS, pack_face_nodes,
+                                              particle_face_sweep_packed)
+
+    dt = 2e-9
+    n = 1500
+    model, ppass = _particles_over_a_plate(n, False)
+    b = ppass.s.boundary
+    pa = ppass.s.particles
+    pad = FPass.PAD * ppass.s.h_face
+    plo, phi, cloud = np.empty((n, 3)), np.empty((n, 3)), np.empty((2, 3))
+    particle_boxes(pa.x, pa.v, pa.radius, n, dt, pad, plo, phi, cloud)
+    flo, fhi = np.empty((b.n, 3)), np.empty((b.n, 3))
+    sel, sel_body, bounds = np.empty((b.n, 3), np.int32), np.empty(b.n, np.int32), cloud.copy()
+    k = faces_near(model.x, model.v, dt, b.faces, b.face_body, b.n, pad, cloud, flo, fhi, sel,
+                   sel_body, bounds)
+    pairs = _brute_pairs(plo, phi, flo[:k], fhi[:k], False)
+    v0, pv0 = model.v.copy(), pa.v.copy()
+    table = np.full((model.n_node, NODE_COLS), np.nan)
+    pack_face_nodes(sel, k, model.x, model.v, model.mass, table)
+    applied, work = particle_face_sweep_packed(pairs, pa.x, pa.v, pa.m, pa.radius, sel, table,
+                                               model.v, model.mass, model.force, model.dtv, dt,
+                                               FPass.EPS_BARY, np.ones((0, 3)))
+    assert applied > 50
+    nodes = np.unique(sel[:k])
+    changed = np.flatnonzero(np.any(model.v != v0, axis=1))
+    assert changed.size > 20 and np.isin(changed, nodes).all()
+    np.testing.assert_array_equal(table[nodes, 3:6], model.v[nodes])
+    np.testing.assert_array_equal(table[nodes, 0:3], model.x[nodes])
+    np.testing.assert_array_equal(table[nodes, 6], model.mass[nodes])
+    # the same sweep on the arrays themselves (particle_face_sweep packs a table of its own)
+    v1, pv1 = v0.copy(), pv0.copy()
+    again = particle_face_sweep(pairs, pa.x, pv1, pa.m, pa.radius, sel, model.x, v1, model.mass,
+                                model.force, model.dtv, dt, FPass.EPS_BARY)
+    assert again == (applied, work)
+    np.testing.assert_array_equal(v1, model.v)
+    np.testing.assert_array_equal(pv1, pa.v)
