@@ -50,7 +50,7 @@ def _drive(kind, rate=1e3, strain=None, n_steps=3000):
     mat = _material()
     model, _ = box_model(mat, size=(1e-3, 1e-3, 1e-3), h=0.5e-3)
     mp = model.mat_params
-    assert mp[0, P.DUCTILE] == 1.0
+    mp[:, P.DUCTILE] = 1.0  # the criterion asked for (off by default: solver/build.py)
     sim = Simulation(model, [], element="tet4", cq=0.0, cl=0.0)
     K, G = mat.bulk_modulus, mat.shear_modulus
     dt = 1.2 * strain / rate / n_steps
