@@ -207,4 +207,6 @@ def test_plate_perforates_under_the_ductile_criterion(tmp_path):
 def test_plate_does_not_perforate_without_the_ductile_criterion(tmp_path):
     s = _sphere_plate(tmp_path, SPHERE_PLATE_DEFAULTS)  # the default: no ductile criterion
     assert s["fracture"]["damaged_ductile"] == 0
-    assert s["bodies"]["plate"]["hole"]["diameter_equivalent"] < 3e-3
+    # a few lost cells around the contact (2.6 mm at session 7's head, 4.4 mm after session 8's
+    # contact changes), far from the 20 mm sphere's hole of the test above (> 10 mm)
+    assert s["bodies"]["plate"]["hole"]["diameter_equivalent"] < 6e-3
