@@ -51,8 +51,8 @@ FRACTURE_STRAIN = 29  # [-] node separation, +inf = none
 SPALL_TIME = 30  # [s] Tuler-Butcher time tau of spall (fracture/spall.py), 0 = instantaneous
 # 1: Johnson-Cook damage D >= 1 damages the cell (fracture/ductile.py): materials with jc_damage,
 # no erosion criterion and spall or loosening (the damaged cell's way out of the mesh; node
-# separation's materials keep their own criterion), unless the case sets [fracture]
-# ductile_criterion = "none"
+# separation's materials keep their own criterion), when the case sets [fracture]
+# ductile_criterion = "johnson-cook" (solver/build.py zeroes the column otherwise)
 DUCTILE = 31
 N_PARAM = 32
 
