@@ -98,7 +98,7 @@ def _vector_parts(level, x, v, conn, rows, sdev, pressure, q, eps_rate, energy, 
         if level >= 2:
             E._pressure_block(buf, dt, False, int(mat_params[0, P.EOS]), mat_params[0, P.RHO0],
                               mat_params[0, P.K], mat_params[0, P.C0], mat_params[0, P.S],
-                              mat_params[0, P.GAMMA0], shear, 1.2, 0.06)
+                              mat_params[0, P.GAMMA0], shear, 1.2, 0.06, None)
         if level >= 3:
             E._store_block(rows, sdev, pressure, q, eps_rate, energy, vol, vol, fext, False, e0,
                            buf)
@@ -215,7 +215,7 @@ def main(argv=None) -> dict:
                              a["thermal"], a["energy"], a["vol"], a["vol"], m.vol0, m.elem_mass,
                              mp, sim.jnode, False, dt, sim.cq, sim.cl, m.force, fr.rows,
                              sim.fext, fr.extra_ptr, fr.extra_rows, fr.part_size // E.CHUNK,
-                             sim.chunk_out, 1)
+                             sim.chunk_out, 1, True)
 
         reps = args.reps
         row = {"kernel elastic": _cpu_ns(lambda a: kernel(a, elastic), state, m.n_elem, reps,

@@ -20,13 +20,20 @@ from pathlib import Path
 HERE = Path(__file__).parent
 CASE = HERE.parent / "cases" / "pellet-stack.toml"
 PELLET = 9.83  # mm
+GRIDS = [500.0 * k for k in range(1, 7)]  # mm: the spacer grids of the case (tube boundaries 1-6)
 
 
 def stack_overrides(bodies: int) -> list[str]:
     """--set overrides turning the 350-body case into `bodies` bodies (bodies - 1 pellets)."""
     n = bodies - 1
     tube = n * PELLET + 10.0
-    return [f"body.pellet.copies.count={n - 2}",
+    # grids above a shortened tube hold its top end instead (as an upper end plug would)
+    grids = []
+    for k, z in enumerate(GRIDS):
+        z = min(z, tube - 9.0)
+        grids.append(f'body.tube.boundary.{k + 1}.box.lo=["-6 mm", "-6 mm", "{z - 3:.3f} mm"]')
+        grids.append(f'body.tube.boundary.{k + 1}.box.hi=["6 mm", "6 mm", "{z + 3:.3f} mm"]')
+    return grids + [f"body.pellet.copies.count={n - 2}",
             f'body.top-pellet.position=[0, 0, "{(n - 1) * PELLET + 4.915:.3f} mm"]',
             f'body.top-pellet.boundary.0.plane.point=[0, 0, "{n * PELLET:.3f} mm"]',
             f'body.tube.height="{tube:.3f} mm"',

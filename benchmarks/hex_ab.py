@@ -8,7 +8,7 @@ two kernels are then called alternately on fresh copies of their frozen states, 
 prints the minimum CPU ns per hex of each over `--rounds` calls and their ratio.
 
     python benchmarks/hex_ab.py REV [--hourglass viscous|stiffness] [--rounds 15] [--warm 30]
-        [--swap]
+        [--swap] [--scalar]
 
 The version built first comes out about 2-3 % slower: REV against an identical working tree
 gave ratios of 1.006-1.071 (median 1.022) over six runs. `--swap` builds the working tree
@@ -32,11 +32,14 @@ import compare  # noqa: E402
 STATE = ["sdev", "pressure", "q", "eps_p", "eps_rate", "temperature", "energy", "vol", "hg"]
 
 
-def kernel_call(pkg: str, hourglass: str, warm: int):
-    """(call(state), frozen state, hexes) of package `pkg` after `warm` steps."""
+def kernel_call(pkg: str, hourglass: str, warm: int, scalar: bool = False):
+    """(call(state), frozen state, hexes) of package `pkg` after `warm` steps; with `scalar`
+    every hex is then marked damaged, so that all take the scalar path `_hex_element`."""
     model, sim = compare.build(pkg, 48, False, hourglass)
     for _ in range(warm):
         sim.step()
+    if scalar:
+        model.blocks[0].status[:] = importlib.import_module(f"{pkg}.model").DAMAGED
     H = importlib.import_module(f"{pkg}.solver.hex8")
     blk, run = model.blocks[0], sim.block_runners[0]
     state = {k: getattr(blk, k).copy() for k in STATE}
@@ -60,12 +63,14 @@ def main(argv=None) -> dict:
     ap.add_argument("--rounds", type=int, default=15)
     ap.add_argument("--warm", type=int, default=30)
     ap.add_argument("--swap", action="store_true", help="build the working tree's scene first")
+    ap.add_argument("--scalar", action="store_true",
+                    help="every hex marked damaged: the scalar path alone")
     args = ap.parse_args(argv)
     sys.path.insert(0, compare.export(args.rev))
     sys.path.insert(0, str(compare.ROOT))
     numba.set_num_threads(1)
     order = [(args.rev, "impactsim_rev"), ("working tree", "impactsim")]
-    built = {label: kernel_call(pkg, args.hourglass, args.warm)
+    built = {label: kernel_call(pkg, args.hourglass, args.warm, args.scalar)
              for label, pkg in (order[::-1] if args.swap else order)}
     runs = {label: built[label] for label, _ in order}
     best = {label: math.inf for label in runs}

@@ -44,16 +44,31 @@ STORED = ROOT / "benchmarks" / "validation_reference.json"
 ELEMENTS = ("tet4", "anp")
 
 # measured values on record here, with how sure we are of them
+BANERJEE = ("as transcribed in B. Banerjee's collection of high-rate data "
+            "(github.com/bbanerjee/HighRateExptData, TaylorData/MATLAB/{f}, function {fn}); "
+            "not confirmed against the original paper")
 REFERENCES = {
-    "taylor-cu-190": {"length_mm": 16.2, "source": "Johnson & Cook (1983), OFHC copper Taylor "
-                      "test, 7.62 x 25.4 mm at 190 m/s, as quoted in cases/taylor-bar.toml; "
-                      "not confirmed against the original paper in this session (unsure)"},
-    "taylor-6061-373": {"length_mm": 16.51, "source": "Wilkins & Guinan (1973), J. Appl. Phys. "
-                        "44:1200, 'Impact of cylinders on a rigid boundary', aluminium rod "
-                        "L0 = 23.47 mm, D0 = 7.62 mm at 373 m/s, final length 16.51 mm, as "
-                        "entered in a Uintah MPM validation script that digitises the paper's "
-                        "profile (p. 1201); the alloy taken as 6061-T6 as in that Uintah study; "
-                        "not confirmed against the original paper (unsure)"},
+    "taylor-cu-190": {"length_mm": 0.638 * 25.4, "foot_mm": 1.78 * 7.62,
+                      "source": "Johnson & Cook (1983), 7th Int. Symp. Ballistics, OFHC copper, "
+                      "L0 = 25.4 mm, D0 = 7.62 mm at 190 m/s: L_f / L0 = 0.638, D_f / D0 = 1.78 "
+                      "(also in Zerilli & Armstrong 1987, J. Appl. Phys. 61:1816), "
+                      + BANERJEE.format(f="plotOFHCCu.m", fn="zerilliData")},
+    "taylor-6061-373": {"length_mm": 0.703 * 23.47, "foot_mm": 16.6,
+                        "source": "Wilkins & Guinan (1973), J. Appl. Phys. 44:1200, aluminium "
+                        "rod L0 = 23.47 mm, D0 = 7.62 mm at 373 m/s: L_f / L0 = 0.703, D_f = "
+                        "16.6 mm, " + BANERJEE.format(f="plot6061T6Al.m", fn="wilkinsData")
+                        + "; the alloy taken as 6061-T6 as there"},
+    "taylor-4340-208": {"length_mm": 0.885 * 25.4, "foot_mm": 11.1,
+                        "source": "Johnson & Cook (1983) and Johnson & Holmquist (1988), J. Appl. "
+                        "Phys. 64:3901, 4340 steel (Rc 30), L0 = 25.4 mm, D0 = 7.62 mm at 208 "
+                        "m/s: L_f / L0 = 0.885, D_f = 11.1 mm, "
+                        + BANERJEE.format(f="plot4340St.m", fn="johnsonData")},
+    "taylor-4340-282": {"length_mm": 0.843 * 12.7, "foot_mm": 10.4,
+                        "source": "the same series, L0 = 12.7 mm at 282 m/s: L_f / L0 = 0.843, "
+                        "D_f = 10.4 mm, " + BANERJEE.format(f="plot4340St.m", fn="johnsonData")},
+    "taylor-4340-343": {"length_mm": 0.808 * 8.1, "foot_mm": 12.0,
+                        "source": "the same series, L0 = 8.1 mm at 343 m/s: L_f / L0 = 0.808, "
+                        "D_f = 12.0 mm, " + BANERJEE.format(f="plot4340St.m", fn="johnsonData")},
 }
 
 # results of other codes for the same problem (code-to-code), with their source
@@ -105,8 +120,13 @@ TAYLORS = [  # name, material, speed [m/s], mesh size [mm], end [us], length [mm
     ("taylor-cu-190", "ofhc-copper", 190.0, 0.8, 80.0, 25.4),
     ("taylor-6061-373", "al-6061-t6", 373.0, 1.0, 60.0, 23.47),
     ("taylor-6061-373", "al-6061-t6", 373.0, 0.7, 60.0, 23.47),
-    ("taylor-4340-343", "steel-4340", 343.0, 1.0, 40.0, 25.4),
-    ("taylor-4340-343", "steel-4340", 343.0, 0.7, 40.0, 25.4),
+    # the three 4340 tests of Johnson & Cook (1983), each with its own rod length
+    ("taylor-4340-208", "steel-4340", 208.0, 1.0, 60.0, 25.4),
+    ("taylor-4340-208", "steel-4340", 208.0, 0.7, 60.0, 25.4),
+    ("taylor-4340-282", "steel-4340", 282.0, 1.0, 40.0, 12.7),
+    ("taylor-4340-282", "steel-4340", 282.0, 0.7, 40.0, 12.7),
+    ("taylor-4340-343", "steel-4340", 343.0, 1.0, 30.0, 8.1),
+    ("taylor-4340-343", "steel-4340", 343.0, 0.7, 30.0, 8.1),
 ]
 
 
@@ -138,6 +158,8 @@ def run_taylor(name, material, speed, h, end, length, element) -> dict:
     res.update(taylor_measures(out))
     f = s.get("fracture")
     res["fractured_cells"] = (f["fractured_total"] + f["damaged_total"]) if f else 0
+    res["damaged_cells"] = f["damaged_total"] if f else 0  # cells damaged (spall or ductile)
+    res["ductile_cells"] = f.get("damaged_ductile", 0) if f else 0  # of which ductile
     return res
 
 
@@ -200,10 +222,16 @@ def run_plate(element: str, d19: bool = False) -> dict:
     t0 = time.perf_counter()
     ts, us = [], []
     c0 = mat.eos.c0
+    peak, fail_tension = 0.0, None  # the largest axial tension before the first cell spalls
     while model.time < 3.2e-6:
         sim.step()
         ts.append(model.time)
         us.append(float(model.v[rear, 2].mean()))  # +z: away from the target
+        if fail_tension is None:
+            if np.any(model.status > 0):
+                fail_tension = peak
+            else:
+                peak = max(peak, float(np.max(model.sdev[:, 2] - model.pressure)))
     wall = time.perf_counter() - t0
     ts, us = np.array(ts), np.array(us)
     # the target moves at -u/2 before the shock arrives; the free surface's velocity change
@@ -219,6 +247,8 @@ def run_plate(element: str, d19: bool = False) -> dict:
             "free_surface_plateau": peak, "impact_speed": u, "pullback": pull,
             "spall_estimate_gpa": 0.5 * mat.density * c0 * pull / 1e9,
             "spall_given_gpa": mat.failure.spall_strength / 1e9,
+            "spall_time_us": 1e6 * (mat.failure.spall_time or 0.0),
+            "failure_tension_gpa": (fail_tension or 0.0) / 1e9,
             "damaged": int(np.count_nonzero(model.status > 0))}
 
 
@@ -250,6 +280,36 @@ def run_perforation(element: str, default_spall: bool = False) -> dict:
             "energy_balance_error": s["energy_balance_error"], "stopped": s["stopped"]}
 
 
+def run_sphere_plate(ductile: bool) -> dict:
+    """The [D19] sphere-plate scene (4340 sphere r = 10 mm at 2 km/s onto a 2 mm 2024-T3
+    plate) at the test suite's coarse mesh (plate 1 mm, sphere 2.4 mm), 4 us, under the default
+    spall criterion (the case itself keeps [D19]'s instantaneous one); ductile: with the ductile
+    criterion (`ductile_criterion = "johnson-cook"`), else without it (the default).
+    [D19]'s experiment perforates."""
+    from impactsim.case import load_case
+    from impactsim.solver.run import run_case
+
+    over = ['body.plate.mesh_size="1 mm"', 'body.sphere.mesh_size="2.4 mm"', "output.frames=1",
+            'fracture.spall_criterion="tuler-butcher"', 'fracture.spall_pressure="lesser"']
+    rung = "sphere-plate-2000"
+    over.append(f'fracture.ductile_criterion="{"johnson-cook" if ductile else "none"}"')
+    if not ductile:
+        rung += "-no-ductile"
+    case = load_case(ROOT / "cases" / "sphere-plate.toml", over)
+    out = OUT / rung
+    t0 = time.perf_counter()
+    s = run_case(case, out, progress=False)
+    wall = time.perf_counter() - t0
+    b, f = s["bodies"], s["fracture"]
+    return {"rung": rung, "element": "tet4", "h_mm": 1.0, "elements": s["elements"],
+            "steps": s["steps"], "wall_s": wall,
+            "hole_diameter_mm": 1e3 * b["plate"].get("hole", {}).get("diameter_equivalent", 0.0),
+            "residual_speed": float(np.linalg.norm(b["sphere"]["residual_velocity"])),
+            "damaged": f["damaged_total"], "ductile": f.get("damaged_ductile", 0),
+            "particles": s["particles"], "energy_balance_error": s["energy_balance_error"],
+            "stopped": s["stopped"]}
+
+
 def run_all(rungs=None) -> list[dict]:
     """Run the ladder, or with rungs (name prefixes) only those rungs, their results replacing
     the same rung, element and mesh size in out/validation/results.json."""
@@ -274,6 +334,9 @@ def run_all(rungs=None) -> list[dict]:
             add(run_perforation(element))
             if element == "tet4":
                 add(run_perforation(element, default_spall=True))
+    if wanted("sphere-plate-2000"):
+        add(run_sphere_plate(True))
+        add(run_sphere_plate(False))
     for formulation in CRMO_FORMULATIONS:
         for h in CRMO_SIZES:
             if wanted("taylor-42crmo4-287"):
@@ -454,14 +517,16 @@ def report(results: list[dict]) -> str:
              "results and the physics checks that need no measurement (no fracture in a Taylor "
              "bar; the free-surface plateau of a symmetric impact).", ""]
     lines += ["## Taylor bars", "",
-              "Rods of 7.62 mm diameter (25.4 mm long; the 6061-T6 rod 23.47 mm, the length of "
-              "the experiment it is compared with) onto a rigid frictionless wall, with the "
-              "library's failure data and the default spall criterion (`[fracture] "
-              "spall_criterion = \"tuler-butcher\"` on `spall_pressure = \"lesser\"`: the "
-              "tension both the cell and its patch carry, integrated over time; "
-              "docs/fracture.md). Length and foot diameter of the last frame; `fractured` "
-              "counts cells that spall damaged or loosened. Experiments show no fracture in "
-              "these bars, so every fractured cell would be a departure. With the "
+              "Rods of 7.62 mm diameter with the lengths of the experiments they are compared "
+              "with (copper 25.4 mm, the 6061-T6 rod 23.47 mm, the 4340 rods 25.4, 12.7 and "
+              "8.1 mm) onto a rigid frictionless wall, with the library's failure data, the "
+              "default spall criterion (`[fracture] spall_criterion = \"tuler-butcher\"` on "
+              "`spall_pressure = \"lesser\"`: the tension both the cell and its patch carry, "
+              "integrated over time; docs/fracture.md) and no ductile criterion (the default, "
+              "`ductile_criterion = \"none\"`; docs/fracture.md says why). Length and foot diameter of the "
+              "last frame against the measured ones; `damaged (ductile)` counts the cells "
+              "damaged, by spall or the ductile criterion, and in brackets those of the ductile "
+              "criterion (rows without brackets are older runs, spall only). With the "
               "instantaneous cell criterion of [D19] (the default before) the 6061-T6 bar at "
               "373 m/s (25.4 mm, h = 1 mm) fractured 2,175 cells with tet4 and 280 with anp, "
               "and the tet4 4340 bar 272: tet4's pressure checkerboard holds single cells of "
@@ -469,17 +534,26 @@ def report(results: list[dict]) -> str:
               "lateral release converging on the 6061 bar's axis puts it above 1.6 GPa for "
               "under 0.4 us (docs/fracture.md).", "",
               "| rung | element | h [mm] | elements | steps | wall s | length [mm] | measured "
-              "[mm] | error | foot [mm] | fractured | energy balance |",
-              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
-    for r in results:
-        if r["rung"] not in TAYLOR_RUNGS:
-            continue
-        ref = REFERENCES.get(r["rung"], {}).get("length_mm")
-        err = f"{100 * (r['length_mm'] - ref) / ref:+.1f} %" if ref else "–"
+              "[mm] | error | foot [mm] | measured [mm] | error | damaged (ductile) | "
+              "energy balance |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+
+    def _err(v, ref):
+        return f"{100 * (v - ref) / ref:+.1f} %" if ref else "–"
+
+    order = {n: k for k, n in enumerate(dict.fromkeys(t[0] for t in TAYLORS))}
+    for r in sorted((r for r in results if r["rung"] in TAYLOR_RUNGS),
+                    key=lambda r: (order[r["rung"]], r["element"], -r["h_mm"])):
+        ref = REFERENCES.get(r["rung"], {})
+        lref, fref = ref.get("length_mm"), ref.get("foot_mm")
+        dam = (f"{r['damaged_cells']} ({r['ductile_cells']})" if "damaged_cells" in r
+               else f"{r['fractured_cells']}")
         lines.append(f"| {r['rung']} | {r['element']} | {r['h_mm']} | {r['elements']:,} | "
-                     f"{r['steps']:,} | {r['wall_s']:.1f} | {r['length_mm']:.3f} | "
-                     f"{ref if ref else '–'} | {err} | {r['foot_diameter_mm']:.3f} | "
-                     f"{r['fractured_cells']} | {r['energy_balance_error']:+.1e} |")
+                     f"{r['steps']:,} | {r['wall_s']:.1f} | {r['length_mm']:.2f} | "
+                     f"{f'{lref:.2f}' if lref else '–'} | {_err(r['length_mm'], lref)} | "
+                     f"{r['foot_diameter_mm']:.2f} | {f'{fref:.2f}' if fref else '–'} | "
+                     f"{_err(r['foot_diameter_mm'], fref)} | {dam} | "
+                     f"{r['energy_balance_error']:+.1e} |")
     cu = {r["element"]: r for r in results if r["rung"] == "taylor-cu-190"}
     ref = REFERENCES["taylor-cu-190"]["length_mm"]
     if len(cu) == 2:
@@ -492,24 +566,56 @@ def report(results: list[dict]) -> str:
                   "the element nor the mesh is the source. What is left: the material constants "
                   "(the 1983 Johnson-Cook fit of OFHC copper, from torsion and Hopkinson-bar "
                   "tests to strains of about 1, drives a foot that reaches plastic strains of "
-                  "2-3), the frictionless wall, or the measured value, which we could not "
-                  "confirm against the original. No study here separates those three. The foot "
-                  "diameter is where the element matters: tet4's is "
+                  "2-3), the frictionless wall, or the measured value, which we have through two "
+                  "transcriptions (the case file and Banerjee's collection, which agree: "
+                  "L_f / L0 = 0.638), not from the paper. No study here separates those three. "
+                  "The foot diameter is where the element matters: tet4's is "
                   f"{100 * (cu['tet4']['foot_diameter_mm'] / cu['anp']['foot_diameter_mm'] - 1):+.0f} "
-                  "% from anp's (volumetric locking), see docs/physics.md."]
+                  "% from anp's (volumetric locking), see docs/physics.md; anp's is "
+                  f"{100 * (cu['anp']['foot_diameter_mm'] / REFERENCES['taylor-cu-190']['foot_mm'] - 1):+.1f}"
+                  " % from the measured 13.56 mm."]
     al = [r for r in results if r["rung"] == "taylor-6061-373"]
     if al:
         ref = REFERENCES["taylor-6061-373"]["length_mm"]
         errs = [100 * (r["length_mm"] - ref) / ref for r in al]
         lines += ["", f"**The 6061-T6 bar's length.** All four runs end {min(errs):+.1f} to "
-                  f"{max(errs):+.1f} % from the length on record, while the two formulations "
-                  "and the two meshes move it by half a per cent or less: neither the element "
-                  "nor the mesh is the source. Left: the Johnson-Cook constants of 6061-T6 "
-                  "(the library's are marked 'check'), the frictionless wall, and the recorded "
-                  "value itself, read from a digitised figure and not confirmed against the "
-                  "paper. No fracture in any run, as in the experiment."]
+                  f"{max(errs):+.1f} % from the length on record, the formulations and meshes "
+                  "moving it by about half a per cent. Left for the length: the Johnson-Cook "
+                  "constants of 6061-T6 (the library's are marked 'check'), the frictionless "
+                  "wall, and the recorded value itself, read from a digitised figure and not "
+                  "confirmed against the paper. Cells damaged by spall (the calibrated 0.03 us "
+                  "spall time, plate rung below): "
+                  + ", ".join(f"{r['element']} {r['h_mm']} mm: {r['damaged_cells']}" for r in al)
+                  + ". With the ductile criterion on (`ductile_criterion = \"johnson-cook\"`, "
+                  "not the default) the rim of the foot cracks, and more so the finer the mesh: "
+                  "the library's 6061-T6 D1..D5 (marked 'check') give eps_f of about 1 at the "
+                  "rim's triaxiality and temperature, where the plastic strain reaches 1-1.8; "
+                  "anp at 0.7 mm then damaged 1,947 cells in 60,372 steps and its foot read "
+                  "+41 % (session 8). A local damage law localises without a length scale; "
+                  "that, and the issue's demand that no Taylor bar fracture, is why the "
+                  "criterion is off by default (docs/fracture.md)."]
+    st = [r for r in results if r["rung"].startswith("taylor-4340-") and "foot_mm" in
+          REFERENCES.get(r["rung"], {})]
+    if st:
+        el = [100 * (r["length_mm"] / REFERENCES[r["rung"]]["length_mm"] - 1) for r in st]
+        ef = [100 * (r["foot_diameter_mm"] / REFERENCES[r["rung"]]["foot_mm"] - 1) for r in st]
+        lines += ["", f"**The 4340 bars (Johnson & Cook 1983).** Three rods of one steel (Rc 30, "
+                  "the temper of the library's Johnson-Cook set) of 25.4, 12.7 and 8.1 mm at 208, "
+                  f"282 and 343 m/s. Lengths {min(el):+.1f} to {max(el):+.1f} % from the "
+                  f"measured, foot diameters {min(ef):+.1f} to {max(ef):+.1f} % (both "
+                  "formulations, both meshes). The shortest rod at the highest speed is the "
+                  "furthest off in length and the least converged (the convergence list below: "
+                  "its 8.1 mm are only 8 to 12 cells long); the element moves the lengths by 1-3 "
+                  "% and the feet by 5-7 % (tet4 narrower, locking). Not separated here: the "
+                  "Johnson-Cook constants (fitted to 1983 data of this steel, to strains below "
+                  "those of the foot), the frictionless wall, and the transcription. The measured "
+                  "foot diameters are not monotonic in the speed (10.4 mm at 282 m/s, 11.1 at "
+                  "208): the rods differ in length, and the values are one transcription of "
+                  "the paper's figures. No cell of any 4340 bar is damaged, by spall or by the "
+                  "ductile criterion (Johnson & Cook's 1985 D1..D5 give eps_f of about 3.5 in "
+                  "shear), as the recovered specimens show none."]
     conv = []
-    for name in ("taylor-6061-373", "taylor-4340-343"):
+    for name in ("taylor-6061-373", "taylor-4340-208", "taylor-4340-282", "taylor-4340-343"):
         for element in ELEMENTS:
             rs = sorted((r for r in results if r["rung"] == name and r["element"] == element),
                         key=lambda r: -r["h_mm"])
@@ -528,39 +634,86 @@ def report(results: list[dict]) -> str:
     lines += ["", "![Taylor foot diameters](validation/taylor-foot.png)", ""]
     lines += ["## Symmetric plate impact: free-surface velocity", "",
               "6061-T6 onto 6061-T6 at 500 m/s in uniaxial strain (flyer 2 mm, target 4 mm, "
-              "h = 0.1 mm, spall strength 1.6 GPa, spall time 0.2 us and loosening 0.03 from "
-              "the library, the default Tuler-Butcher criterion). The "
-              "rear free surface of the target jumps by about the impact speed (u_p = V/2 "
-              "exactly by symmetry; the free-surface approximation u_fs = 2 u_p holds to a "
-              "few per cent in an elastic-plastic release), then the spall's pull-back: the "
-              "acoustic estimate rho0 c0 du / 2 of the tension at spall against the strength "
-              "given. The estimate is only an estimate (it assumes a gradual loss of strength "
-              "and an acoustic release; here a cell loses all tension at once when it spalls), "
-              "so it is reported, not required to match. Rows `[D19]` run the instantaneous "
+              "h = 0.1 mm, spall strength 1.6 GPa, spall time and loosening 0.03 from the "
+              "library, the default Tuler-Butcher criterion). The rear free surface of the "
+              "target jumps by about the impact speed (u_p = V/2 exactly by symmetry; the "
+              "free-surface approximation u_fs = 2 u_p holds to a few per cent in an "
+              "elastic-plastic release), then the spall's pull-back du (the plateau less the "
+              "first minimum that follows) gives the acoustic estimate rho0 c0 du / 2 of the "
+              "tension at which the material failed: what a plate-impact experiment reports "
+              "as its spall strength. `tension at failure` is the largest axial tension any "
+              "cell carried before the first one spalled. Rows `[D19]` run the instantaneous "
               "cell criterion instead of the default.", "",
-              "| element | spall | elements | steps | wall s | plateau [m/s] | 2 u_p [m/s] | "
-              "error | pull-back [m/s] | spall estimate [GPa] | given [GPa] |",
-              "|---|---|---|---|---|---|---|---|---|---|---|"]
+              "| element | spall | tau [us] | elements | steps | wall s | plateau [m/s] | "
+              "2 u_p [m/s] | error | pull-back [m/s] | spall estimate [GPa] | tension at "
+              "failure [GPa] | given [GPa] |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in results:
         if not r["rung"].startswith("plate-6061-500"):
             continue
         err = 100 * (r["free_surface_plateau"] - r["impact_speed"]) / r["impact_speed"]
         spall = "[D19]" if r["rung"].endswith("-d19") else "default"
-        lines.append(f"| {r['element']} | {spall} | {r['elements']:,} | {r['steps']:,} | "
-                     f"{r['wall_s']:.1f} | {r['free_surface_plateau']:.1f} | "
+        tau = f"{r['spall_time_us']:.2g}" if "spall_time_us" in r and spall == "default" \
+            else ("0" if spall == "[D19]" else "0.2")
+        ft = f"{r['failure_tension_gpa']:.2f}" if "failure_tension_gpa" in r else "–"
+        lines.append(f"| {r['element']} | {spall} | {tau} | {r['elements']:,} | "
+                     f"{r['steps']:,} | {r['wall_s']:.1f} | {r['free_surface_plateau']:.1f} | "
                      f"{r['impact_speed']:.0f} | {err:+.1f} % | {r['pullback']:.1f} | "
-                     f"{r['spall_estimate_gpa']:.2f} | {r['spall_given_gpa']:.2f} |")
-    lines += ["", "**The default spalls this plate late.** With the time integral the cells "
-              "spall once the tension has stayed above 1.6 GPa for a while, near the full "
-              "tension of the pulse (about 3.6 GPa), so the free surface releases almost to "
-              "rest before the pull-back and the acoustic estimate of the spall tension is "
-              "about twice the threshold; with [D19]'s criterion it is below it. Plate-impact "
-              "measurements of 6061-T6 and 2024 give spall strengths of about 1.0-1.6 GPa "
-              "(Antoun et al., Spall Fracture, 2003, as quoted in the library), which neither "
-              "reproduces exactly, and which the default overshoots: a spall time of about "
-              "0.02-0.03 us would match them, but the tet4 Taylor bar needs more than 0.08 us "
-              "to stay whole (docs/fracture.md has the trade).", "",
+                     f"{r['spall_estimate_gpa']:.2f} | {ft} | {r['spall_given_gpa']:.2f} |")
+    lines += ["", "**Why it read 3.1 GPa, and the spall time now.** The estimate is the "
+              "observable a plate-impact experiment reports as the spall strength, so it is "
+              "what a simulation of the experiment has to reproduce. Under the Tuler-Butcher "
+              "integral a cell fails not at the threshold sigma_0 but once the overstress has "
+              "lasted: here the tension at the spall plane rises within about 0.1 us to the "
+              "pulse's 3.6 GPa, and with the spall time of 0.2 us chosen before the cells failed "
+              "after about 0.16 us at that tension, when the free surface had released to near "
+              "rest: the estimate read 3.1 GPa against the 1.6 given (tau = 0.02 / 0.05 / 0.1 / "
+              "0.2 us: 1.47 / 2.01 / 2.59 / 3.12 GPa with tet4). No published Tuler-Butcher "
+              "constants for 6061-T6 or 2024 were found (below), so the aluminium alloys' tau "
+              "is now calibrated to this observable: 0.03 us, with which the simulated plate's "
+              "estimate reads the library's 1.6 GPa (tet4 1.60, anp 1.56). The estimate is not "
+              "the tension a cell carried: the largest cell tension before the first spall is "
+              "3.3 GPa (tet4) at tau = 0.03 us, and under [D19]'s instantaneous criterion the "
+              "first cell fails at 1.56 GPa while the estimate reads 0.94: at this mesh the "
+              "free surface under-reads the spall plane's tension by about 40 % (the release "
+              "and the recompression are smeared over a few cells and by the bulk viscosity), "
+              "which is why the criterion has to let the cell tension overshoot to give the "
+              "measured observable. The Taylor bars bound tau from below (spall alone, the "
+              "ductile criterion off, a 25.4 mm rod): at 0.03 us the "
+              "6061-T6 bar at 373 m/s spalls no cell with anp (the default for a plastic body "
+              "without contact) at h = 1 and 1.27 mm, nor with tet4 at 1.27 mm, but 20 cells "
+              "with tet4 at 1 mm (the part of tet4's pressure checkerboard its patch still "
+              "carries); at 0.02 us one cell spalls with either. The calibration holds for this "
+              "mesh (h = 0.1 mm) and impact speed; a measured plate-impact series would fix "
+              "tau for good. The steels keep 0.2 us (no plate-impact rung for them here).", "",
               "![free-surface velocity](validation/plate-free-surface.png)", ""]
+    sp = {r["rung"]: r for r in results if r["rung"].startswith("sphere-plate-2000")}
+    if sp:
+        lines += ["## Perforation under the defaults: sphere on plate [D19]", "",
+                  "`cases/sphere-plate.toml` (4340 sphere r = 10 mm at 2 km/s onto a 2 mm "
+                  "2024-T3 plate, 4 us) at the test suite's coarse mesh (plate 1 mm, sphere "
+                  "2.4 mm), with the default spall criterion (Tuler-Butcher on the lesser "
+                  "tension; the case itself keeps [D19]'s instantaneous one). [D19]'s "
+                  "experiment perforates; they give no hole size or residual speed in our "
+                  "sources, so the rung checks the outcome, perforated or not.", "",
+                  "| ductile criterion | elements | steps | wall s | hole (equivalent "
+                  "diameter) [mm] | residual speed [m/s] | damaged | of which ductile | "
+                  "particles | energy balance |", "|---|---|---|---|---|---|---|---|---|---|"]
+        for name, label in (("sphere-plate-2000", "johnson-cook"),
+                            ("sphere-plate-2000-no-ductile", "none (default)")):
+            r = sp.get(name)
+            if r:
+                lines.append(f"| {label} | {r['elements']:,} | {r['steps']:,} | "
+                             f"{r['wall_s']:.1f} | {r['hole_diameter_mm']:.1f} | "
+                             f"{r['residual_speed']:.0f} | {r['damaged']:,} | {r['ductile']:,} | "
+                             f"{r['particles']:,} | {r['energy_balance_error']:+.1e} |")
+        lines += ["", "Under the defaults (no ductile criterion) the plate does not perforate: a doming, sheared plate carries tensions near its flow stress "
+                  "(0.3-0.5 GPa), far below a 1.6 GPa spall strength. The Johnson-Cook damage "
+                  "of the ductile criterion (fracture/ductile.py, the library's 2024 D1..D5) "
+                  "opens it; it is not the default because it cracks the aluminium Taylor bars' rims "
+                  "(above). A perforation scene asks for it, or for [D19]'s instantaneous spall "
+                  "as the bundled sphere-plate cases do. The hole is measured on the plate's "
+                  "largest piece.", ""]
     lines += ["## Perforation: oblique sphere [R20]", "",
               "The bundled `cases/oblique-sphere.toml` (52100 sphere 12.7 mm at 1001 m/s, 60 "
               "degrees from the normal, into a 4.9 mm D16T plate) at the coarse mesh of the "
@@ -598,16 +751,18 @@ def report(results: list[dict]) -> str:
                   "contact scene to its end here, but collapsed the step in two others "
                   "(docs/physics.md), so contact scenes keep tet4 by default."]
     lines += [""] + crmo_report(results)
-    lines += ["", "## Not on the ladder", "",
-              "- Measured 4340 Taylor lengths (Johnson & Cook 1983; Johnson & Holmquist 1988, "
-              "J. Appl. Phys. 64:3901, have 4340, Armco iron and OFHC copper cylinder tests) "
-              "and plate-impact free-surface (VISAR) records of 6061-T6: not found in our "
-              "sources with values we could state, so not on the ladder. The 6061-T6 length "
-              "above rests on a digitisation of Wilkins & Guinan's figure, to be confirmed "
-              "against the paper.",
-              "- Published Tuler-Butcher constants for 6061-T6, OFHC copper and 4340: not "
-              "found in our sources; the library's spall time (0.2 us) is chosen from the "
-              "measurements in docs/fracture.md, not fitted to plate-impact data.", ""]
+    lines += ["", "## Not on the ladder (searched for, not found)", "",
+              "- Published Tuler-Butcher constants (sigma_0, lambda, K) or spall strengths "
+              "against strain rate for 6061-T6, 2024 or the steels, with values we could "
+              "cite: not found in our sources. The aluminium spall time is calibrated to the "
+              "plate's pull-back (above), the steels' is still the choice of docs/fracture.md.",
+              "- Plate-impact free-surface velocity (VISAR) records of aluminium with their "
+              "pull-back velocities: not found.",
+              "- A perforation test with measured residual velocities (Borvik et al.'s Weldox "
+              "plates, Piekutowski's aluminium plates, [R20]'s D16T plate): not found with "
+              "values; the perforation rungs check the outcome and the formulations.",
+              "- The Taylor values above come from one transcription (Banerjee's collection) "
+              "of the papers' tables and figures, not from the papers.", ""]
     return "\n".join(lines) + "\n"
 
 

@@ -60,6 +60,7 @@ def scenes() -> list[tuple[str, str, int]]:
     copper = _block("rod", "ofhc-copper", (2e-3, 2e-3, 6e-3), (0, 0, 3.0001e-3), h, (0, -190.0))
     out = [
         ("elastic-wall", "[run]\nname = 'w'\nend_time = 1e-6\n" + bar + _WALL, 4),
+        ("elastic-wall-threads", "[run]\nname = 'w'\nend_time = 1e-6\n" + bar + _WALL, 2),
         ("jc-wall", "[run]\nname = 'w'\nend_time = 1e-6\n" + copper + _WALL, 4),
         ("jc-wall-anp", "[run]\nname = 'w'\nend_time = 1e-6\nelement = 'anp'\n" + copper + _WALL,
          4),
@@ -146,8 +147,9 @@ distortion_interval = "20 ns"
 
 
 # scenes run with the size thresholds of the one-thread kernels at 0 (nodal.PARALLEL_NODES,
-# element.PARALLEL_FORCE_NODES), so that their parallel versions are compiled too
-PARALLEL_SCENES = {"fracture-threads"}
+# element.PARALLEL_FORCE_NODES, element.PARALLEL_ELEMENTS), so that their parallel versions are
+# compiled too (the tet kernel's with elastic and with plastic tets: element.plastic_kernel)
+PARALLEL_SCENES = {"fracture-threads", "elastic-wall-threads"}
 
 
 def _thresholds(values=None):
@@ -155,9 +157,9 @@ def _thresholds(values=None):
     (returns the previous ones)."""
     from impactsim.solver import element, nodal
 
-    old = (nodal.PARALLEL_NODES, element.PARALLEL_FORCE_NODES)
+    old = (nodal.PARALLEL_NODES, element.PARALLEL_FORCE_NODES, element.PARALLEL_ELEMENTS)
     if values is not None:
-        nodal.PARALLEL_NODES, element.PARALLEL_FORCE_NODES = values
+        nodal.PARALLEL_NODES, element.PARALLEL_FORCE_NODES, element.PARALLEL_ELEMENTS = values
     return old
 
 
@@ -202,7 +204,7 @@ def warm_up(verbose: bool = True) -> dict[str, dict]:
     for name, text, steps in scenes():
         t0 = time.perf_counter()
         case = load_case_text(text, overrides=[f"run.max_steps={steps}", "output.frames=1"])
-        old = _thresholds((0, 0) if name in PARALLEL_SCENES else None)
+        old = _thresholds((0, 0, 0) if name in PARALLEL_SCENES else None)
         try:
             with (CompileCounter() as compiled,
                   tempfile.TemporaryDirectory(prefix="impactsim-warmup-") as out,

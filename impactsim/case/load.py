@@ -231,6 +231,7 @@ def _fracture(r: Reader) -> Fracture:
         erosion_region=r.get("erosion_region"),
         spall_criterion=r.get("spall_criterion"),
         spall_pressure=r.get("spall_pressure"),
+        ductile_criterion=r.get("ductile_criterion"),
         distortion_interval=(positive(r.get("distortion_interval"), r.at("distortion_interval"))
                              if r.has("distortion_interval") else None),
         distortion_extent=in_range(r.get("distortion_extent"), r.at("distortion_extent"), 1.0,

@@ -73,6 +73,7 @@ class QSPair:
     conductance: float
     gap_tolerance: float | None
     tied: bool = False
+    robin: float = 0.0
 
 
 @dataclass
@@ -196,7 +197,10 @@ def _build(raw: dict, source: Path | None) -> QSCase:
         gt = r.get("gap_tolerance")
         pairs.append(QSPair(tuple(bs), fr, non_negative(r.get("conductance"),
                                                         r.at("conductance")),
-                            None if gt is COMPUTED_SENTINEL else gt, r.get("tied")))
+                            None if gt is COMPUTED_SENTINEL else gt, r.get("tied"),
+                            non_negative(r.get("robin"), r.at("robin"))))
+        if pairs[-1].robin > 0 and fr > 0:
+            raise r.error("robin", "Robin conditions are for frictionless pairs (friction 0)")
     detect = c.get("detect")
     if not detect and not pairs:
         raise c.error("detect", "detect = false needs [[contact.pair]] entries")
@@ -378,17 +382,20 @@ def describe_quasistatic(case: QSCase) -> str:
     from impactsim.case.units import format_quantity as fq
 
     s = case.settings
+    anderson = f" + Anderson {s['anderson']}" if s["anderson"] else ""
     lines = [f"case {case.name}: quasistatic thermoelastic contact (Schwarz method [G15])",
              f"  load steps: {len(case.times)} up to {fq(case.end_time, 'time')}; heat "
              f"{s['heat']}; element {s['element']}",
-             f"  Schwarz: relaxation {s['relaxation']:g}{' + Aitken' if s['aitken'] else ''}, "
+             f"  Schwarz: relaxation {s['relaxation']:g}{' + Aitken' if s['aitken'] else ''}"
+             f"{anderson}, "
              f"tolerances gap {s['gap_tolerance']:g} pressure {s['pressure_tolerance']:g}, at "
              f"most {s['max_iterations']} iterations; workers {s['workers']}",
              f"  contact: {'detected' if case.detect else 'listed pairs only'}, gap tolerance "
              f"{fq(case.gap_tolerance, 'length')}"]
     for p in case.pairs:
         lines.append(f"    pair {p.bodies[0]} / {p.bodies[1]}: friction {p.friction:g}, "
-                     f"conductance {p.conductance:g} W/(m^2 K)")
+                     f"conductance {p.conductance:g} W/(m^2 K)"
+                     + (f", Robin alpha {p.robin:g} Pa/m" if p.robin else ""))
     lines.append("  materials:")
     for m in case.materials.values():
         k = (f"k(T) table {len(m.conductivity_table[0])} points" if m.conductivity_table

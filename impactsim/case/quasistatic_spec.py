@@ -32,6 +32,9 @@ QUASISTATIC = Table("quasistatic", "Solver settings of the quasi-static analysis
     Key("relaxation", "number", "Relaxation omega of eq. 7 of [G15], in (0, 2) (Aitken's "
         "first value when aitken = true).", 0.5),
     Key("aitken", "bool", "Adapt omega by Aitken's delta-squared (Irons-Tuck).", True),
+    Key("anderson", "int", "Anderson acceleration of the interface values (gaps and pressures "
+        "of every interface) over this many past iterates, restarted when an active set "
+        "changes; 0: off (>= 0).", 0),
     Key("coarse", "bool", "Coarse step along the anchor tree after each Schwarz iteration: "
         "each body held by its contacts moves with its support and passes on at once the "
         "force its subtree carries (columns of bodies).", True),
@@ -69,6 +72,11 @@ PAIR = Table("pair", "Properties of the contacts between bodies matching two nam
         dim="length", default_doc="[contact].gap_tolerance"),
     Key("tied", "bool", "Bonded contact: the surfaces stay together (tension allowed, no "
         "active set).", False),
+    Key("robin", "number", "Robin (mixed) conditions instead of kinematic / force sides: the "
+        "spring stiffness alpha in Pa/m of the contact law both bodies see each iteration, "
+        "p = p_other - alpha gap (about the stiffness of the softer side's contact surface; "
+        "docs/quasistatic.md). 0: the Dirichlet-Neumann split of [G15]. Frictionless pairs "
+        "only.", 0.0),
 ), array=True)
 
 QS_CONTACT = Table("contact", "Contact between bodies (quasistatic).", (

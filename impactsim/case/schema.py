@@ -175,6 +175,9 @@ class Fracture:
     # the pressure spall reads: the lesser tension of the element's own pressure and its patch
     # mean ("lesser"), the element's own ("cell", [D19]) or the patch mean ("patch")
     spall_pressure: str = "lesser"
+    # ductile fracture (fracture/ductile.py): Johnson-Cook damage D >= 1 damages a cell of a
+    # material with failure.jc_damage and no erosion criterion ("johnson-cook"), or not ("none")
+    ductile_criterion: str = "none"
     # distortion erosion [Z] (fracture/distortion.py): checked every interval [s]; None = off
     distortion_interval: float | None = None
     distortion_extent: float = 3.0  # r1: axis extent > r1 * L_ch deletes

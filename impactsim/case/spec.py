@@ -386,6 +386,12 @@ FRACTURE = Table("fracture", "How fractured material is represented.", (
         "but spalls checkerboard cells); patch, the mean over the patch of elements around its "
         "nodes (docs/fracture.md).",
         _d(schema.Fracture, "spall_pressure"), choices=("lesser", "cell", "patch")),
+    Key("ductile_criterion", "choice", "Ductile fracture: johnson-cook accumulates the "
+        "Johnson-Cook damage D (failure.jc_damage) of a material without an erosion criterion "
+        "above the triaxiality -1/3, and a cell whose D reaches 1 is damaged as by spall "
+        "(then loosens and leaves as particles); none: spall and loosening only "
+        "(docs/fracture.md).", _d(schema.Fracture, "ductile_criterion"),
+        choices=("johnson-cook", "none")),
     Key("distortion_interval", "quantity", "Distortion erosion [Z]: every this long (longer "
         "than the step) an element is deleted when an axis extent exceeds distortion_extent "
         "times its initial largest extent, the product of its axis extents exceeds "

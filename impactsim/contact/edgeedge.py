@@ -57,6 +57,7 @@ SEGMENT_EPS = 1e-9  # tolerance of 0 <= alpha, beta <= 1
 NU_RELIABLE = 0.2  # nu orients n only when |n . nu| >= this * |nu|
 GEO_COLS = 7  # a constraint row: lam, alpha, beta, nx, ny, nz, gap / tau
 APART_MARGIN = 1e-3  # stay_apart: the margin beyond band, a share of the segments' half-lengths
+HELD = -2.0  # edge_edge_test: touching edges that need no impulse (their row kept, no impulse)
 
 
 @numba.njit(cache=True)
@@ -203,6 +204,15 @@ def _edge_edge_at(t, force_nu, band, restore, ia, ib, ie, jf, x, v, mass, tau, m
     # [D19 eq. 11] (with the gap term for touching edges, see the docstring)
     Nc = ((1.0 - al) * una + al * unb - (1.0 - be) * une - be * unf - gap / tau) / (tau * S)
     if not Nc > 0.0:
+        if force_nu:  # touching, held apart already: its row kept without impulse (HELD)
+            geo[k, 0] = 0.0
+            geo[k, 1] = al
+            geo[k, 2] = be
+            geo[k, 3] = nx
+            geo[k, 4] = ny
+            geo[k, 5] = nz
+            geo[k, 6] = gap / tau
+            return HELD
         return 0.0
     J = tau * Nc
     _apply(J, mu, S, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass, lock)
@@ -233,7 +243,9 @@ def stay_apart(ia, ib, ie, jf, x, v, tau, band):
     tau, so two intervals of projections that are apart by more than the tolerance on some unit
     axis keep the segments apart. The axes tried: the segments' common normal at t = 0, which
     separates the near-coplanar pairs of a flat contact that lie one above the other, then x,
-    y, z (tighter than the broad phase's boxes, padded by BOX_PAD of h). The tolerance is band
+    y, z (tighter than the broad phase's boxes, padded by BOX_PAD of h), then the two
+    directions in the segments' plane across each segment (common normal x segment), which
+    separate coplanar segments of a flat contact that do not cross. The tolerance is band
     plus APART_MARGIN of the longer segment: the segments extended by SEGMENT_EPS, and a root of
     the cubic accepted within round-off, whose lines miss by far less."""
     ax = x[ia, 0]
@@ -275,9 +287,33 @@ def stay_apart(ia, ib, ie, jf, x, v, tau, band):
                   ex * nx + ey * ny + ez * nz, fx * nx + fy * ny + fz * nz,
                   Ex * nx + Ey * ny + Ez * nz, Fx * nx + Fy * ny + Fz * nz, tol):
             return True
-    return (_apart(ax, bx, Ax, Bx, ex, fx, Ex, Fx, tol)
+    if (_apart(ax, bx, Ax, Bx, ex, fx, Ex, Fx, tol)
             or _apart(ay, by, Ay, By, ey, fy, Ey, Fy, tol)
-            or _apart(az, bz, Az, Bz, ez, fz, Ez, Fz, tol))
+            or _apart(az, bz, Az, Bz, ez, fz, Ez, Fz, tol)):
+        return True
+    if not nn > 0.0:
+        return False
+    # in the plane of the two segments (a flat contact: coplanar segments that do not cross)
+    for j in range(2):
+        ux = d1x if j == 0 else d2x
+        uy = d1y if j == 0 else d2y
+        uz = d1z if j == 0 else d2z
+        mx = ny * uz - nz * uy
+        my = nz * ux - nx * uz
+        mz = nx * uy - ny * ux
+        mm = mx * mx + my * my + mz * mz
+        if not mm > 0.0:
+            continue
+        inv = 1.0 / math.sqrt(mm)
+        mx *= inv
+        my *= inv
+        mz *= inv
+        if _apart(ax * mx + ay * my + az * mz, bx * mx + by * my + bz * mz,
+                  Ax * mx + Ay * my + Az * mz, Bx * mx + By * my + Bz * mz,
+                  ex * mx + ey * my + ez * mz, fx * mx + fy * my + fz * mz,
+                  Ex * mx + Ey * my + Ez * mz, Fx * mx + Fy * my + Fz * mz, tol):
+            return True
+    return False
 
 
 @numba.njit(cache=True)
@@ -291,6 +327,15 @@ def edge_edge_correct(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, 
 @numba.njit(cache=True)
 def edge_edge_detect(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, nu_y, nu_z, geo,
                      k, lock):
+    """``edge_edge_test`` without the HELD answer (0 instead)."""
+    J = edge_edge_test(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, nu_y, nu_z,
+                       geo, k, lock)
+    return J if J > 0.0 else 0.0
+
+
+@numba.njit(cache=True)
+def edge_edge_test(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, nu_y, nu_z, geo,
+                   k, lock):
     """One edge-edge pair (ALGORITHMS.md 3.2): the cubic, root selection in [0, tau], segment
     test, alpha, beta, the normal, N_c [D19 eq. 11] and the corrections [D19 eq. 12]. Corrects v
     in place; returns the normal impulse tau N_c [N s] (0 when nothing was done).
@@ -298,7 +343,10 @@ def edge_edge_detect(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, n
     edges, orients n only for touching edges (``band``, ``restore``: see the module
     docstring). An applied impulse leaves its constraint row in row k of ``geo (*, GEO_COLS)``.
     ``lock``: prescribed velocity components, left alone by the impulse (``_apply``; an
-    empty array when there are none)."""
+    empty array when there are none). Returns HELD (< 0) instead of 0 for edges touching at
+    t = 0 that need no impulse and whose cubic finds none either: their touching row (alpha,
+    beta, n, gap / tau, no impulse) is then in row k of ``geo`` (``edge_edge_held``)."""
+    held = False
     ax = x[ia, 0]
     ay = x[ia, 1]
     az = x[ia, 2]
@@ -321,6 +369,7 @@ def edge_edge_detect(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, n
                                   nu_x, nu_y, nu_z, geo, k, lock)
                 if J > 0.0:
                     return J
+                held = J == HELD
     a, b, c, d = cubic_coefficients(
         x[ib, 0] - ax, x[ib, 1] - ay, x[ib, 2] - az,
         x[ie, 0] - ax, x[ie, 1] - ay, x[ie, 2] - az,
@@ -335,7 +384,36 @@ def edge_edge_detect(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, n
                           nu_y, nu_z, geo, k, lock)
         if J > 0.0:
             return J
-    return 0.0
+    return HELD if held else 0.0
+
+
+@numba.njit(cache=True)
+def edge_edge_held(ia, ib, ie, jf, v, mass, tau, mu, geo, k, lock):
+    """A later visit of touching edges whose test found no impulse (``edge_edge_test``: HELD,
+    their touching row in row k of ``geo``): the touching branch of that test again, from the
+    stored alpha, beta, n and gap / tau, which depend on the positions at t = 0 alone, so the
+    same arithmetic as a new test's; the cubic is not solved again (``edge_edge_sweep``).
+    Returns the impulse tau N_c [N s] (0 when nothing was done); an impulse makes the row an
+    ordinary one (geo[k, 0] = the impulse)."""
+    al = geo[k, 1]
+    be = geo[k, 2]
+    nx = geo[k, 3]
+    ny = geo[k, 4]
+    nz = geo[k, 5]
+    una = v[ia, 0] * nx + v[ia, 1] * ny + v[ia, 2] * nz
+    unb = v[ib, 0] * nx + v[ib, 1] * ny + v[ib, 2] * nz
+    une = v[ie, 0] * nx + v[ie, 1] * ny + v[ie, 2] * nz
+    unf = v[jf, 0] * nx + v[jf, 1] * ny + v[jf, 2] * nz
+    S = _inverse_mass(al, be, nx, ny, nz, ia, ib, ie, jf, mass, lock)
+    if not S > 0.0:
+        return 0.0
+    Nc = ((1.0 - al) * una + al * unb - (1.0 - be) * une - be * unf - geo[k, 6]) / (tau * S)
+    if not Nc > 0.0:
+        return 0.0
+    J = tau * Nc
+    _apply(J, mu, S, al, be, nx, ny, nz, ia, ib, ie, jf, v, mass, lock)
+    geo[k, 0] = J
+    return J
 
 
 @numba.njit(cache=True)
@@ -420,16 +498,23 @@ def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band, restore, a
         jf = edges[g2, 1]
         if unchanged_since(stamp, since, ia, ib, ie, jf):
             continue
-        if active[k]:
+        if active[k] == 1:
             J = edge_edge_relax(ia, ib, ie, jf, v, mass, mu, geo, k, slack, lock)
+        elif active[k] == 2:
+            J = edge_edge_held(ia, ib, ie, jf, v, mass, tau, mu, geo, k, lock)
+            if J > 0.0:
+                active[k] = 1
         elif stay_apart(ia, ib, ie, jf, x, v, tau, band):
             J = 0.0  # what edge_edge_detect would find, without the cubic
         else:
-            J = first_visit(edge_edge_detect(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore,
-                                             normals[g1, 0] - normals[g2, 0],
-                                             normals[g1, 1] - normals[g2, 1],
-                                             normals[g1, 2] - normals[g2, 2], geo, k, lock),
-                            active, k)
+            J = edge_edge_test(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore,
+                               normals[g1, 0] - normals[g2, 0], normals[g1, 1] - normals[g2, 1],
+                               normals[g1, 2] - normals[g2, 2], geo, k, lock)
+            if J == HELD:
+                active[k] = 2
+                J = 0.0
+            else:
+                J = first_visit(J, active, k)
         if J != 0.0:
             applied += 1
             total += J

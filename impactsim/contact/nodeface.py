@@ -193,8 +193,10 @@ def node_face_apart(p, ia, ib, ic, x, v, tau, band):
     touching node at t = 0 nor a crossing inside the triangle, and the cubic need not be solved
     (the edge-edge pass's ``stay_apart``). A separating axis: over the step the node lies on the
     segment of its positions at 0 and tau and the face in the hull of its corners' positions at
-    0 and tau; the axes tried are x, y, z (tighter than the broad phase's padded boxes) and the
-    face's normal at t = 0 (nodes in front of a face that they do not reach in the step). The
+    0 and tau; the axes tried are x, y, z (tighter than the broad phase's padded boxes), the
+    face's normal at t = 0 (nodes in front of a face that they do not reach in the step) and
+    the three directions in the face's plane across its edges (nodes of a flat contact beside
+    the triangle). The
     tolerance is band plus APART_MARGIN of the face's longer edge from a: the triangle test's
     eps_bary, and a root of the cubic accepted within round-off."""
     px = x[p, 0]
@@ -226,10 +228,32 @@ def node_face_apart(p, ia, ib, ic, x, v, tau, band):
     nx *= inv
     ny *= inv
     nz *= inv
-    return _apart(px * nx + py * ny + pz * nz, Px * nx + Py * ny + Pz * nz,
-                  ax * nx + ay * ny + az * nz, bx * nx + by * ny + bz * nz,
-                  cx * nx + cy * ny + cz * nz, Ax * nx + Ay * ny + Az * nz,
-                  Bx * nx + By * ny + Bz * nz, Cx * nx + Cy * ny + Cz * nz, tol)
+    if _apart(px * nx + py * ny + pz * nz, Px * nx + Py * ny + Pz * nz,
+              ax * nx + ay * ny + az * nz, bx * nx + by * ny + bz * nz,
+              cx * nx + cy * ny + cz * nz, Ax * nx + Ay * ny + Az * nz,
+              Bx * nx + By * ny + Bz * nz, Cx * nx + Cy * ny + Cz * nz, tol):
+        return True
+    # in the face's plane across each edge (a flat contact: a node beside the triangle)
+    for j in range(3):
+        ux = e1x if j == 0 else (e2x if j == 1 else cx - bx)
+        uy = e1y if j == 0 else (e2y if j == 1 else cy - by)
+        uz = e1z if j == 0 else (e2z if j == 1 else cz - bz)
+        mx = ny * uz - nz * uy
+        my = nz * ux - nx * uz
+        mz = nx * uy - ny * ux
+        mm = mx * mx + my * my + mz * mz
+        if not mm > 0.0:
+            continue
+        inv = 1.0 / math.sqrt(mm)
+        mx *= inv
+        my *= inv
+        mz *= inv
+        if _apart(px * mx + py * my + pz * mz, Px * mx + Py * my + Pz * mz,
+                  ax * mx + ay * my + az * mz, bx * mx + by * my + bz * mz,
+                  cx * mx + cy * my + cz * mz, Ax * mx + Ay * my + Az * mz,
+                  Bx * mx + By * my + Bz * mz, Cx * mx + Cy * my + Cz * mz, tol):
+            return True
+    return False
 
 
 @numba.njit(cache=True)

@@ -19,10 +19,14 @@ Per live element e, after the element update of the step:
    is filtered by the time integral. docs/fracture.md has the measurements.
 2. Loosening: a damaged element with chi = 1 - V0/V > chi* becomes FRACTURED (zero pressure):
    the cell's own opening, as in [D19] (a crack opens one cell, not a patch).
-3. Johnson-Cook damage (materials with erosion = "jc-damage"): D += d eps_p / eps_f with
-   eps_f = (D1 + D2 exp(D3 s*)) (1 + D4 ln max(eps_dot*, 1)) (1 + D5 T*), s* = -p / sigma_eq
-   the stress triaxiality (capped at 1.5 as usual, where the fit is unreliable), T* the
-   homologous temperature of the strength model.
+2b. Johnson-Cook damage (fracture/ductile.py), for materials with erosion = "jc-damage" or
+   with failure.jc_damage and the ductile criterion (params.DUCTILE): D += d eps_p / eps_f
+   with eps_f = (D1 + D2 exp(D3 s*)) (1 + D4 ln max(eps_dot*, 1)) (1 + D5 T*), s* = -p /
+   sigma_eq the stress triaxiality (capped at 1.5 as usual, where the fit is unreliable), T*
+   the homologous temperature of the strength model. Under the ductile criterion no damage
+   accumulates at s* <= -1/3, and an intact cell whose D reaches 1 becomes DAMAGED (then
+   loosening, step 2, as after spall); it runs before loosening so that such a cell that has
+   opened loosens in the same step.
 3b. Melt and runaway strain (materials with failure data): a cell within 1 % of the melt
    temperature of its strength model (T* >= MELT_SHARE; no strength left: the Johnson-Cook law
    ends there, and heating stops short of T_melt as the strength vanishes) or
@@ -57,6 +61,7 @@ import math
 
 import numba
 
+from impactsim.fracture.ductile import damage_increment, ductile, fracture_strain, triaxiality
 from impactsim.fracture.principal import max_principal, max_principal_stretch
 from impactsim.fracture.spall import SPALL_CELL, spall_pressure, spalls
 from impactsim.materials import params as P
@@ -70,7 +75,6 @@ MAX_PLASTIC_STRAIN = 200.0  # [-] a cell strained beyond this leaves the mesh (3
 # never reached (sphere-plate: rim cells at 774.99... K of 775 K with plastic strains of 66-166
 # set the step to 0.24 ns)
 MELT_SHARE = 0.99
-TRIAXIALITY_CAP = 1.5
 
 
 @numba.njit(cache=True, inline="always")
@@ -90,23 +94,9 @@ def _volume6(x, v, h, i0, i1, i2, i3):
 
 @numba.njit(cache=True, inline="always")
 def jc_fracture_strain(mat_params, mk, pressure, seq, rate, temperature):
-    """Johnson-Cook (1985) fracture strain eps_f at triaxiality -p/seq, rate and temperature."""
-    tri = -pressure / seq if seq > 0.0 else TRIAXIALITY_CAP
-    if tri > TRIAXIALITY_CAP:
-        tri = TRIAXIALITY_CAP
-    d1 = mat_params[mk, P.JC_D1]
-    d2 = mat_params[mk, P.JC_D1 + 1]
-    d3 = mat_params[mk, P.JC_D1 + 2]
-    d4 = mat_params[mk, P.JC_D1 + 3]
-    d5 = mat_params[mk, P.JC_D1 + 4]
-    ref = mat_params[mk, P.EPSDOT0]
-    rstar = rate / ref if ref > 0.0 else 1.0
-    fr = 1.0 + d4 * math.log(rstar) if rstar > 1.0 else 1.0
-    tr, tm = mat_params[mk, P.T_ROOM], mat_params[mk, P.T_MELT]
-    ts = (temperature - tr) / (tm - tr) if tm > tr else 0.0
-    ts = min(max(ts, 0.0), 1.0)
-    ef = (d1 + d2 * math.exp(d3 * tri)) * fr * (1.0 + d5 * ts)
-    return max(ef, 1e-9)
+    """Johnson-Cook (1985) fracture strain eps_f at triaxiality -p/seq (capped at 1.5), rate
+    and temperature (fracture/ductile.py)."""
+    return fracture_strain(mat_params, mk, triaxiality(pressure, seq), rate, temperature)
 
 
 @numba.njit(cache=True, parallel=True)
@@ -134,8 +124,8 @@ def element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev, damage, eps_
     """Steps 1-3 of the module docstring for live element e of any type (the per-element
     arrays of the tets and of a hex block have one layout): spall with the pressure p
     (``spall.spalls``: the Tuler-Butcher integral spall_k[e] when integrate), loosening,
-    Johnson-Cook damage (updates damage[e] and eps_p_prev[e]). Returns (status, newly damaged
-    0/1, newly fractured 0/1)."""
+    Johnson-Cook damage (updates damage[e] and eps_p_prev[e]). Returns (status, newly damaged:
+    0, 1 by spall or 2 by the ductile criterion, newly fractured 0/1)."""
     dam = 0
     frac = 0
     sxx, syy, szz = sdev[e, 0], sdev[e, 1], sdev[e, 2]
@@ -150,17 +140,21 @@ def element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev, damage, eps_
                   mat_params, integrate):
             st = DAMAGED
             dam = 1
+    code = int(mat_params[mk, P.EROSION])
+    duct = ductile(mat_params, mk)
+    deps = eps_p[e] - eps_p_prev[e]
+    eps_p_prev[e] = eps_p[e]
+    if (code == 2 or duct) and deps > 0.0:
+        seq = math.sqrt(1.5 * (sxx * sxx + syy * syy + szz * szz)
+                        + 3.0 * (sxy * sxy + syz * syz + szx * szx))
+        damage[e] += damage_increment(mat_params, mk, deps, p, seq, eps_rate[e],
+                                      temperature[e], duct)
+    if duct and st == INTACT and damage[e] >= 1.0:
+        st = DAMAGED  # ductile fracture (fracture/ductile.py): as spall damages it
+        dam = 2
     if st == DAMAGED and 1.0 - vol0[e] / vol[e] > mat_params[mk, P.CHI_STAR]:
         st = FRACTURED
         frac = 1
-    code = int(mat_params[mk, P.EROSION])
-    deps = eps_p[e] - eps_p_prev[e]
-    eps_p_prev[e] = eps_p[e]
-    if code == 2 and deps > 0.0:
-        seq = math.sqrt(1.5 * (sxx * sxx + syy * syy + szz * szz)
-                        + 3.0 * (sxy * sxy + syz * syz + szx * szx))
-        damage[e] += deps / jc_fracture_strain(mat_params, mk, p, seq, eps_rate[e],
-                                               temperature[e])
     return st, dam, frac
 
 
@@ -217,7 +211,8 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
     `patch_fields` (not read for "cell"; jnode is not read). spall_k (e,) the Tuler-Butcher
     accumulators, integrate: `[fracture] spall_criterion = "tuler-butcher"` (spall.py).
     eps_p_prev (e,) plastic strain at the previous call (updated here). Returns
-    (newly damaged, newly fractured, elements with an action). The pointwise steps
+    (newly damaged, newly fractured, elements with an action, newly damaged by the ductile
+    criterion). The pointwise steps
     (``element_state``, ``element_action``) are shared with the hexes' kernel
     (impactsim.fracture.hexes).
     """
@@ -225,6 +220,7 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
     n_dam = 0
     n_frac = 0
     n_act = 0
+    n_duct = 0
     for e in numba.prange(n_elem):
         action[e] = NONE
         st = status[e]
@@ -238,7 +234,8 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
                                                      + pnode[i3]))
         st, dam, frac = element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev, damage,
                                       eps_rate, temperature, mat_params, dt, spall_k, integrate)
-        n_dam += dam
+        n_dam += 1 if dam > 0 else 0
+        n_duct += 1 if dam == 2 else 0
         n_frac += frac
         status[e] = st
         on_surface = (face_flag[4 * e] or face_flag[4 * e + 1] or face_flag[4 * e + 2]
@@ -259,7 +256,7 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
         action[e] = act
         if act != NONE:
             n_act += 1
-    return n_dam, n_frac, n_act
+    return n_dam, n_frac, n_act, n_duct
 
 
 @numba.njit(cache=True)

@@ -36,6 +36,7 @@ from impactsim.contact.surface import events_buffer, free_face_changes
 from impactsim.fracture import criteria as C
 from impactsim.fracture.principal import stretch_of
 from impactsim.fracture.separation import HEX_FACES, face_adjacency_k
+from impactsim.fracture.separation_refresh import _open_faces_k, move_node_elements
 from impactsim.fracture.spall import SPALL_CELL, spall_pressure
 from impactsim.materials import params as P
 from impactsim.model import ERODED
@@ -117,10 +118,11 @@ def hex_fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol,
     (n, 6) quad neighbours at t = 0 (``HexBoundary``); pnode the nodal means of
     ``criteria.patch_fields`` over the block (read unless spall_mode is "cell"); spall_k, integrate
     the Tuler-Butcher accumulators and criterion (``spall.spalls``). Returns (newly damaged,
-    newly fractured, hexes with an action)."""
+    newly fractured, hexes with an action, newly damaged by the ductile criterion)."""
     n_dam = 0
     n_frac = 0
     n_act = 0
+    n_duct = 0
     for e in numba.prange(conn.shape[0]):
         action[e] = C.NONE
         st = status[e]
@@ -136,7 +138,8 @@ def hex_fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol,
         st, dam, frac = C.element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev,
                                         damage, eps_rate, temperature, mat_params, dt, spall_k,
                                         integrate)
-        n_dam += dam
+        n_dam += 1 if dam > 0 else 0
+        n_duct += 1 if dam == 2 else 0
         n_frac += frac
         status[e] = st
         free = 0
@@ -159,7 +162,7 @@ def hex_fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol,
         action[e] = act
         if act != C.NONE:
             n_act += 1
-    return n_dam, n_frac, n_act
+    return n_dam, n_frac, n_act, n_duct
 
 
 @numba.njit(cache=True)
@@ -271,6 +274,55 @@ def _initial_quads(conn, elem_body, adj, alive, face_flag, quads, faces, face_sl
     return n
 
 
+@numba.njit(cache=True)
+def _reflag_quads(elems, changed_mask, conn, elem_body, adj, alive, face_flag, quads, faces,
+                  face_slot, face_body, pos, n):
+    """``_reflag_faces`` for a hex block's free quads: a quad that became free is appended (two
+    triangles), a free quad of a moved hex is written again with its new nodes (and the split
+    through its new smallest node). Returns the new row count (room for 12 rows per hex)."""
+    for k in range(elems.shape[0]):
+        e = elems[k]
+        for i in range(6):
+            s = 6 * e + i
+            nb = adj[e, i]
+            free = alive[e] and not (nb >= 0 and alive[nb])
+            if free and not face_flag[s]:
+                face_flag[s] = True
+                n = _append_quad(s, conn, elem_body, quads, faces, face_slot, face_body, pos, n)
+            elif free and changed_mask[e]:
+                _append_quad(s, conn, elem_body, quads, faces, face_slot, face_body, pos, pos[s])
+    return n
+
+
+def reconnect_hex_boundary(b, conn: np.ndarray, changed: np.ndarray) -> None:
+    """Follow a node-separation release in a hex block's free quads ``b`` (a HexBoundary), as
+    ``separation_refresh.reconnect_boundary`` does for the tets: ``changed`` the hexes whose
+    corners were repointed in ``conn``. The faces the release opened become free quads of both
+    sides, the free quads of the moved hexes take their new nodes, and the rows end in slot
+    order: the arrays of a HexBoundary built afresh."""
+    changed = np.unique(np.asarray(changed, dtype=np.int64))
+    if changed.shape[0] == 0:
+        return
+    b.conn[changed] = conn[changed]
+    nbs = b.adj[changed].reshape(-1)
+    touched = np.unique(np.concatenate([changed, nbs[nbs >= 0]]))
+    _open_faces_k(changed, b.conn, b.adj, HEX_FACES)
+    need = b.n + 12 * touched.shape[0]
+    if need > b.faces.shape[0]:
+        b.grows += 1
+        b._alloc(max(need, int(1.5 * b.faces.shape[0])))
+    mask = np.zeros(b.conn.shape[0], np.bool_)
+    mask[changed] = True
+    n = b.n = int(_reflag_quads(touched, mask, b.conn, b.elem_body, b.adj, b.alive,
+                                b.face_flag, HEX_FACES, b.faces, b.face_slot, b.face_body,
+                                b.pos, b.n))
+    order = np.argsort(b.face_slot[:n], kind="stable")  # a quad's two rows keep their order
+    b.faces[:n] = b.faces[:n][order]
+    b.face_slot[:n] = b.face_slot[:n][order]
+    b.face_body[:n] = b.face_body[:n][order]
+    b.pos[b.face_slot[:n:2]] = np.arange(0, n, 2)
+
+
 class HexBoundary:
     """The free quads of a hex block as triangles, updatable in O(change) (the hexes' version of
     ``impactsim.fracture.boundary.Boundary``: adj (n, 6), alive (n,), face_flag (6n,) slot
@@ -335,6 +387,7 @@ class HexFracture:
         self.ids = np.zeros(blk.n_elem, dtype=np.int64)
         self.eps_p_prev = blk.eps_p.copy()
         self.spall_k = np.zeros(blk.n_elem)  # [s] Tuler-Butcher accumulators (spall.py)
+        self.ductile = 0  # cells the ductile criterion damaged (fracture/ductile.py)
         self.status_before = blk.status.copy()  # before the criteria of the step
         self.pnode = np.zeros(model.n_node)
         self.jnode = np.ones(model.n_node)
@@ -346,9 +399,21 @@ class HexFracture:
         blk = self.blk
         self.boundary = HexBoundary(blk.conn, blk.elem_body, blk.status != ERODED)
 
+    def reconnect(self, e, j, old, new) -> None:
+        """Follow a node-separation release in place (the corners (e, j) of the block moved from
+        the nodes ``old`` to ``new``): the free quads (``reconnect_hex_boundary``) and the patch
+        pressure's node index (``separation_refresh.move_node_elements``), the arrays
+        ``rebuild`` and a fresh index give."""
+        blk = self.blk
+        reconnect_hex_boundary(self.boundary, blk.conn, e)
+        if self._n2e is not None:
+            ptr, n2e, _ = self._n2e
+            move_node_elements(ptr, n2e, 8, e, j, old, new)
+            self._n2e = (ptr, n2e, blk.conn)
+
     def criteria(self, model, dt: float, surface_only: bool, spall_mode: int, integrate: bool):
         """Run the criteria on the block; returns (newly damaged, newly fractured, ascending ids
-        of the hexes with an action)."""
+        of the hexes with an action); adds the ductile criterion's share to self.ductile."""
         b, blk = self.boundary, self.blk
         np.copyto(self.status_before, blk.status)  # what the element update saw
         if spall_mode != SPALL_CELL:
@@ -358,11 +423,12 @@ class HexFracture:
                 self._n2e = (*node_to_element(blk.conn, model.n_node), blk.conn)
             C.patch_fields(blk.vol, blk.vol0, blk.pressure, blk.status, self._n2e[0],
                            self._n2e[1], self.pnode, self.jnode, 8)
-        n_dam, n_frac, n_act = hex_fracture_criteria(
+        n_dam, n_frac, n_act, n_duct = hex_fracture_criteria(
             model.x, model.v, model.x0, blk.conn, blk.elem_mat, blk.status, blk.sdev,
             blk.pressure, blk.vol, blk.vol0, blk.eps_p, self.eps_p_prev, blk.damage,
             blk.eps_rate, blk.temperature, model.mat_params, b.face_flag, b.adj, surface_only,
             dt, self.action, spall_mode, self.pnode, XI, self.spall_k, integrate)
         ids = self.ids[:C.action_ids(self.action, self.ids)] if n_act else self.ids[:0]
+        self.ductile += int(n_duct)
         return int(n_dam), int(n_frac), ids
 

@@ -46,6 +46,7 @@ from impactsim.fracture.particles import (NODE_COLS, Particles, faces_near, move
                                           particle_walls)
 from impactsim.fracture.removal import remove_elements
 from impactsim.fracture.spall import PRESSURE_CODES, SPALL_CELL
+from impactsim.materials import params as P
 from impactsim.model import DAMAGED, ERODED, FRACTURED
 from impactsim.solver.passes import Pass
 
@@ -72,7 +73,7 @@ class FractureState:
         self.eps_p_prev = model.eps_p.copy()
         self.mass_initial = float(model.mass.sum())
         self.counts = {"damaged": 0, "fractured": 0, "eroded": 0, "converted": 0, "guard": 0,
-                       "melt": 0}
+                       "melt": 0, "ductile": 0}
         # nodal means of pressure and volume ratio over the live elements (criteria.patch_fields)
         self.spall_mode = PRESSURE_CODES[case.fracture.spall_pressure]
         self.spall_integrate = case.fracture.spall_criterion == "tuler-butcher"
@@ -122,6 +123,7 @@ class FracturePass(Pass):
     def __init__(self, state: FractureState):
         self.s = state
         self.sim = None
+        self.criteria = None  # any material with failure data (set at the first run)
 
     def attach(self, sim) -> None:
         """Bind the integrator: the nodal forces of a removed element's nodes are recomputed
@@ -129,28 +131,16 @@ class FracturePass(Pass):
         self.sim = sim
 
     def run(self, model, dt):
+        if self.criteria is None:
+            mp = model.mat_params
+            # criteria.failing_material or the ductile criterion (fracture/ductile.py) of any
+            # material: a new failure mode of element_state must be named here too
+            self.criteria = bool(np.any((mp[:, P.EROSION] != 0) | (mp[:, P.SPALL] < np.inf)
+                                        | (mp[:, P.CHI_STAR] < np.inf)
+                                        | (mp[:, P.DUCTILE] > 0.0)))
+        if self.criteria:
+            self._criteria(model, dt)
         s = self.s
-        b = s.boundary
-        if s.spall_mode != SPALL_CELL:
-            C.patch_fields(model.vol, model.vol0, model.pressure, model.status, model.n2e_ptr,
-                           model.n2e, s.pnode, s.jnode, 4)
-        n_dam, n_frac, n_act = C.fracture_criteria(
-            model.x, model.v, model.x0, model.conn, model.elem_mat, model.status, model.sdev,
-            model.pressure, model.vol, model.vol0, model.eps_p, s.eps_p_prev, model.damage,
-            model.eps_rate, model.temperature, model.mat_params, b.face_flag, b.adj,
-            s.surface_only, dt, s.action, s.spall_mode, s.pnode, s.jnode, s.spall_k,
-            s.spall_integrate)
-        s.counts["damaged"] += int(n_dam)
-        s.counts["fractured"] += int(n_frac)
-        if n_act:
-            self._remove(model, s.ids[:C.action_ids(s.action, s.ids)])
-        for hf in s.hexes:  # the hex blocks (fracture/hexes.py)
-            n_dam, n_frac, ids = hf.criteria(model, dt, s.surface_only, s.spall_mode,
-                                             s.spall_integrate)
-            s.counts["damaged"] += n_dam
-            s.counts["fractured"] += n_frac
-            if ids.shape[0]:
-                self._remove_hexes(model, hf, ids, hf.action[ids], dt)
         if s.distortion is not None and s.distortion.due(model, dt):
             tets, blocks = s.distortion.check(model)
             if tets.shape[0]:
@@ -163,6 +153,36 @@ class FracturePass(Pass):
                                        dt)
         # the particles' energy at the end of the step (contacts, motion, new particles)
         s.update_particle_energy(model)
+
+    def _criteria(self, model, dt):
+        """Spall, loosening, damage and the element actions on the tets and the hex blocks.
+        Skipped when no material has failure data (``criteria.failing_material``: no erosion
+        criterion, spall or loosening, and no ductile criterion; node separation or distortion
+        erosion alone): they change nothing then (no status change, no action, no guard; eps_p_prev is read by
+        damage erosion only), and cost more than the separation pass on a tied hex body."""
+        s = self.s
+        b = s.boundary
+        if s.spall_mode != SPALL_CELL:
+            C.patch_fields(model.vol, model.vol0, model.pressure, model.status, model.n2e_ptr,
+                           model.n2e, s.pnode, s.jnode, 4)
+        n_dam, n_frac, n_act, n_duct = C.fracture_criteria(
+            model.x, model.v, model.x0, model.conn, model.elem_mat, model.status, model.sdev,
+            model.pressure, model.vol, model.vol0, model.eps_p, s.eps_p_prev, model.damage,
+            model.eps_rate, model.temperature, model.mat_params, b.face_flag, b.adj,
+            s.surface_only, dt, s.action, s.spall_mode, s.pnode, s.jnode, s.spall_k,
+            s.spall_integrate)
+        s.counts["damaged"] += int(n_dam)
+        s.counts["ductile"] += int(n_duct)
+        s.counts["fractured"] += int(n_frac)
+        if n_act:
+            self._remove(model, s.ids[:C.action_ids(s.action, s.ids)])
+        for hf in s.hexes:  # the hex blocks (fracture/hexes.py)
+            n_dam, n_frac, ids = hf.criteria(model, dt, s.surface_only, s.spall_mode,
+                                             s.spall_integrate)
+            s.counts["damaged"] += n_dam
+            s.counts["fractured"] += n_frac
+            if ids.shape[0]:
+                self._remove_hexes(model, hf, ids, hf.action[ids], dt)
 
     def _remove(self, model, ids, kinds=None):
         s = self.s
@@ -235,6 +255,9 @@ class FracturePass(Pass):
                 "bodies": bodies,
                 "fragments": cloud_summary(model, s.axis, pa),
                 "fracture": {"damaged_total": s.counts["damaged"],
+                             # of which by the ductile criterion (fracture/ductile.py)
+                             "damaged_ductile": s.counts["ductile"] + sum(
+                                 h.ductile for h in s.hexes),
                              "fractured_total": s.counts["fractured"],
                              "eroded": s.counts["eroded"],
                              "converted_to_particles": s.counts["converted"],

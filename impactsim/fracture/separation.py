@@ -34,20 +34,23 @@ Akantu's cohesive inserter, with the copies made at build time so that no node a
 - After a step with releases, what depends on the connectivity is refreshed, in place at the
   cost of the moved corners (``SeparationPass.refresh``, fracture/separation_refresh.py): the
   force rows of the element kernels (tets and the block runners), the fracture passes' free
-  faces and live-node counts, and the contact surface (``ContactContext.reconnect_surface``:
-  only the moved tets and their neighbours, giving the arrays a rebuild gives; a model with
-  hexes rebuilds it, and the hexes' free quads); the node-to-element index is rebuilt. The
-  faces exposed by a release are free faces of their bodies (contact with the other bodies,
+  faces and live-node counts, the hexes' free quads (``hexes.reconnect_hex_boundary``), the
+  node-to-element indices (the model's, a hex block's patch index: ``move_node_elements``) and
+  the contact surface (``ContactContext.reconnect_surface``: only the moved tets and their
+  neighbours, giving the arrays a rebuild gives; a model with hexes rebuilds it: contact/hexes.py
+  has no in-place update). The faces exposed by a release are free faces of their bodies (contact with the other bodies,
   and self-contact of the fragments when ``contact.self_contact``) at the next velocity stage.
   ``SeparationPass.incremental = False`` rebuilds everything (the reference of the tests).
 - Every step the stable step is lowered to that of the tets with a corner in a split family,
   from the masses their corners carry (``_released_step``, ``SeparationPass.limit_step``): the
   kernel's L / c holds for a connected mesh, not for a tet cut loose (its critical step is
   0.67 L / c), whose breathing mode otherwise rang up at cfl 0.6 until it inverted (issue 12).
-- After every element update the bulk-viscosity heat of the elements loose at the previous
-  pass is booked with the mean of q at both ends of the step, the work their q forces do
-  (``SeparationPass.centre_heat``): the kernels' -q^{n+1} dV over-booked a ringing lone tet's
-  rebound (+10.9 % of the balance of the warm-up's block dragged at 2 km/s).
+- After every element update (and the release) the bulk-viscosity heat of the elements loose
+  at the previous pass is booked with the mean of q at both ends of the step, the work their q
+  forces do (``SeparationPass.centre_heat``): the kernels' -q^{n+1} dV over-booked a ringing
+  lone tet's rebound (+10.9 % of the balance of the warm-up's block dragged at 2 km/s). An
+  intact element whose EOS reads the energy takes the pressure of the re-booked energy, and
+  that change's corner forces join the coming step's force (``consistent_pressure``).
 """
 
 from __future__ import annotations
@@ -60,12 +63,13 @@ import math
 from impactsim.materials import params as P
 from impactsim.materials.laws import eos_linear_part
 from impactsim.materials.params import FRACTURE_STRAIN
-from impactsim.fracture.separation_refresh import (move_node_live, reconnect_boundary,
-                                                   reconnect_rows)
+from impactsim.fracture.separation_refresh import (move_node_elements, move_node_live,
+                                                   reconnect_boundary, reconnect_rows)
 from impactsim.solver.element import (FAST, _char_length, _tet_gradients,
                                       stored_corner_force)
+from impactsim.solver.hex8 import _volume_gradient
 from impactsim.mesh.topology import LOCAL_FACES as TET_FACES
-from impactsim.model import ERODED, FRACTURED
+from impactsim.model import ERODED, FRACTURED, INTACT
 
 # the quad faces of a hex in VTK order, outward
 HEX_FACES = np.array([[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6],
@@ -321,21 +325,88 @@ def _move_corner_forces(old, new, f, force):
 
 
 @numba.njit(cache=True)
-def _centre_viscous_heat(ids, status, q, vol, q_prev, vol_prev, elem_mass, energy):
+def _centre_viscous_heat(ids, status, q, vol, q_prev, vol_prev, elem_mass, energy, pressure,
+                         elem_mat, mat_params, consistent, dp):
     """Re-book the bulk-viscosity heat of the last element update of the elements ``ids`` with
     the mean of q at both ends of the step, -(q^n + q^{n+1}) / 2 dV, the work the q forces do
     (q^n acts over the first half of the step, q^{n+1} over the second), instead of the
-    kernel's -q^{n+1} dV; ``q_prev``, ``vol_prev``: q and volume before the update. Returns
-    the change of the booked heat [J] (SeparationPass.centre_heat)."""
+    kernel's -q^{n+1} dV; ``q_prev``, ``vol_prev``: q and volume before the update.
+
+    ``consistent``: an intact element whose EOS depends on the energy (p = a + b e, b > 0:
+    Mie-Grueneisen) takes the energy and pressure the kernel's implicit update gives with the
+    centred heat, e' = e + d / (1 + b dV / 2m), p' = p + b (e' - e) (d the heat change per
+    mass; the kernel's trapezoid books -(p^n + p') dV / 2, so e' keeps the pressure work of
+    the new pressure), and ``dp[k]`` = p' - p, whose corner forces the caller adds to the
+    forces of the coming step. Otherwise (or when b = 0, or the element is damaged or
+    fractured: the kernel's pressure branches there) e += d and dp[k] = 0.
+    Returns the change of the booked viscous heat [J] (SeparationPass.centre_heat)."""
     total = 0.0
     for k in range(ids.shape[0]):
         e = ids[k]
+        dp[k] = 0.0
         if status[e] == ERODED:
             continue
-        c = 0.5 * (q[e] - q_prev[k]) * (vol[e] - vol_prev[k])
-        energy[e] += c / elem_mass[e]
+        dv = vol[e] - vol_prev[k]
+        c = 0.5 * (q[e] - q_prev[k]) * dv
         total += c
+        m = elem_mass[e]
+        mk = elem_mat[e]
+        b = 0.0
+        if int(mat_params[mk, P.EOS]) == P.MIE_GRUNEISEN:
+            b = mat_params[mk, P.GAMMA0] * mat_params[mk, P.RHO0]
+        if consistent and b > 0.0 and status[e] == INTACT:
+            de = (c / m) / (1.0 + 0.5 * dv * b / m)
+            energy[e] += de
+            dp[k] = b * de
+            pressure[e] += dp[k]
+        else:
+            energy[e] += c / m
     return total
+
+
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def _tet_pressure_forces(x, conn, status, ids, dp, force):
+    """The corner forces of the pressure changes ``dp`` of the tets ``ids`` added to ``force``
+    (``element.stored_corner_force`` with the stress -dp I), in element and corner order."""
+    z6 = np.zeros((1, 6))
+    z1 = np.zeros(1)
+    pe = np.zeros(1)
+    st = np.zeros(1, np.int8)
+    cn = np.zeros((1, 4), conn.dtype)
+    for k in range(ids.shape[0]):
+        if dp[k] == 0.0:
+            continue
+        e = ids[k]
+        pe[0] = dp[k]
+        st[0] = status[e]
+        for a in range(4):
+            cn[0, a] = conn[e, a]
+        for a in range(4):
+            fx, fy, fz = stored_corner_force(0, a, x, cn, st, z6, pe, z1)
+            force[cn[0, a], 0] += fx
+            force[cn[0, a], 1] += fy
+            force[cn[0, a], 2] += fz
+
+
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def _hex_pressure_forces(x, conn, ids, dp, force):
+    """The corner forces of the pressure changes ``dp`` of the hexes ``ids`` added to ``force``:
+    dp times the volume gradient dV/dx_I at the current corners (the pressure part of the hex
+    kernel's f_I = -sigma b_I), in element and corner order."""
+    p = np.empty(24)
+    b = np.empty(24)
+    for k in range(ids.shape[0]):
+        if dp[k] == 0.0:
+            continue
+        e = ids[k]
+        for n in range(8):
+            for d in range(3):
+                p[3 * n + d] = x[conn[e, n], d]
+        if not _volume_gradient(p, b) > 0.0:
+            continue
+        for n in range(8):
+            for d in range(3):
+                force[conn[e, n], d] += dp[k] * b[3 * n + d]
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -552,6 +623,9 @@ class SeparationPass:
         # the contact surface follows a release in place (Surface.reconnect); False rebuilds
         # it (the reference of tests and benchmarks/bench_reconnect.py)
         self.incremental = True
+        # the centred heat of loose elements also gives them the pressure of their EOS at the
+        # re-booked energy, and its forces (centre_heat); False leaves the kernel's pressure
+        self.consistent_pressure = True
 
     def attach(self, sim) -> None:
         self.sim = sim
@@ -569,10 +643,13 @@ class SeparationPass:
                      if hasattr(p, "ctx")}.values())
 
     def run(self, model, dt) -> None:
-        self.centre_heat(model)
+        # the release first: move_forces reads the stress of the forces the update added
+        # (tets) or re-runs the kernel from the elements' energy (hexes), both as the update
+        # left them, before centre_heat changes energy, pressure and forces
         if self.sep.release(model):
             self.move_forces(model)
             self.refresh(model)
+        self.centre_heat(model)
         self.limit_step(model)
         for s in self.sep.sets:
             h = s.holder
@@ -588,14 +665,28 @@ class SeparationPass:
         order in the jump of q over a step, nothing in a resolved flow). A tet cut loose rings in
         its breathing mode at about six steps a period: its q jumps from 0 to ~25 GPa in one
         step of the rebound and the heat booked exceeded the work of its q forces by 4.3 J in
-        the warm-up's dragged block at 2 km/s (+10.9 % of the balance; docs/fracture.md)."""
+        the warm-up's dragged block at 2 km/s (+10.9 % of the balance; docs/fracture.md).
+
+        With ``consistent_pressure`` an intact Mie-Grueneisen element also takes the pressure
+        of its EOS at the re-booked energy (as the kernel's implicit update with the centred q
+        gives it), and the corner forces of that pressure change are added to ``model.force``,
+        which the next predictor reads: left as the kernel set it, the stored pressure was off
+        the EOS by up to 1.2 |p| (tet4) until the next update (docs/fracture.md)."""
         terms = model.energy_terms
         for s in self.sep.sets:
             if not s.q_ids.shape[0]:
                 continue
             h = s.holder
-            terms["viscous"] += _centre_viscous_heat(s.q_ids, h.status, h.q, h.vol, s.q_prev,
-                                                     s.vol_prev, h.elem_mass, h.energy)
+            dp = np.empty(s.q_ids.shape[0])
+            terms["viscous"] += _centre_viscous_heat(
+                s.q_ids, h.status, h.q, h.vol, s.q_prev, s.vol_prev, h.elem_mass, h.energy,
+                h.pressure, h.elem_mat, model.mat_params, self.consistent_pressure, dp)
+            if not self.consistent_pressure:
+                continue
+            if s.k == 4:
+                _tet_pressure_forces(model.x, h.conn, h.status, s.q_ids, dp, model.force)
+            else:
+                _hex_pressure_forces(model.x, h.conn, s.q_ids, dp, model.force)
 
     def limit_step(self, model) -> None:
         """Lower the integrator's stable step (set by the element update just before) to that
@@ -646,9 +737,9 @@ class SeparationPass:
 
     def refresh(self, model) -> None:
         """What depends on the connectivity, after a release: in place at the cost of the moved
-        corners (fracture/separation_refresh.py, Surface.reconnect) when ``incremental``, else
-        rebuilt (the reference); the node-to-element index is rebuilt either way, and a model
-        with hexes rebuilds the contact surface and the free quads."""
+        corners (fracture/separation_refresh.py, hexes.reconnect_hex_boundary, Surface.reconnect)
+        when ``incremental``, else rebuilt (the reference); a model with hexes rebuilds the
+        contact surface either way (contact/hexes.py has no in-place update)."""
         from impactsim.solver.build import node_to_element
         from impactsim.solver.scatter import force_rows
 
@@ -679,16 +770,17 @@ class SeparationPass:
                     ctx.reconnect_surface(model, changed)
                 else:
                     ctx.rebuild_surface(model)
-        model.n2e_ptr, model.n2e = node_to_element(model.conn, model.n_node)
         fs = self.s
         if not self.incremental:
+            model.n2e_ptr, model.n2e = node_to_element(model.conn, model.n_node)
             fs.rebuild_mesh(model)
             return
         for s, e, j, old, new in moved:
             if s.holder is model:
                 reconnect_boundary(fs.boundary, model.conn, e)
+                move_node_elements(model.n2e_ptr, model.n2e, 4, e, j, old, new)
             else:
-                next(h for h in fs.hexes if h.blk is s.holder).rebuild(model)
+                next(h for h in fs.hexes if h.blk is s.holder).reconnect(e, j, old, new)
             move_node_live(fs.node_live, s.holder.status, e, old, new)
 
     def history(self, model) -> dict:

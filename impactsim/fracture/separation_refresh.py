@@ -19,6 +19,12 @@ that was dormant until then (no element corner, no mass, no force row); it only 
   old rep keeps its rows (a part that no longer touches it adds nothing there). Every row keeps
   one writer and every node sums its rows in part order, so the forces are the bits of rows
   built afresh (a row left empty adds +0.0), on any thread count.
+- Node-to-element indices (``move_node_elements``, solver/build.py ``node_to_element``): each
+  moved corner's entry leaves its old node's list for its new node's, lists kept ascending; the
+  entry count is unchanged, so only the nodes between the smallest and the largest moved node
+  are rewritten (no sort).
+- The hex blocks' free quads: ``fracture.hexes.reconnect_hex_boundary`` (with
+  ``_open_faces_k``, the adjacency cut for any face shape).
 """
 
 from __future__ import annotations
@@ -123,3 +129,92 @@ def reconnect_rows(fr: ForceRows, conn: np.ndarray, e: np.ndarray, j: np.ndarray
     extra_ptr[1:] += np.cumsum(np.bincount(xnode, minlength=n_node))
     return ForceRows(rows=rows, extra_ptr=extra_ptr, extra_rows=extra_rows,
                      n_rows=fr.n_rows + m, part_size=fr.part_size), m
+
+
+# --- the node-to-element index ----------------------------------------------------------------
+@numba.njit(cache=True)
+def _move_entries(ptr, n2e, ent, by_old, old, by_new, new, buf):
+    """In place: the entries ``ent`` (element * corners + corner) leave the lists of their
+    nodes ``old`` for those of ``new``; ``by_old``, ``by_new`` the moves ordered by (old, entry)
+    and (new, entry). Only the nodes from the smallest to the largest of old and new are
+    rewritten (the entry count is unchanged, so the lists outside keep their place); each list
+    stays ascending, as ``solver.build.node_to_element`` builds it. ``buf`` scratch of at least
+    that span's entries."""
+    m = ent.shape[0]
+    lo = min(old[by_old[0]], new[by_new[0]])
+    hi = max(old[by_old[m - 1]], new[by_new[m - 1]])
+    start = ptr[lo]
+    w = 0
+    a = 0  # next removal (by_old)
+    b = 0  # next insertion (by_new)
+    for i in range(lo, hi + 1):
+        k = ptr[i]
+        end = ptr[i + 1]
+        ptr[i] = start + w
+        while k < end or (b < m and new[by_new[b]] == i):
+            if k < end:
+                x = n2e[k]
+                if a < m and old[by_old[a]] == i and ent[by_old[a]] == x:
+                    a += 1  # removed
+                    k += 1
+                    continue
+                if b < m and new[by_new[b]] == i and ent[by_new[b]] < x:
+                    buf[w] = ent[by_new[b]]
+                    b += 1
+                else:
+                    buf[w] = x
+                    k += 1
+            else:
+                buf[w] = ent[by_new[b]]
+                b += 1
+            w += 1
+    for t in range(w):
+        n2e[start + t] = buf[t]
+    return w
+
+
+def move_node_elements(ptr: np.ndarray, n2e: np.ndarray, corners: int, e: np.ndarray,
+                       j: np.ndarray, old: np.ndarray, new: np.ndarray) -> None:
+    """The node-to-element index (ptr, n2e; ``solver.build.node_to_element`` of a conn with
+    ``corners`` columns) after the corners (e, j) moved from ``old`` to ``new``, in place and
+    equal to the index built afresh, at the cost of the nodes between the smallest and the
+    largest moved-to or moved-from node (no sort of the whole index)."""
+    if e.shape[0] == 0:
+        return
+    ent = e.astype(np.int64) * corners + j
+    old = old.astype(np.int64)
+    new = new.astype(np.int64)
+    by_old = np.lexsort((ent, old))
+    by_new = np.lexsort((ent, new))
+    lo = min(old[by_old[0]], new[by_new[0]])
+    hi = max(old[by_old[-1]], new[by_new[-1]])
+    buf = np.empty(int(ptr[hi + 1] - ptr[lo]), np.int64)
+    _move_entries(ptr, n2e, ent, by_old, old, by_new, new, buf)
+
+
+# --- the free quads of a hex block --------------------------------------------------------------
+@numba.njit(cache=True)
+def _open_faces_k(changed, conn, adj, local_faces):
+    """``contact.surface._open_faces`` for any face shape (hex quads: 6 faces of 4 nodes): cut
+    the adjacency across every face of ``changed`` whose two sides no longer share its nodes."""
+    nf, w = local_faces.shape[0], local_faces.shape[1]
+    for k in range(changed.shape[0]):
+        e = changed[k]
+        for i in range(nf):
+            nb = adj[e, i]
+            if nb < 0:
+                continue
+            for jn in range(nf):
+                if adj[nb, jn] != e:
+                    continue
+                same = 0
+                for q in range(w):
+                    c = conn[nb, local_faces[jn, q]]
+                    for r in range(w):
+                        if c == conn[e, local_faces[i, r]]:
+                            same += 1
+                            break
+                if same < w:
+                    adj[e, i] = -1
+                    adj[nb, jn] = -1
+                break

@@ -49,7 +49,12 @@ EROSION_VALUE = 23  # threshold of the erosion criterion
 JC_D1 = 24  # D1..D5 in columns 24..28
 FRACTURE_STRAIN = 29  # [-] node separation, +inf = none
 SPALL_TIME = 30  # [s] Tuler-Butcher time tau of spall (fracture/spall.py), 0 = instantaneous
-N_PARAM = 31
+# 1: Johnson-Cook damage D >= 1 damages the cell (fracture/ductile.py): materials with jc_damage,
+# no erosion criterion and spall or loosening (the damaged cell's way out of the mesh; node
+# separation's materials keep their own criterion), unless the case sets [fracture]
+# ductile_criterion = "none"
+DUCTILE = 31
+N_PARAM = 32
 
 
 def material_row(mat: Material) -> np.ndarray:
@@ -82,6 +87,8 @@ def material_row(mat: Material) -> np.ndarray:
         row[JC_D1:JC_D1 + 5] = fail.jc_damage
     row[FRACTURE_STRAIN] = fail.fracture_strain if fail.fracture_strain is not None else np.inf
     row[SPALL_TIME] = fail.spall_time if fail.spall_time is not None else 0.0
+    row[DUCTILE] = 1.0 if (fail.jc_damage is not None and fail.erosion is None and (
+        fail.spall_strength is not None or fail.loosening is not None)) else 0.0
     return row
 
 

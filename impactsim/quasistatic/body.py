@@ -37,6 +37,9 @@ class BodySpec:
     # interfaces with friction: their C, I rows are [normal; t_1; t_2] and G's columns
     # [p, q_1, q_2] (friction.py)
     friction: set = field(default_factory=set)
+    # interfaces with Robin conditions (schwarz.py): (interface id, side "a" or "b", rows R
+    # (n x 3 N), force columns F (3 N x n), surface mass M (side a) or None, alpha)
+    robin: list = field(default_factory=list)
 
 
 class BodyState:
@@ -83,9 +86,32 @@ class BodyState:
         self.f = self.elastic.load(self.heat.T, scale)
         self.uD = self.elastic.prescribed(scale)
 
-    def mech_solve(self, g: dict, active: dict, pressure: dict, slip: dict | None = None) -> dict:
+    def _robin(self, robin: dict, f: np.ndarray) -> list:
+        """Robin conditions p = p0 + alpha (R u - t) on the active nodes of this body's Robin
+        sides (t the other side's position, p0 its pressure, of the last iteration): the
+        springs alpha F_c R go into the matrix (refactorised when the active sets change),
+        -F_c (p0 - alpha t) into f. Returns (key, side, idx, R, p0, t, alpha) per side."""
+        terms, key, Kr = [], [], None
+        for k, side, R, F, M, alpha in self.spec.robin:
+            t, act, p0 = robin[(side, k)]
+            idx = np.nonzero(act)[0]
+            key.append(idx.tobytes() + b"|")
+            if not len(idx):
+                terms.append((k, side, idx, R, p0, t, alpha))
+                continue
+            Fc = F[:, idx] if M is None else F[:, idx] @ M[idx][:, idx]
+            Ra = R[idx]
+            Kr = alpha * (Fc @ Ra) if Kr is None else Kr + alpha * (Fc @ Ra)
+            f -= Fc @ (p0[idx] - alpha * t[idx])
+            terms.append((k, side, idx, R, p0, t, alpha))
+        self.elastic.set_robin(b"".join(key), Kr)
+        return terms
+
+    def mech_solve(self, g: dict, active: dict, pressure: dict, slip: dict | None = None,
+                   robin: dict | None = None) -> dict:
         t0 = time.perf_counter()
         f = self.f.copy()
+        terms = self._robin(robin or {}, f) if self.spec.robin else []
         for k, _, G in self.spec.force:
             if k in pressure:
                 f += G @ pressure[k]
@@ -111,6 +137,12 @@ class BodyState:
             if k in self.spec.friction:  # tangential displacements, stick tractions
                 out[("at", k)] = (Cu[n:], np.concatenate(
                     [_pressures(M, r[j * n:(j + 1) * n], a[j * n:(j + 1) * n]) for j in (1, 2)]))
+        for k, side, idx, R, p0, t, alpha in terms:
+            Ru = R @ u
+            p = np.zeros(len(Ru))
+            p[idx] = p0[idx] + alpha * (Ru[idx] - t[idx])
+            # side a: (C_a u, p_A); side b: (I_b u, p_B), R = -I_b there
+            out[("r" + side, k)] = (Ru if side == "a" else -Ru, p)
         for k, I, _ in self.spec.force:
             Iu = I @ u
             if k in self.spec.friction:

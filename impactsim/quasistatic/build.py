@@ -92,6 +92,7 @@ def problem(case) -> Problem:
     s = case.settings
     settings = Settings(times=case.times, heat_transient=s["heat"] == "transient",
                         relaxation=s["relaxation"], aitken=s["aitken"], coarse=s["coarse"],
+                        anderson=s["anderson"],
                         solver=s["solver"], direct_limit=s["direct_limit"],
                         max_iterations=s["max_iterations"], gap_tolerance=s["gap_tolerance"],
                         pressure_tolerance=s["pressure_tolerance"],
@@ -100,7 +101,7 @@ def problem(case) -> Problem:
                         regularization=s["regularization"], detect_tolerance=case.gap_tolerance,
                         detect=case.detect)
     rules = [ContactRule(p.bodies[0], p.bodies[1], p.friction, p.conductance, p.gap_tolerance,
-                         p.tied) for p in case.pairs]
+                         p.tied, p.robin) for p in case.pairs]
     pairs = None
     if not case.detect:
         import fnmatch

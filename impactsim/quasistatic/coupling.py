@@ -54,6 +54,7 @@ class Interface:
     facets_a: np.ndarray | None = None
     facets_b: np.ndarray | None = None
     tangential: object | None = None  # friction.Tangential: the rows and transfer of friction
+    robin: float = 0.0  # alpha of Robin conditions on both sides (0: kinematic / force)
 
 
 def faceting(space: Space, facets: np.ndarray, points: np.ndarray) -> np.ndarray:

@@ -129,6 +129,27 @@ class ElasticBody:
         self.KfD = self.K[self.F][:, self.D]
         self._schur_key = None
         self.u_prev = np.zeros(self.ndof)
+        self._base = self.lu  # the factorisation without Robin springs
+        self._base_matrix = A
+        self._robin_key = b""
+        self._KrFD = None
+
+    def set_robin(self, key: bytes, Kr: sp.spmatrix | None) -> None:
+        """Robin (mixed) contact conditions add the springs alpha F_c R of their active nodes
+        to the stiffness (schwarz.py): refactorise when their set changes (`key`), back to
+        the plain factorisation when there are none. The Lagrange rows' Schur complement is
+        built on whichever factorisation is current."""
+        if key == self._robin_key:
+            return
+        self._robin_key = key
+        self._schur_key = None
+        if Kr is None or Kr.nnz == 0:
+            self.lu = self._base
+            self._KrFD = None
+            return
+        Kr = Kr.tocsr()[self.F]
+        self._KrFD = Kr[:, self.D]
+        self.lu = sla.splu((self._base_matrix + Kr[:, self.F]).tocsc())
 
     def prescribed(self, scale: float) -> np.ndarray:
         uD = np.zeros(self.ndof)
@@ -161,6 +182,8 @@ class ElasticBody:
         """Displacement u and the multipliers (contact reactions along the rows of C, > 0
         compressive) of K u = f - C_a^T lam, C_a u = g_a on the active rows."""
         rhs = f[self.F] - self.KfD @ uD
+        if self._KrFD is not None:
+            rhs = rhs - self._KrFD @ uD
         if proximal:
             rhs = rhs + self.spring * self._anchor()[self.F]
         u0 = self.lu.solve(rhs)

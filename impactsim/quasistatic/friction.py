@@ -139,7 +139,7 @@ def add_inputs(inputs: dict, interfaces: list[Interface], state) -> None:
         fs = state.friction[c] if state.friction else None
         if fs is None:
             continue
-        ga, aa, _, slip = inputs[itf.a]
+        ga, aa, _, slip = inputs[itf.a][:4]
         ga[c] = np.concatenate([state.g[c], fs.g])
         aa[c] = np.concatenate([state.active[c], _two(fs.stick)])
         slipping = _two(state.active[c] & ~fs.stick)

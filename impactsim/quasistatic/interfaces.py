@@ -87,6 +87,17 @@ def find_pairs(problem: Problem, spaces: list[Space]) -> list[tuple[int, int, np
     return out
 
 
+def robin_mass(itf) -> sp.csr_matrix:
+    """A's surface mass lumped (row sums) on a Robin interface: the springs alpha m_i of a
+    node-to-surface penalty; the consistent mass made the nodal pressures alternate in sign
+    from node to node (+-1 GPa on the 50-pellet stack, tet4)."""
+    return sp.diags(np.asarray(itf.M_a.sum(axis=1)).ravel()).tocsr()
+
+
+def names_of(bodies, i: int) -> str:
+    return bodies[i].name
+
+
 def _support_distance(n: int, fixed: list[bool], pairs) -> list[int]:
     adj = [[] for _ in range(n)]
     for i, j, *_, closed in pairs:
@@ -200,6 +211,13 @@ def setup(problem: Problem):
         interfaces.append(coupling.build(a, b, spaces[a], spaces[b], fa, fb, rule.friction,
                                          rule.conductance, rule.tied))
         interfaces[-1].anchor = k in anchored
+        if rule.robin > 0:
+            if rule.friction:
+                raise SetupError(f"contact pair '{names_of(bodies, i)}' / "
+                                 f"'{names_of(bodies, j)}': robin and friction cannot be "
+                                 f"combined (Robin conditions are normal only)")
+            # an anchor stays kinematic: the coarse step passes motions along anchors
+            interfaces[-1].robin = 0.0 if k in anchored else rule.robin
         friction.attach(interfaces[-1], spaces[a], spaces[b])
     thermal_bodies = any(c.kind in ("temperature", "flux", "exchange", "source")
                          for b in bodies for c in b.conditions)
@@ -211,7 +229,11 @@ def setup(problem: Problem):
     route = {}
     for c, itf in enumerate(interfaces):
         T = itf.tangential
-        if T is None:
+        if itf.robin > 0:  # Robin on both sides: rows R and force columns F (body.py)
+            specs[itf.a].robin.append((c, "a", itf.C_a, itf.C_a.T.tocsr(), robin_mass(itf),
+                                       itf.robin))
+            specs[itf.b].robin.append((c, "b", -itf.I_b, -itf.G_b, None, itf.robin))
+        elif T is None:
             specs[itf.a].kin.append((c, itf.C_a, itf.M_a))
             specs[itf.b].force.append((c, itf.I_b, itf.G_b))
         else:  # friction: tangential rows and tractions beside the normal ones

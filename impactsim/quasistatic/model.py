@@ -90,6 +90,9 @@ class ContactRule:
     conductance: float = 0.0  # gap heat-transfer coefficient [W/(m^2 K)]; 0: no heat exchange
     gap_tolerance: float | None = None
     tied: bool = False  # bonded: every matched node stays in contact, tension allowed
+    # Robin (mixed) conditions on both sides instead of kinematic / force: the spring
+    # stiffness alpha [Pa/m] of p = p_other - alpha gap; 0: Dirichlet-Neumann (schwarz.py)
+    robin: float = 0.0
 
 
 @dataclass
@@ -109,6 +112,7 @@ class Settings:
     regularization: float = 1e-6  # weak springs, relative to diag(K) (floating bodies)
     detect: bool = True
     coarse: bool = True  # rigid shifts passed down the anchor tree in one iteration
+    anderson: int = 0  # depth of Anderson acceleration of the interface values (0: off)
     solver: str = "auto"  # direct (SuperLU), amg (pyamg + CG), auto: amg above direct_limit
     direct_limit: int = 300_000  # free dofs of a body above which auto uses amg
 

@@ -74,6 +74,14 @@ def solve_monolithic(states: dict[int, BodyState], interfaces, scale: float = 1.
     raise RuntimeError("monolithic: the active set did not settle")
 
 
+def _mass(itf):
+    """The surface mass of A's pressures: lumped on Robin interfaces (interfaces.robin_mass)."""
+    if itf.robin:
+        from impactsim.quasistatic.interfaces import robin_mass
+        return robin_mass(itf)
+    return itf.M_a
+
+
 def _solve(states, interfaces, active, off, n, u_prev, fstates=None):
     rows, cols, vals = [], [], []
     rhs = np.zeros(n)
@@ -104,7 +112,7 @@ def _solve(states, interfaces, active, off, n, u_prev, fstates=None):
         ea, eb = states[itf.a].elastic, states[itf.b].elastic
         Ca = itf.C_a[idx]
         Ib = itf.I_b[idx]
-        Maa = itf.M_a[idx][:, idx].tocsc()
+        Maa = _mass(itf)[idx][:, idx].tocsc()
         Minv = sp.csr_matrix(np.linalg.inv(Maa.toarray()))
         # equilibrium rows
         add(Ca[:, ea.F].T, off[itf.a], m)
@@ -133,7 +141,7 @@ def _solve(states, interfaces, active, off, n, u_prev, fstates=None):
     for c, (m0, idx) in enumerate(lam_slices):
         p = np.zeros(len(interfaces[c].gap))
         if len(idx):
-            Maa = interfaces[c].M_a[idx][:, idx].toarray()
+            Maa = _mass(interfaces[c])[idx][:, idx].toarray()
             p[idx] = np.linalg.solve(Maa, x[m0:m0 + len(idx)])
         lam.append(p)
     return u, lam, (f_slices, x)

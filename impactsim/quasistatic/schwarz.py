@@ -23,6 +23,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sp
 
 from impactsim.quasistatic import friction
 from impactsim.quasistatic.coupling import Interface
@@ -52,6 +53,10 @@ class ContactState:
     ua: list[np.ndarray] = field(default_factory=list)
     ub: list[np.ndarray] = field(default_factory=list)
     friction: list = field(default_factory=list)  # friction.FrictionState or None per interface
+    # Robin interfaces: B's target t_B = delta - u_A . n and the pressure p_B that A gets
+    # (state.g is A's target, state.p the pressure B gets, as on the other interfaces)
+    tb: list = field(default_factory=list)
+    pb: list = field(default_factory=list)
 
 
 def update_active(itf: Interface, act: np.ndarray, p: np.ndarray, penetration: np.ndarray,
@@ -76,7 +81,8 @@ def update_active(itf: Interface, act: np.ndarray, p: np.ndarray, penetration: n
         # tet4: the nodal reactions themselves (M_aa p) say which nodes pull
         idx = np.nonzero(act)[0]
         lam = np.zeros(len(p))
-        lam[idx] = itf.M_a[idx][:, idx] @ p[idx]
+        M = itf.M_a if not itf.robin else sp.diags(np.asarray(itf.M_a.sum(axis=1)).ravel())
+        lam[idx] = M.tocsr()[idx][:, idx] @ p[idx]
         scale = max(np.max(np.abs(lam), initial=0), 1e-300)
         release = act & (lam < -RELEASE * scale)
     else:
@@ -108,6 +114,8 @@ def _anchor_tree(interfaces, active) -> tuple[dict, list]:
     # the anchor alone, moments included (elsewhere the side contacts share it by stiffness)
     others = {itf.a for c, itf in enumerate(interfaces)
               if not itf.anchor and active[c].any()}
+    # a body on an active Robin contact shares every change with that spring
+    others |= {itf.b for c, itf in enumerate(interfaces) if itf.robin and active[c].any()}
     alone = {b for b in parent if b not in others}
     return parent, sorted(parent, key=lambda x: -depth[x]), alone
 
@@ -213,6 +221,71 @@ def _coarse_forces(interfaces, p_old, p_new, active, tree=None) -> dict:
     return dp
 
 
+class Anderson:
+    """Anderson acceleration (type II, as in Walker and Ni 2011) of the fixed-point map the
+    iteration is, x_k -> G(x_k), x the interfaces' gaps g, t_B and pressures p, p_B (scaled
+    by the largest displacement and pressure): x_k+1 = G(x_k) - dG gamma, gamma the least-
+    squares fit of the last `depth` residual differences dF to the residual G(x_k) - x_k.
+    Within one active set the map is affine and this is GMRES on it: the smooth, slow modes
+    of a Robin iteration (a tube bowing with the pellets it touches, both far softer than
+    alpha) converge in a few dozen iterations instead of thousands. Restarted when an active
+    or stick/slip set changes (the map changes)."""
+
+    def __init__(self, depth: int):
+        self.depth = depth
+        self.reset()
+
+    def reset(self):
+        self.x = None  # the last iterate x_k (scaled)
+        self.f = self.gx = None
+        self.dF, self.dG = [], []
+
+    def _pack(self, state, us, ps):
+        return np.concatenate([v / us for v in state.g] + [v / ps for v in state.p] +
+                              [v / us for v in state.tb] + [v / ps for v in state.pb])
+
+    def _unpack(self, state, x, us, ps):
+        k = 0
+        for arrays, s in ((state.g, us), (state.p, ps), (state.tb, us), (state.pb, ps)):
+            for i, v in enumerate(arrays):
+                arrays[i] = x[k:k + len(v)] * s
+                k += len(v)
+
+    def step(self, state, changed: bool, us: float, ps: float) -> None:
+        if changed:
+            self.reset()
+            return
+        # fixed scales for the whole history (the first of a restart)
+        if self.x is None:
+            self.us, self.ps = us, ps
+            self.x = self._pack(state, self.us, self.ps)
+            return
+        gx = self._pack(state, self.us, self.ps)
+        f = gx - self.x
+        if self.f is not None:
+            self.dF.append(f - self.f)
+            self.dG.append(gx - self.gx)
+            if len(self.dF) > self.depth:
+                # restarted (as GMRES(m)): a sliding window stagnated on the 50-pellet
+                # column (pressure mismatch 0.016 for 100 iterations)
+                self.dF, self.dG = [], []
+        self.f, self.gx = f, gx
+        x = gx
+        if self.dF:
+            F = np.array(self.dF).T
+            gamma = np.linalg.lstsq(F, f, rcond=1e-10)[0]
+            x = gx - np.array(self.dG).T @ gamma
+        self.x = x
+        self._unpack(state, x, self.us, self.ps)
+
+
+def _predicted(itf: Interface, m) -> np.ndarray | float:
+    """n . u at the interface's points of the rigid motion m (t, theta) of the coarse step."""
+    if m is None:
+        return 0.0
+    return itf.normals @ m[:3] + np.einsum("ij,ij->i", itf.normals, np.cross(m[3:], itf.points))
+
+
 def initial_state(interfaces: list[Interface]) -> ContactState:
     act = []
     for itf in interfaces:
@@ -220,7 +293,9 @@ def initial_state(interfaces: list[Interface]) -> ContactState:
         act.append(itf.matched & ((itf.gap <= 1e-6 * scale) | itf.tied))
     return ContactState([itf.gap.copy() for itf in interfaces], act,
                         [np.zeros(len(itf.gap)) for itf in interfaces],
-                        friction=friction.initial(interfaces, act))
+                        friction=friction.initial(interfaces, act),
+                        tb=[itf.gap.copy() for itf in interfaces],
+                        pb=[np.zeros(len(itf.gap)) for itf in interfaces])
 
 
 def heat_phase(pool, route: dict, settings: Settings, dt: float | None, log: list) -> int:
@@ -259,12 +334,18 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
     om = np.full(n_b, omega)  # per interface (one value today)
     r_old = None
     last_change = 0
+    accel = Anderson(settings.anderson)
     result = {"iterations": 0, "gap_residual": np.inf, "pressure_residual": np.inf}
     for it in range(1, settings.max_iterations + 1):
         inputs: dict = {}
         for c, itf in enumerate(interfaces):
-            inputs.setdefault(itf.a, ({}, {}, {}))
-            inputs.setdefault(itf.b, ({}, {}, {}))
+            inputs.setdefault(itf.a, ({}, {}, {}, {}, {}))
+            inputs.setdefault(itf.b, ({}, {}, {}, {}, {}))
+            if itf.robin:
+                # A: p = p_B + alpha (u_A . n - t_A); B: p = p_A + alpha (-u_B . n - t_B)
+                inputs[itf.a][4][("a", c)] = (state.g[c], state.active[c], state.pb[c])
+                inputs[itf.b][4][("b", c)] = (state.tb[c], state.active[c], state.p[c])
+                continue
             inputs[itf.a][0][c] = state.g[c]
             inputs[itf.a][1][c] = state.active[c]
             inputs[itf.b][2][c] = state.p[c]
@@ -277,36 +358,69 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
         changed = False
         residuals = []
         new_active = []
-        ua_all, ub_all, pa_all = [], [], []
+        ua_all, ub_all, pa_all, pb_all = [], [], [], []
         # nodes that penetrate enter at once; nodes leave only once the iteration has settled
         # for the current active set (an outer loop): releasing at every iteration makes the
         # contact chatter
         for c, itf in enumerate(interfaces):
-            ua, pa = out[itf.a][("a", c)]
-            ub = out[itf.b][("b", c)]
+            if itf.robin:
+                ua, pa = out[itf.a][("ra", c)]
+                ub, pb = out[itf.b][("rb", c)]
+            else:
+                ua, pa = out[itf.a][("a", c)]
+                ub, pb = out[itf.b][("b", c)], None
+            pb_all.append(pb)
             ua_all.append(ua)
             ub_all.append(ub)
             pa_all.append(pa)
             u_scale = max(u_scale, np.max(np.abs(ua), initial=0), np.max(np.abs(ub), initial=0))
             p_scale = max(p_scale, np.max(np.abs(pa), initial=0))
-        pre_gap = max((np.max(np.abs(np.where(state.active[c], ub_all[c] + itf.gap - state.g[c],
-                                                   0.0)), initial=0) / u_scale
-                       for c, itf in enumerate(interfaces)), default=0.0)
+        # (on a Robin interface the mismatches are the gap between the new iterates and the
+        # difference of the two sides' pressures)
+        pre_gap = max((np.max(np.abs(np.where(
+            state.active[c], ub_all[c] + itf.gap - (ua_all[c] if itf.robin else state.g[c]),
+            0.0)), initial=0) / u_scale for c, itf in enumerate(interfaces)), default=0.0)
+        # (a Robin interface's pressure mismatch is alpha times its gap mismatch, which
+        # pre_gap measures: with alpha 1e14 Pa/m a 1e-5 relative gap is a 1e-2 relative
+        # pressure on the 50-pellet stack, and waiting for it delayed every release by the
+        # MAX_INNER iterations)
         pre_p = max((np.max(np.abs(pa_all[c] - state.p[c]), initial=0) / p_scale
-                     for c in range(n_b)), default=0.0)
+                     for c in range(n_b) if not interfaces[c].robin), default=0.0)
         settle = it == 1 or (pre_gap <= SETTLE * max(settings.gap_tolerance, 1e-3) and
                              pre_p <= SETTLE * max(settings.pressure_tolerance, 1e-3)) or \
             it - last_change >= MAX_INNER
+        worst = [(0.0, -1), (0.0, -1)]  # (mismatch, interface) of the gap and the pressure
         for c, itf in enumerate(interfaces):
             ua, ub, pa = ua_all[c], ub_all[c], pa_all[c]
+            g0, p0 = gap_res, p_change
             act = state.active[c]
             target = ub + itf.gap
-            r = np.where(act, target - state.g[c], 0.0)
+            if itf.robin:
+                pb = pb_all[c]
+                r = np.where(act, target - ua, 0.0)  # the gap itself
+                p_change = max(p_change, np.max(np.abs(pa - pb), initial=0) / p_scale,
+                               np.max(np.abs(pa - state.p[c]), initial=0) / p_scale)
+                p_act = 0.5 * (pa + pb)
+            else:
+                r = np.where(act, target - state.g[c], 0.0)
+                p_change = max(p_change, np.max(np.abs(pa - state.p[c]), initial=0) / p_scale)
+                p_act = pa
             residuals.append(r)
             gap_res = max(gap_res, np.max(np.abs(r), initial=0) / u_scale)
-            p_change = max(p_change, np.max(np.abs(pa - state.p[c]), initial=0) / p_scale)
-            na = update_active(itf, act, pa, ua - target, ACTIVATE * settings.gap_tolerance * u_scale,
-                               p_scale, release=settle)
+            if gap_res > g0:
+                worst[0] = (gap_res, c)
+            if p_change > p0:
+                worst[1] = (p_change, c)
+            if itf.robin and not settle:
+                # a Robin interface's set changes only on settled iterates (an outer loop):
+                # a penetration is no instability there (the spring pushes back), and the
+                # early iterates of the pellet stack threw pellets into their tube and out
+                # again, resetting the acceleration at each change
+                na = act
+            else:
+                na = update_active(itf, act, p_act, ua - target,
+                                   ACTIVATE * settings.gap_tolerance * u_scale, p_scale,
+                                   release=settle)
             changed |= bool((na != act).any())
             new_active.append(na)
         # (stick and slip are decided on settled iterates, never on the first one)
@@ -332,7 +446,8 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
         log.append({"phase": "mechanics", "step": step, "iteration": it,
                     "gap_residual": gap_res, "pressure_residual": p_change,
                     "relaxation": omega, "active": int(sum(a.sum() for a in new_active)),
-                    "active_changed": changed})
+                    "active_changed": changed, "worst_gap_interface": worst[0][1],
+                    "worst_pressure_interface": worst[1][1]})
         p_new = [np.where(new_active[c], pa_all[c], 0.0) for c in range(n_b)]
         shift, dp = {}, {}
         if settings.coarse:
@@ -341,15 +456,21 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
             dp = _coarse_forces(interfaces, state.p, p_new, new_active, tree)
         for c in range(n_b):
             itf = interfaces[c]
-            pred = 0.0
-            if itf.b in shift:
-                m = shift[itf.b]
-                pred = itf.normals @ m[:3] + np.einsum("ij,ij->i", itf.normals,
-                                                       np.cross(m[3:], itf.points))
+            pred = _predicted(itf, shift.get(itf.b))
+            if itf.robin:
+                # no relaxation: each side's next target is the other's new position (Lions'
+                # Robin-Robin iteration converges without it), its pressure the other's
+                state.g[c] = ub_all[c] + itf.gap + pred
+                state.tb[c] = itf.gap - ua_all[c] - _predicted(itf, shift.get(itf.a))
+                state.p[c] = p_new[c]
+                state.pb[c] = np.where(new_active[c], pb_all[c], 0.0)
+                continue
             state.g[c] = np.where(new_active[c], state.g[c] + om[c] * residuals[c] + pred,
                                   ub_all[c] + interfaces[c].gap)
             state.p[c] = p_new[c] + dp.get(c, 0.0)
         friction.advance(state, pending, om)
+        if settings.anderson:
+            accel.step(state, changed or fm.changed, u_scale, p_scale)
         if changed:
             last_change = it
         state.active = new_active

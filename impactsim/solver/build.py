@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from impactsim.case.schema import Body, Case, NodeSelector
-from impactsim.materials.params import T_INIT, material_table
+from impactsim.materials.params import DUCTILE, T_INIT, material_table
 from impactsim.model import ElementBlock, Model
 
 
@@ -57,6 +57,8 @@ def build_model(case: Case, meshes: list[tuple[np.ndarray, np.ndarray]] | None =
     mat_names = list(case.materials)
     mat_index = {name: i for i, name in enumerate(mat_names)}
     mat_params = material_table([case.materials[n] for n in mat_names])
+    if case.fracture.ductile_criterion == "none":  # fracture/ductile.py
+        mat_params[:, DUCTILE] = 0.0
 
     xs, conns, vs, node_body, elem_body, elem_mat = [], [], [], [], [], []
     node_start, elem_start = [0], [0]

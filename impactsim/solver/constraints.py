@@ -35,6 +35,37 @@ def apply_prescribed(v, mass, force, dtv, nodes, mask, velocity):
     return work
 
 
+@numba.njit(cache=True, inline="always")
+def _wall_node(xx, xy, xz, vx, vy, vz, fx, fy, fz, mi, dtv, dt, px, py, pz, nx, ny, nz, mu):
+    """One node against one wall (`apply_walls`): the corrected velocity, the wall's work on
+    the node, its normal velocity change, whether the wall acts."""
+    d_now = (xx - px) * nx + (xy - py) * ny + (xz - pz) * nz
+    vn = vx * nx + vy * ny + vz * nz
+    # the node must end on or in front of the wall: d_now + dt vn >= 0
+    vn_min = -d_now / dt
+    if vn >= vn_min:
+        return vx, vy, vz, 0.0, 0.0, False
+    dvn = vn_min - vn
+    a = dtv / mi
+    ox, oy, oz = vx - a * fx, vy - a * fy, vz - a * fz
+    sx, sy, sz = vx, vy, vz
+    vx += dvn * nx
+    vy += dvn * ny
+    vz += dvn * nz
+    if mu > 0.0:
+        vn2 = vx * nx + vy * ny + vz * nz
+        tx, ty, tz = vx - vn2 * nx, vy - vn2 * ny, vz - vn2 * nz
+        vt = np.sqrt(tx * tx + ty * ty + tz * tz)
+        if vt > 0.0:
+            cut = min(vt, mu * dvn) / vt
+            vx -= cut * tx
+            vy -= cut * ty
+            vz -= cut * tz
+    work = mi * ((vx - sx) * 0.5 * (ox + vx) + (vy - sy) * 0.5 * (oy + vy)
+                 + (vz - sz) * 0.5 * (oz + vz))
+    return vx, vy, vz, work, dvn, True
+
+
 @numba.njit(cache=True)
 def apply_walls(x, v, mass, force, dtv, walls, dt):
     """Rigid planar walls as a kinematic constraint (compressive only).
@@ -54,35 +85,56 @@ def apply_walls(x, v, mass, force, dtv, walls, dt):
         nx, ny, nz = walls[w, 3], walls[w, 4], walls[w, 5]
         mu = walls[w, 6]
         for i in range(x.shape[0]):
-            if mass[i] <= 0.0:  # orphaned by erosion: no mass, nothing to hold
-                continue
-            d_now = (x[i, 0] - px) * nx + (x[i, 1] - py) * ny + (x[i, 2] - pz) * nz
-            vn = v[i, 0] * nx + v[i, 1] * ny + v[i, 2] * nz
-            # the node must end on or in front of the wall: d_now + dt vn >= 0
-            vn_min = -d_now / dt
-            if vn >= vn_min:
-                continue
-            dvn = vn_min - vn
-            a = dtv / mass[i]
-            ox, oy, oz = v[i, 0] - a * force[i, 0], v[i, 1] - a * force[i, 1], v[i, 2] - a * force[i, 2]
-            sx, sy, sz = v[i, 0], v[i, 1], v[i, 2]
-            v[i, 0] += dvn * nx
-            v[i, 1] += dvn * ny
-            v[i, 2] += dvn * nz
-            if mu > 0.0:
-                vn2 = v[i, 0] * nx + v[i, 1] * ny + v[i, 2] * nz
-                tx, ty, tz = v[i, 0] - vn2 * nx, v[i, 1] - vn2 * ny, v[i, 2] - vn2 * nz
-                vt = np.sqrt(tx * tx + ty * ty + tz * tz)
-                if vt > 0.0:
-                    cut = min(vt, mu * dvn) / vt
-                    v[i, 0] -= cut * tx
-                    v[i, 1] -= cut * ty
-                    v[i, 2] -= cut * tz
             mi = mass[i]
-            work += mi * ((v[i, 0] - sx) * 0.5 * (ox + v[i, 0]) + (v[i, 1] - sy) * 0.5 * (oy + v[i, 1])
-                          + (v[i, 2] - sz) * 0.5 * (oz + v[i, 2]))
-            impulse += mi * dvn
-            touched += 1
+            if mi <= 0.0:  # orphaned by erosion: no mass, nothing to hold
+                continue
+            vx, vy, vz, wk, dvn, hit = _wall_node(x[i, 0], x[i, 1], x[i, 2], v[i, 0], v[i, 1],
+                                             v[i, 2], force[i, 0], force[i, 1], force[i, 2],
+                                             mi, dtv, dt, px, py, pz, nx, ny, nz, mu)
+            if hit:
+                v[i, 0], v[i, 1], v[i, 2] = vx, vy, vz
+                work += wk
+                impulse += mi * dvn
+                touched += 1
+    return work, touched, impulse
+
+
+@numba.njit(cache=True)
+def predict_walls_move(force, mass, v, x, dtv, walls, dt):
+    """The predictor (nodal.predict), at most one wall (`apply_walls`) and the move
+    (nodal.move) in one pass over the nodes, for a scene whose only velocity-stage pass is its
+    wall (or none: `walls` of no rows): the same arithmetic per node, and with one wall the
+    same sums, as the three passes (one sweep of x, v, force and mass through memory instead
+    of three). Returns apply_walls' (work, nodes touched, normal impulse)."""
+    has_wall = walls.shape[0] > 0
+    px = py = pz = nx = ny = nz = mu = 0.0
+    if has_wall:
+        px, py, pz = walls[0, 0], walls[0, 1], walls[0, 2]
+        nx, ny, nz = walls[0, 3], walls[0, 4], walls[0, 5]
+        mu = walls[0, 6]
+    work = 0.0
+    impulse = 0.0
+    touched = 0
+    for i in range(mass.shape[0]):
+        vx, vy, vz = v[i, 0], v[i, 1], v[i, 2]
+        mi = mass[i]
+        if mi > 0.0:
+            fx, fy, fz = force[i, 0], force[i, 1], force[i, 2]
+            a = dtv / mi
+            vx += a * fx
+            vy += a * fy
+            vz += a * fz
+            if has_wall:
+                vx, vy, vz, wk, dvn, hit = _wall_node(x[i, 0], x[i, 1], x[i, 2], vx, vy, vz, fx, fy,
+                                                 fz, mi, dtv, dt, px, py, pz, nx, ny, nz, mu)
+                if hit:
+                    work += wk
+                    impulse += mi * dvn
+                    touched += 1
+            v[i, 0], v[i, 1], v[i, 2] = vx, vy, vz
+        x[i, 0] += dt * vx
+        x[i, 1] += dt * vy
+        x[i, 2] += dt * vz
     return work, touched, impulse
 
 
@@ -109,8 +161,13 @@ class WallPass(Pass):
         self.force = 0.0
 
     def run(self, model, dt):
-        work, self.touched, impulse = apply_walls(model.x, model.v, model.mass, model.force,
-                                                  model.dtv, model.walls, dt)
+        self.book(model, dt, *apply_walls(model.x, model.v, model.mass, model.force, model.dtv,
+                                          model.walls, dt))
+
+    def book(self, model, dt, work, touched, impulse):
+        """Record a step's wall results (from `run`, or from the time loop's fused
+        `predict_walls_move`)."""
+        self.touched = touched
         self.force = impulse / dt
         model.energy_terms["contact_dissipated"] -= work
 

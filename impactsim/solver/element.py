@@ -52,6 +52,8 @@ from impactsim.model import DAMAGED, ERODED, FRACTURED
 from impactsim.solver import vecmath as VM
 from impactsim.solver.scatter import take_node
 
+DAMAGED_F, FRACTURED_F = float(DAMAGED), float(FRACTURED)  # as row R_STAT holds them
+
 CHUNK = 512
 PART = 4 * CHUNK  # elements of a part (scatter.py), the unit of work of a thread
 B = 32  # lanes of a block; the buffer (ROWS x B doubles, 23 kB) stays in the L1 cache
@@ -60,7 +62,8 @@ B = 32  # lanes of a block; the buffer (ROWS x B doubles, 23 kB) stays in the L1
 FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
 # columns of the per-chunk reduction array
 OUT_DT, OUT_QWORK, OUT_INVERTED, OUT_WORST = 0, 1, 2, 3
-N_OUT = 4
+OUT_DEFERRED = 4  # the chunk's blocks left to `_deferred_chunk`, a bit mask (block b: 2^b)
+N_OUT = 5
 
 # rows of the block buffer: row r of lane i is buf[r * B + i]
 R_X = 0  # 12 rows: x^{n+1} of corners 0..3 (x, y, z each)
@@ -100,7 +103,11 @@ R_DONE = 88  # ITERATING, FINISHED (converged, or elastic), STALLED (see _jc_new
 #             (first yield, eps_p = 0: the scalar return takes it, `laws.first_yield_return`)
 R_SY = 89  # yield stress at the end of the return
 R_HN = 90  # hardening term at the end of the return
-ROWS = 91
+ROWS = 91  # the rows the hex kernel's buffer shares (hex8_block.py starts its own at ROWS)
+# rows of the tet kernel's buffer only (`_block`'s masked passes)
+R_STAT = ROWS  # status of the lane as a float: 0 intact, DAMAGED, FRACTURED (`_pressure_block`)
+R_LIVE = ROWS + 1  # 1 for the lanes a masked pass computes and stores, else 0
+TET_ROWS = ROWS + 2
 # states of a lane in the vector return (row R_DONE)
 ITERATING, FINISHED, STALLED, FIRST = 0.0, 1.0, 2.0, 3.0
 # Newton iterations of the vector return; a lane not converged by then (a few per thousand
@@ -696,11 +703,14 @@ def _jc_return_block(buf, mat_params, mk, shear, eps_p, temperature, hard, therm
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
-def _pressure_block(buf, dt, anp, eos, rho0, bulk, c0, s, gamma0, shear, cq, cl):
+def _pressure_block(buf, dt, anp, eos, rho0, bulk, c0, s, gamma0, shear, cq, cl, stat):
     """Deviatoric work, EOS pressure with the energy implicit, bulk viscosity, stable dt, forces.
 
     The EOS (`laws.eos_linear_part`, code `eos`) is the same for all lanes; the Hugoniot's two
-    branches (compression, tension) are selects.
+    branches (compression, tension) are selects, and so are the damaged and fractured lanes'
+    rules (row R_STAT, as in `_element_scalar`) when `stat` is not None; with `stat` None (a
+    block of intact elements) they are left out at compile time: the selects cost 10 % of the
+    loop's time.
     """
     for i in range(B):
         det1 = buf[R_DET * B + i]
@@ -732,19 +742,32 @@ def _pressure_block(buf, dt, anp, eos, rho0, bulk, c0, s, gamma0, shear, cq, cl)
         pa, pb, c2a, c2b = eos_linear_part(eos, rho_e, rho0, bulk, c0, s, gamma0)
         pold = buf[R_POLD * B + i]
         dv = vnew - vold
+        if stat is None:
+            st = 0.0
+        else:
+            st = buf[R_STAT * B + i]
+        frac = st == FRACTURED_F
         c = math.sqrt(max(c2a + c2b * max(pold, 0.0), 0.0))
-        qn = rho * length * (cq * cq * length * trd * trd - cl * c * trd) if trd < 0.0 else 0.0
+        qn = (rho * length * (cq * cq * length * trd * trd - cl * c * trd)
+              if trd < 0.0 and not frac else 0.0)
         base = buf[R_EN * B + i] + (wdev - dv * (0.5 * pold + qn)) / mass
         kk = 0.5 * dv / mass
         enew = (base - kk * pa) / (1.0 + kk * pb)
         pn = pa + pb * enew
+        # a fractured element carries no pressure, a damaged one no tension (ALGORITHMS.md 4.1)
+        cut = frac or (st == DAMAGED_F and pn < 0.0)
+        pn = 0.0 if cut else pn
+        enew = base if cut else enew
         buf[R_EN1 * B + i] = enew
         buf[R_PN * B + i] = pn
         buf[R_QN * B + i] = qn
         buf[R_QW * B + i] = -qn * dv
-        c2 = max(c2a + c2b * max(pn, 0.0), 0.0) + 4.0 * shear / (3.0 * rho)
+        c2 = (max(c2a + c2b * max(pn, 0.0), 0.0)
+              + (4.0 * shear / (3.0 * rho) if st == 0.0 else 0.0))
         qq = cl * math.sqrt(c2) - cq * cq * length * trd if trd < 0.0 else 0.0
-        buf[R_DTE * B + i] = length / (qq + math.sqrt(max(qq * qq + c2, 0.0)))
+        # no limit (inf) from a fractured element, nor from a damaged one with c = q = 0
+        dte = length / (qq + math.sqrt(max(qq * qq + c2, 0.0)))
+        buf[R_DTE * B + i] = math.inf if frac else dte
         ptot = pn + qn
         txx, tyy, tzz = nxx - ptot, nyy - ptot, nzz - ptot
         b1x = buf[(R_B + 0) * B + i]
@@ -812,7 +835,8 @@ def _store_block(rows, sdev, pressure, q, eps_rate, energy, vol, vol_eos, fext, 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def _vector_block(elem_mat, status, e0):
-    """The block's material row if it can take the vector path (all intact, one material)."""
+    """The block's material row if it is a full block of intact elements of one material, else
+    -1."""
     mat = elem_mat[e0:e0 + B]
     st = status[e0:e0 + B]
     mk = mat[0]
@@ -822,68 +846,271 @@ def _vector_block(elem_mat, status, e0):
     return mk
 
 
+@numba.njit(cache=True, error_model="numpy")
+def _store_masked(rows, sdev, pressure, q, eps_rate, energy, vol, vol_eos, fext, use_anp, e0,
+                  buf):
+    """`_store_block` for the lanes of row R_LIVE only (a masked pass of `_block`)."""
+    dt_min = math.inf
+    worst = -1
+    qwork = 0.0
+    for i in range(B):
+        if buf[R_LIVE * B + i] == 0.0:
+            continue
+        e = e0 + i
+        for c in range(6):
+            sdev[e, c] = buf[(R_SN + c) * B + i]
+        pressure[e] = buf[R_PN * B + i]
+        q[e] = buf[R_QN * B + i]
+        energy[e] = buf[R_EN1 * B + i]
+        eps_rate[e] = buf[R_RATE * B + i]
+        vnew = buf[R_DET * B + i] * (1.0 / 6.0)
+        vol[e] = vnew
+        vol_eos[e] = buf[R_VEOS * B + i] if use_anp else vnew
+        for k in range(4):
+            r = rows[e, k]
+            for d in range(3):
+                fext[r, d] += buf[(R_F + 3 * k + d) * B + i]
+        qwork += buf[R_QW * B + i]
+        dte = buf[R_DTE * B + i]
+        if dte < dt_min:
+            dt_min = dte
+            worst = e
+    return dt_min, worst, qwork
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _return(buf, mat_params, mk, shear, eps_p, temperature, hard, thermal, e0):
+    """The radial return of the block's lanes for material row mk: Johnson-Cook with C >= 0 as
+    vector loops, other strength models lane by lane, none for an elastic material."""
+    code = int(mat_params[mk, P.STRENGTH])
+    if code == P.JOHNSON_COOK and mat_params[mk, P.JC_C] >= 0.0:
+        _jc_return_block(buf, mat_params, mk, shear, eps_p, temperature, hard, thermal, e0)
+    elif code != P.ELASTIC:
+        _return_block(buf, code, mat_params, mk, shear, eps_p, temperature, hard, thermal, e0)
+
+
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def _masked_block(e0, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
+           hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp,
+           half, dt, cq, cl, rows, fext, buf, plastic):
+    """Elements e0 .. e0 + B - 1 of a block that is not a full block of intact elements of one
+    material, through the vector path in masked passes; returns (min stable dt, its element,
+    viscous work, inverted elements).
+
+    One masked pass runs per material among the block's elements that are not eroded: the other
+    lanes get a copy of the pass's first lane's data (so that they compute finite numbers), the
+    yield check of the return never fires for them (R_SEQ = 0), and `_store_masked` stores only
+    the pass's lanes (row R_LIVE). Damaged and fractured lanes take no return and zero deviator,
+    and `_pressure_block` applies their rules (row R_STAT); an eroded or inverted element is
+    stored nowhere and adds no force, as in `_element_scalar`. With `plastic` None (a model
+    whose tets are all elastic, `plastic_kernel`) the radial return is left out at compile
+    time."""
+    mat = elem_mat[e0:e0 + B]
+    st = status[e0:e0 + B]
+    dt_min = math.inf
+    worst = -1
+    qwork = 0.0
+    inverted = 0
+    for d in range(B):  # lane d starts the pass of its material if no lane before has it
+        if st[d] == ERODED:
+            continue
+        mk = mat[d]
+        first = True
+        for j in range(d):
+            if st[j] != ERODED and mat[j] == mk:
+                first = False
+                break
+        if not first:
+            continue
+        _load_block(x, v, conn, sdev, pressure, energy, vol, vol_eos, vol0, elem_mass, jnode,
+                    use_anp, e0, buf)
+        for i in range(B):
+            live = st[i] != ERODED and mat[i] == mk
+            buf[R_LIVE * B + i] = 1.0 if live else 0.0
+            buf[R_STAT * B + i] = float(st[i]) if live else 0.0
+            if not live:
+                for r in range(R_VEOS + 1):
+                    buf[r * B + i] = buf[r * B + d]
+        shear = mat_params[mk, P.G]
+        _kinematics_block(buf, half, dt, shear)
+        for i in range(B):
+            # inverted as in `_element_scalar` (V <= 0): a NaN volume is not, and goes on, so
+            # that the run's non-finite check names the node (the full block's test, not V > 0,
+            # sends such a block here)
+            if buf[R_LIVE * B + i] != 0.0 and buf[R_DET * B + i] <= 0.0:
+                inverted += 1
+                buf[R_LIVE * B + i] = 0.0
+            if buf[R_LIVE * B + i] == 0.0 or buf[R_STAT * B + i] != 0.0:
+                buf[R_SEQ * B + i] = 0.0  # no return
+        if plastic is not None:
+            _return(buf, mat_params, mk, shear, eps_p, temperature, hard, thermal, e0)
+        for i in range(B):
+            if buf[R_STAT * B + i] != 0.0:  # damaged or fractured: no deviator
+                for c in range(6):
+                    buf[(R_SN + c) * B + i] = 0.0
+        _pressure_block(buf, dt, use_anp, int(mat_params[mk, P.EOS]), mat_params[mk, P.RHO0],
+                        mat_params[mk, P.K], mat_params[mk, P.C0], mat_params[mk, P.S],
+                        mat_params[mk, P.GAMMA0], shear, cq, cl, True)
+        bdt, bworst, bq = _store_masked(rows, sdev, pressure, q, eps_rate, energy, vol,
+                                        vol_eos, fext, use_anp, e0, buf)
+        qwork += bq
+        if bdt < dt_min:
+            dt_min = bdt
+            worst = bworst
+    return dt_min, worst, qwork, inverted
+
+
+@numba.njit(cache=True)
+def _lanes(a, e0, n):
+    """A block of B lanes: a[e0 .. e0 + n - 1] (1-D), then copies of a[e0] (element by element:
+    numpy's fancy indexing, or a row assignment, cost seconds of compile)."""
+    out = np.empty(B, a.dtype)
+    for i in range(B):
+        out[i] = a[e0 + (i if i < n else 0)]
+    return out
+
+
+@numba.njit(cache=True)
+def _lanes2(a, e0, n):
+    """`_lanes` of a 2-D array (its rows)."""
+    out = np.empty((B, a.shape[1]), a.dtype)
+    for i in range(B):
+        j = e0 + (i if i < n else 0)
+        for c in range(a.shape[1]):
+            out[i, c] = a[j, c]
+    return out
+
+
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
 def _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
            hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp,
-           half, dt, cq, cl, rows, fext, chunk_out, buf):
-    """The elements of chunk ch, block by block (see the module docstring); `buf` the block
-    buffer (ROWS * B) of the calling thread."""
+           half, dt, cq, cl, rows, fext, chunk_out, buf, plastic):
+    """The full blocks of intact elements of one material of chunk ch (the vector path, written
+    out in this function: called as a function of its own, it took the kernel 62 -> 66 ns per
+    element); any other block is left to `_deferred_chunk`, marked in the chunk's
+    OUT_DEFERRED. `buf` the block buffer (TET_ROWS * B) of the calling thread."""
     n_elem = conn.shape[0]
     dt_min = math.inf
     worst = -1
     qwork = 0.0
     inverted = 0
+    deferred = 0
     e_end = min(n_elem, (ch + 1) * CHUNK)
     for e0 in range(ch * CHUNK, e_end, B):
-        mk = _vector_block(elem_mat, status, e0) if e0 + B <= e_end else -1
-        if mk >= 0:
-            _load_block(x, v, conn, sdev, pressure, energy, vol, vol_eos, vol0, elem_mass,
-                        jnode, use_anp, e0, buf)
-            shear = mat_params[mk, P.G]
-            _kinematics_block(buf, half, dt, shear)
-            for i in range(B):
-                if not buf[R_DET * B + i] > 0.0:
-                    mk = -1  # an inverted element: the scalar path counts it
-        if mk >= 0:
-            code = int(mat_params[mk, P.STRENGTH])
-            if code == P.JOHNSON_COOK and mat_params[mk, P.JC_C] >= 0.0:
-                _jc_return_block(buf, mat_params, mk, shear, eps_p, temperature, hard, thermal,
-                                 e0)
-            elif code != P.ELASTIC:
-                _return_block(buf, code, mat_params, mk, shear, eps_p, temperature,
-                              hard, thermal, e0)
-            _pressure_block(buf, dt, use_anp, int(mat_params[mk, P.EOS]),
-                            mat_params[mk, P.RHO0], mat_params[mk, P.K], mat_params[mk, P.C0],
-                            mat_params[mk, P.S], mat_params[mk, P.GAMMA0], shear, cq, cl)
-            bdt, bworst, bq = _store_block(rows, sdev, pressure, q, eps_rate, energy, vol,
-                                           vol_eos, fext, use_anp, e0, buf)
-            qwork += bq
-            if bdt < dt_min:
-                dt_min = bdt
-                worst = bworst
+        if e0 + B <= e_end:
+            mk = _vector_block(elem_mat, status, e0)
+            if mk >= 0:
+                _load_block(x, v, conn, sdev, pressure, energy, vol, vol_eos, vol0, elem_mass,
+                            jnode, use_anp, e0, buf)
+                shear = mat_params[mk, P.G]
+                _kinematics_block(buf, half, dt, shear)
+                for i in range(B):
+                    if not buf[R_DET * B + i] > 0.0:
+                        mk = -1
+            if mk >= 0:
+                if plastic is not None:
+                    _return(buf, mat_params, mk, shear, eps_p, temperature, hard, thermal, e0)
+                _pressure_block(buf, dt, use_anp, int(mat_params[mk, P.EOS]),
+                                mat_params[mk, P.RHO0], mat_params[mk, P.K], mat_params[mk, P.C0],
+                                mat_params[mk, P.S], mat_params[mk, P.GAMMA0], shear, cq, cl, None)
+                bdt, bworst, bq = _store_block(rows, sdev, pressure, q, eps_rate, energy, vol,
+                                               vol_eos, fext, use_anp, e0, buf)
+                binv = 0
+            else:
+                deferred |= 1 << ((e0 - ch * CHUNK) // B)
+                continue
+        else:
+            deferred |= 1 << ((e0 - ch * CHUNK) // B)
             continue
-        for e in range(e0, min(e0 + B, e_end)):
-            dte, qw, inv = _element_scalar(
-                e, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+        qwork += bq
+        inverted += binv
+        if bdt < dt_min:
+            dt_min = bdt
+            worst = bworst
+    chunk_out[ch, OUT_DT] = dt_min
+    chunk_out[ch, OUT_QWORK] = qwork
+    chunk_out[ch, OUT_INVERTED] = inverted
+    chunk_out[ch, OUT_WORST] = worst
+    chunk_out[ch, OUT_DEFERRED] = deferred
+
+
+@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
+def _deferred_chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+                    temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
+                    jnode, use_anp, half, dt, cq, cl, rows, fext, chunk_out, buf, plastic):
+    """The blocks of chunk ch that `_chunk` left (OUT_DEFERRED): masked passes
+    (`_masked_block`), the last block of the mesh on copies of its lanes; their results merged
+    into the chunk's. A kernel of its own, called only when a chunk has such blocks, so that a
+    case without any (the demo) does not compile it."""
+    n_elem = conn.shape[0]
+    mask = int(chunk_out[ch, OUT_DEFERRED])
+    dt_min = chunk_out[ch, OUT_DT]
+    worst = int(chunk_out[ch, OUT_WORST])
+    qwork = chunk_out[ch, OUT_QWORK]
+    inverted = int(chunk_out[ch, OUT_INVERTED])
+    e_end = min(n_elem, (ch + 1) * CHUNK)
+    for blk in range(CHUNK // B):
+        if (mask >> blk) & 1 == 0:
+            continue
+        e0 = ch * CHUNK + blk * B
+        if e0 + B <= e_end:
+            bdt, bworst, bq, binv = _masked_block(
+                e0, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                 temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
-                jnode, use_anp, half, dt, cq, cl, rows, fext)
-            qwork += qw
-            inverted += inv
-            if dte < dt_min:
-                dt_min = dte
-                worst = e
+                jnode, use_anp, half, dt, cq, cl, rows, fext, buf, plastic)
+        else:
+            # the last block of the mesh, n < B elements: copied into arrays of one full block
+            # whose other lanes are eroded copies of its first element, run in masked passes,
+            # copied back (its first lane is passed as e0 - e0: a literal 0 would compile
+            # `_masked_block` again; and this code is here, not in a function of its own: numba
+            # links a called kernel's code into its caller and optimises it again there, so
+            # every level of calls costs compile time)
+            n = e_end - e0
+            t_st = _lanes(status, e0, n)
+            for i in range(n, B):
+                t_st[i] = ERODED
+            t_sdev, t_p, t_q = _lanes2(sdev, e0, n), _lanes(pressure, e0, n), _lanes(q, e0, n)
+            t_ep, t_rate = _lanes(eps_p, e0, n), _lanes(eps_rate, e0, n)
+            t_temp, t_hard, t_th = (_lanes(temperature, e0, n), _lanes(hard, e0, n),
+                                    _lanes(thermal, e0, n))
+            t_en, t_vol, t_veos = _lanes(energy, e0, n), _lanes(vol, e0, n), _lanes(vol_eos, e0, n)
+            bdt, bworst, bq, binv = _masked_block(
+                e0 - e0, x, v, _lanes2(conn, e0, n), _lanes(elem_mat, e0, n), t_st, t_sdev, t_p,
+                t_q, t_ep, t_rate, t_temp, t_hard, t_th, t_en, t_vol, t_veos, _lanes(vol0, e0, n),
+                _lanes(elem_mass, e0, n), mat_params, jnode, use_anp, half, dt, cq, cl,
+                _lanes2(rows, e0, n), fext, buf, plastic)
+            bworst = e0 + bworst if bworst >= 0 else -1
+            for i in range(n):
+                e = e0 + i
+                for c in range(6):
+                    sdev[e, c] = t_sdev[i, c]
+                pressure[e], q[e], eps_p[e], eps_rate[e] = t_p[i], t_q[i], t_ep[i], t_rate[i]
+                temperature[e], hard[e], thermal[e] = t_temp[i], t_hard[i], t_th[i]
+                energy[e] = t_en[i]
+                vol[e] = t_vol[i]
+                vol_eos[e] = t_veos[i] if use_anp else t_vol[i]
+        qwork += bq
+        inverted += binv
+        if bdt < dt_min:
+            dt_min = bdt
+            worst = bworst
     chunk_out[ch, OUT_DT] = dt_min
     chunk_out[ch, OUT_QWORK] = qwork
     chunk_out[ch, OUT_INVERTED] = inverted
     chunk_out[ch, OUT_WORST] = worst
 
 
-# nogil: the frame writer's thread (output/series.py) runs while the kernel does
-@numba.njit(cache=True, parallel=True, nogil=True, error_model="numpy", fastmath=FAST)
+# element_update runs on one thread below this many tets (`_update_serial`): four parts or
+# fewer, where a second thread saves little, and the parallel kernel's compile (about 5 s with
+# a cold cache) would cost a small case more than its whole run. The warm-up sets it to 0 for
+# its PARALLEL_SCENES so that both versions are compiled.
+PARALLEL_ELEMENTS = 4 * PART
+
+
 def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                    hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
                    use_anp, dt, cq, cl, force, rows, fext, extra_ptr, extra_rows, part_chunks,
-                   chunk_out, threads):
+                   chunk_out, threads, plastic):
     """Advance every element from step n to n+1 and compute its nodal forces at n+1.
 
     x (n,3) positions x^{n+1}; v (n,3) velocities U^{n+1} (the step's velocity); dt the step.
@@ -904,23 +1131,101 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     `force` (and left zero: fext must be zero on entry). Every node thus gets its elements'
     forces in the same order whatever the number of threads.
 
+    `plastic`: None when every tet is elastic (the radial return is then not even compiled:
+    a case of elastic bodies waits that much less for its first step with a cold cache), else
+    True (`plastic_kernel`).
+
+    Three kernels: the full blocks of intact elements of one material (`_chunk`), then, only if
+    a chunk left any (OUT_DEFERRED), the other blocks in masked passes and the mesh's last
+    block (`_deferred_chunk`: after all full blocks of their part, on the same thread, so each
+    force row still has one writer and one order), then the rows' sum. A case with no such
+    block (the demo) never compiles the second. Below PARALLEL_ELEMENTS tets they run on one
+    thread (`_update_serial`, `_sum_serial`: the same parts in the same order, so the same
+    bits), which also spares a small case the compile of the parallel kernels (about 5 s of a
+    cold cache).
+
     The stable dt of an element is L / (Q + sqrt(Q^2 + c^2)), L = 3V / max face area (smallest
     altitude), Q = C_l c + C_q^2 L |tr D| in compression, c the EOS sound speed with 4G/3rho.
     """
-    n_elem = conn.shape[0]
+    parallel = conn.shape[0] >= PARALLEL_ELEMENTS
+    args = (x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature, hard,
+            thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp, dt, cq,
+            cl, rows, fext, part_chunks, chunk_out, threads, plastic)
+    kernel = _update_parallel if parallel else _update_serial
+    kernel(*args, None)
+    if chunk_out[:, OUT_DEFERRED].any():  # blocks left: masked passes, the mesh's last block
+        kernel(*args, True)
+    (_sum_parallel if parallel else _sum_serial)(force, fext, extra_ptr, extra_rows)
+
+
+# nogil: the frame writer's thread (output/series.py) runs while the kernel does
+@numba.njit(cache=True, parallel=True, nogil=True, error_model="numpy", fastmath=FAST)
+def _update_parallel(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
+                     hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
+                     use_anp, dt, cq, cl, rows, fext, part_chunks, chunk_out, threads, plastic,
+                     deferred):
+    """element_update's blocks on `threads` threads: parts t, t + threads, t + 2 threads, ... on
+    thread t, each in chunk order; the full blocks (`_chunk`) with `deferred` None, else the
+    blocks they left (`_deferred_chunk`): two specialisations, pruned at compile time."""
     half = 0.5 * dt
-    n_ch = (n_elem + CHUNK - 1) // CHUNK
+    n_ch = (conn.shape[0] + CHUNK - 1) // CHUNK
     n_parts = (n_ch + part_chunks - 1) // part_chunks
     for t in numba.prange(threads):
-        buf = aligned_empty(ROWS * B)  # one block buffer per thread and step
+        buf = aligned_empty(TET_ROWS * B)  # one block buffer per thread and step
         for part in range(t, n_parts, threads):
             for ch in range(part * part_chunks, min(n_ch, (part + 1) * part_chunks)):
-                _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
-                       temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass,
-                       mat_params, jnode, use_anp, half, dt, cq, cl, rows, fext, chunk_out,
-                       buf)
+                if deferred is None:
+                    _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
+                           eps_rate, temperature, hard, thermal, energy, vol, vol_eos, vol0,
+                           elem_mass, mat_params, jnode, use_anp, half, dt, cq, cl, rows, fext,
+                           chunk_out, buf, plastic)
+                elif chunk_out[ch, OUT_DEFERRED] != 0.0:
+                    _deferred_chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
+                                    eps_rate, temperature, hard, thermal, energy, vol, vol_eos,
+                                    vol0, elem_mass, mat_params, jnode, use_anp, half, dt, cq,
+                                    cl, rows, fext, chunk_out, buf, plastic)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=FAST)
+def _update_serial(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
+                   hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
+                   use_anp, dt, cq, cl, rows, fext, part_chunks, chunk_out, threads, plastic,
+                   deferred):
+    """`_update_parallel` on one thread: the chunks in order (the parts' order), `_chunk` called
+    from here directly (numba links a called kernel's code into its caller and optimises it
+    again there, so every level of calls costs compile time: one more, 1.5 s)."""
+    buf = aligned_empty(TET_ROWS * B)
+    for ch in range((conn.shape[0] + CHUNK - 1) // CHUNK):
+        if deferred is None:
+            _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+                   temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
+                   jnode, use_anp, 0.5 * dt, dt, cq, cl, rows, fext, chunk_out, buf, plastic)
+        elif chunk_out[ch, OUT_DEFERRED] != 0.0:
+            _deferred_chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
+                            eps_rate, temperature, hard, thermal, energy, vol, vol_eos, vol0,
+                            elem_mass, mat_params, jnode, use_anp, 0.5 * dt, dt, cq, cl, rows,
+                            fext, chunk_out, buf, plastic)
+
+
+@numba.njit(cache=True, parallel=True, nogil=True)
+def _sum_parallel(force, fext, extra_ptr, extra_rows):
+    """Each node's rows summed in part order into force (`scatter.take_node`)."""
     for i in numba.prange(force.shape[0]):
         force[i, 0], force[i, 1], force[i, 2] = take_node(i, fext, extra_ptr, extra_rows)
+
+
+@numba.njit(cache=True, nogil=True)
+def _sum_serial(force, fext, extra_ptr, extra_rows):
+    """`_sum_parallel` on one thread."""
+    for i in range(force.shape[0]):
+        force[i, 0], force[i, 1], force[i, 2] = take_node(i, fext, extra_ptr, extra_rows)
+
+
+def plastic_kernel(elem_mat: np.ndarray, mat_params: np.ndarray):
+    """element_update's `plastic` argument: None if every element of `elem_mat` is elastic, else
+    True. The two values are two specialisations of the kernel; the warm-up compiles both."""
+    used = np.unique(elem_mat)
+    return True if (mat_params[used, P.STRENGTH] != P.ELASTIC).any() else None
 
 
 # node_forces runs on one thread below this many nodes: it is called every step that erosion or

@@ -318,37 +318,6 @@ def _vector_block(elem_mat, status, e0):
     return mk
 
 
-@numba.njit(cache=True, error_model="numpy", fastmath=FAST)
-def _block(e0, mk, x, v, conn, sdev, pressure, q, eps_p, eps_rate, temperature, hard, thermal,
-           energy, vol, elem_mass, hg, hg_visc, hg_stiff, mat_params, half, dt, cq, cl, rows,
-           fext, buf):
-    """The vector path of a full block of B intact hexes of material mk (hex8_block.py);
-    returns (min dt, its element, viscous work, hourglass work), or an infinite dt and
-    nothing written when a hex of the block inverted (the scalar path then counts it)."""
-    stiff = False
-    for i in range(B):
-        if hg_stiff[e0 + i] > 0.0:
-            stiff = True
-    HB.load_block(x, v, conn, sdev, pressure, energy, vol, elem_mass, hg, hg_visc, hg_stiff,
-                  e0, buf, stiff)
-    shear = mat_params[mk, P.G]
-    HB.kinematics_block(buf, half, dt, shear)
-    for i in range(B):
-        if not buf[E.R_DET * B + i] > 0.0:
-            return math.inf, -1, 0.0, 0.0
-    code = int(mat_params[mk, P.STRENGTH])
-    if code == P.JOHNSON_COOK and mat_params[mk, P.JC_C] >= 0.0:
-        E._jc_return_block(buf, mat_params, mk, shear, eps_p, temperature, hard, thermal, e0)
-    elif code != P.ELASTIC:
-        E._return_block(buf, code, mat_params, mk, shear, eps_p, temperature, hard, thermal,
-                        e0)
-    HB.forces_block(buf, dt, int(mat_params[mk, P.EOS]), mat_params[mk, P.RHO0],
-                    mat_params[mk, P.K], mat_params[mk, P.C0], mat_params[mk, P.S],
-                    mat_params[mk, P.GAMMA0], shear, cq, cl)
-    return HB.store_block(rows, sdev, pressure, q, eps_rate, energy, vol, hg, fext, e0, buf,
-                          stiff)
-
-
 # nogil: the frame writer's thread runs while the kernel does (as element.element_update)
 @numba.njit(cache=True, parallel=True, nogil=True, error_model="numpy", fastmath=FAST)
 def hex_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
@@ -381,12 +350,38 @@ def hex_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                 e_end = min(n_elem, (ch + 1) * CHUNK)
                 for e0 in range(ch * CHUNK, e_end, B):
                     mk = _vector_block(elem_mat, status, e0) if e0 + B <= e_end else -1
+                    # the vector path (hex8_block.py), its steps called from here: called
+                    # through a function of their own, which took the arrays and called the
+                    # block functions, each block paid an NRT incref and decref of about 20
+                    # arrays (numba cannot prune them across the calls)
                     if mk >= 0:
-                        bdt, bworst, bq, bhg = _block(
-                            e0, mk, x, v, conn, sdev, pressure, q, eps_p, eps_rate, temperature,
-                            hard, thermal, energy, vol, elem_mass, hg, hg_visc, hg_stiff,
-                            mat_params, half, dt, cq, cl, rows, fext, buf)
-                        if bdt < math.inf:
+                        stiff = False
+                        for i in range(B):
+                            if hg_stiff[e0 + i] > 0.0:
+                                stiff = True
+                        HB.load_block(x, v, conn, sdev, pressure, energy, vol, elem_mass, hg,
+                                      hg_visc, hg_stiff, e0, buf, stiff)
+                        shear = mat_params[mk, P.G]
+                        HB.kinematics_block(buf, half, dt, shear)
+                        intact = True
+                        for i in range(B):
+                            if not buf[E.R_DET * B + i] > 0.0:
+                                intact = False
+                        if intact:  # else the scalar path redoes the block and counts it
+                            code = int(mat_params[mk, P.STRENGTH])
+                            if code == P.JOHNSON_COOK and mat_params[mk, P.JC_C] >= 0.0:
+                                E._jc_return_block(buf, mat_params, mk, shear, eps_p,
+                                                   temperature, hard, thermal, e0)
+                            elif code != P.ELASTIC:
+                                E._return_block(buf, code, mat_params, mk, shear, eps_p,
+                                                temperature, hard, thermal, e0)
+                            HB.forces_block(buf, dt, int(mat_params[mk, P.EOS]),
+                                            mat_params[mk, P.RHO0], mat_params[mk, P.K],
+                                            mat_params[mk, P.C0], mat_params[mk, P.S],
+                                            mat_params[mk, P.GAMMA0], shear, cq, cl)
+                            bdt, bworst, bq, bhg = HB.store_block(
+                                rows, sdev, pressure, q, eps_rate, energy, vol, hg, fext, e0,
+                                buf, stiff)
                             qwork += bq
                             hgwork += bhg
                             if bdt < dt_min:

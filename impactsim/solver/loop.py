@@ -20,8 +20,10 @@ import numpy as np
 
 from impactsim.model import Model
 from impactsim.solver import element as E
-from impactsim.solver.nodal import (element_volumes, force_power, internal_energy,
-                                    kinetic_energy, move, nodal_volume_ratio, predict)
+from impactsim.solver.constraints import WallPass, predict_walls_move
+from impactsim.solver.nodal import (PARALLEL_NODES, element_volumes, force_power,
+                                    internal_energy, kinetic_energy, move, nodal_volume_ratio,
+                                    predict)
 from impactsim.solver.passes import Pass
 from impactsim.solver.scatter import force_rows
 
@@ -49,6 +51,12 @@ class Simulation:
         self.velocity_passes = [p for p in passes if p.stage == "velocity"]
         self.fracture_passes = [p for p in passes if p.stage == "fracture"]
         self.other_passes = [p for p in passes if p.stage not in ("velocity", "fracture")]
+        # no velocity pass but one wall (or none): predictor, wall and move in one pass over the
+        # nodes (constraints.predict_walls_move, the same bits), below PARALLEL_NODES nodes
+        vp = self.velocity_passes
+        self.fused_wall = None if not vp else vp[0]
+        self.fused = (not vp or (len(vp) == 1 and isinstance(vp[0], WallPass)
+                                 and len(model.walls) == 1))
         ne, nn = model.n_elem, model.n_node
         self.chunk_out = np.zeros((E.n_chunks(ne), E.N_OUT))
         self.set_parts(E.PART)
@@ -56,9 +64,12 @@ class Simulation:
         self.vol_now = np.zeros(ne)
         self.vol_eos = model.vol.copy() if self.use_anp else model.vol
         # the element kernel's caches: hardening term and thermal factor of the yield stress
+        # (only when a tet is plastic: with elastic tets the kernel compiled has no return)
         self.hardening, self.thermal = np.zeros(ne), np.zeros(ne)
-        E.yield_cache(model.elem_mat, model.mat_params, model.eps_p, model.temperature,
-                      self.hardening, self.thermal)
+        self.plastic = E.plastic_kernel(model.elem_mat, model.mat_params)
+        if self.plastic is not None:
+            E.yield_cache(model.elem_mat, model.mat_params, model.eps_p, model.temperature,
+                          self.hardening, self.thermal)
         self.block_runners = []  # further element blocks (hexahedra: solver/blocks.py)
         if getattr(model, "blocks", None):
             from impactsim.solver.blocks import BlockRunner
@@ -117,16 +128,23 @@ class Simulation:
         dtv = 0.5 * (self.dt + dt) if self.dt > 0.0 else 0.5 * dt
         m.dtv = dtv
         t0 = wallclock.perf_counter()
-        predict(m.force, m.mass, m.v, dtv)
-        t1 = wallclock.perf_counter()
-        self.timings["nodes"] += t1 - t0
-        for p in self.velocity_passes:
-            p.run(m, dt)
-            t2 = wallclock.perf_counter()
-            self.timings[p.name] += t2 - t1
-            t1 = t2
-        move(m.x, m.v, dt)
-        self.timings["nodes"] += wallclock.perf_counter() - t1
+        if self.fused and m.mass.shape[0] < PARALLEL_NODES:
+            # the wall's time is booked with the nodes' (one pass)
+            res = predict_walls_move(m.force, m.mass, m.v, m.x, dtv, m.walls, dt)
+            if self.fused_wall is not None:
+                self.fused_wall.book(m, dt, *res)
+            self.timings["nodes"] += wallclock.perf_counter() - t0
+        else:
+            predict(m.force, m.mass, m.v, dtv)
+            t1 = wallclock.perf_counter()
+            self.timings["nodes"] += t1 - t0
+            for p in self.velocity_passes:
+                p.run(m, dt)
+                t2 = wallclock.perf_counter()
+                self.timings[p.name] += t2 - t1
+                t1 = t2
+            move(m.x, m.v, dt)
+            self.timings["nodes"] += wallclock.perf_counter() - t1
         self._update_elements(dt)
         t1 = wallclock.perf_counter()
         for p in self.fracture_passes:
@@ -168,7 +186,7 @@ class Simulation:
                 m.eps_rate, m.temperature, self.hardening, self.thermal, m.energy, m.vol,
                 self.vol_eos, m.vol0, m.elem_mass, m.mat_params, self.jnode, self.use_anp, dt,
                 self.cq, self.cl, m.force, fr.rows, self.fext, fr.extra_ptr, fr.extra_rows,
-                fr.part_size // E.CHUNK, self.chunk_out, numba.get_num_threads())
+                fr.part_size // E.CHUNK, self.chunk_out, numba.get_num_threads(), self.plastic)
         out = self.chunk_out
         k = int(np.argmin(out[:, E.OUT_DT]))
         self.dt_stable = float(out[k, E.OUT_DT])

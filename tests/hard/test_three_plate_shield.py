@@ -6,21 +6,25 @@ What must hold: the run reaches its end time, mass to round-off, momentum (mesh 
 no wall, no constraint) to round-off of the impact momentum, the energy balance within its
 bound, no fragment through the next plate (nothing of the other bodies beyond plate 3's rear
 face as it is, bulged; contact's max_penetration under a tenth of the plates' cells to 2 us,
-under 50 um to 25 us), plate 1 perforated, and the debris-cloud statistics in summary.json."""
+under 50 um to 25 us), plate 1 perforated, the debris-cloud statistics in summary.json and the
+fragment-size histogram, no NaN and no inverted element left."""
 
+import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from impactsim.case import load_case
+from impactsim.model import ERODED
 from impactsim.results import history_array
+from impactsim.solver.build import tet_volumes
 from impactsim.solver.run import run_case
 
 CASE = Path(__file__).resolve().parents[2] / "cases" / "three-plate-shield.toml"
 COARSE = ["body.plate-1.mesh_size=2 mm", "body.plate-2.mesh_size=2 mm",
           "body.plate-3.mesh_size=2.65 mm", "body.sphere.mesh_size=2 mm", "output.frames=1",
-          "output.history_every=10", "run.threads=1"]
+          "output.history_every=10", "run.threads=1", "output.fragment_histogram=true"]
 H = 2e-3  # the plates' cell size of COARSE
 
 
@@ -36,8 +40,15 @@ def _run(tmp_path, end, monkeypatch):
     return s, history_array(tmp_path / "history.csv"), models[0]
 
 
-def _check(s, hist, model, energy_bound, penetration_bound):
+def _check(s, hist, model, energy_bound, penetration_bound, out):
     assert s["stopped"] is None, s["stopped"]
+    # no NaN, no inverted element left (the run stops on one unless checks.negative_volume
+    # erodes it: it must not have been triggered either)
+    assert np.isfinite(model.x).all() and np.isfinite(model.v).all()
+    live = model.status != ERODED
+    assert (tet_volumes(model.x, model.conn)[live] > 0.0).all()
+    assert "negative_volume" not in json.dumps(s.get("checks", {}))
+    assert (out / "fragments.png").stat().st_size > 1000  # the fragment-size histogram
     assert s["time"] == pytest.approx(s["end_time"], rel=1e-9)
     assert abs(s["mass_error"]) < 1e-12
     assert abs(s["energy_balance_error"]) < energy_bound, s["energy_balance_error"]
@@ -69,7 +80,7 @@ def _check(s, hist, model, energy_bound, penetration_bound):
 def test_shield_first_microseconds(tmp_path, monkeypatch):
     """The sphere through plate 1 (2 us): the bumper perforated, the cloud on its way."""
     s, hist, model = _run(tmp_path, "2 us", monkeypatch)
-    _check(s, hist, model, 0.02, 0.1 * H)
+    _check(s, hist, model, 0.02, 0.1 * H, tmp_path)
     assert not s["shield"]["plates"][1]["perforated"]  # the cloud has not reached plate 2
     assert s["fragments"]["leading_edge_speed"] > 1000.0  # ... and flies
 
@@ -82,7 +93,7 @@ def test_shield_whole_run(tmp_path, monkeypatch):
     # released elements' centred viscous heat); 1.1-1.95 mm while the particle pass ran after
     # the contact passes and pushed light fragment corners into plate 3 (docs/fracture.md:
     # three-plate shield)
-    _check(s, hist, model, 0.03, 0.025 * H)
+    _check(s, hist, model, 0.03, 0.025 * H, tmp_path)
     assert s["shield"]["plates"][1]["perforated"] and s["shield"]["d2"] > 7.9e-3
     # plate 3 has stopped the cloud: its front moves at a fraction of the 5.5 km/s (the bulge
     # of plate 3: 470-580 m/s measured)

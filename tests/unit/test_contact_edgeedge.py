@@ -213,3 +213,32 @@ def test_stay_apart_only_skips_pairs_the_full_test_leaves_alone():
             skipped += 1
             assert J == 0.0 and np.array_equal(v1, v), trial
     assert skipped > 400 and hits > 100  # both kinds of pairs occur
+
+
+def test_touching_edges_without_impulse_are_revisited_through_their_touching_row():
+    """Edges touching at t = 0 (1e-7 apart, band 1e-6) that separate get no impulse and keep
+    their touching row (active 2, edgeedge.HELD); when a later sweep finds them approaching,
+    the row gives the impulse a new test gives (the same arithmetic: alpha, beta, n and the
+    gap depend on the positions at t = 0 alone), and the pair becomes an ordinary row."""
+    x = np.array([[-0.5, 0.0, 1e-7], [0.5, 0.0, 1e-7], [0.2, -0.5, 0.0], [0.2, 0.5, 0.0]])
+    m = np.array([1.0, 3.0, 2.0, 5.0])
+    edges = np.array([[0, 1], [2, 3]], np.int32)
+    pairs = np.array([[0, 1]], np.int64)
+    normals = np.array([[0.0, 0.0, -1.0], [0.0, 0.0, 1.0]])  # outward: body 1 above body 2
+    band = 1e-6
+    v = np.zeros((4, 3))
+    v[:2, 2] = 1.0  # body 1 moves away
+    active = np.zeros(1, np.uint8)
+    stamp = np.zeros(4, np.int64)
+    geo = np.zeros((1, 7))
+    applied, _, _ = edge_edge_sweep(pairs, edges, normals, x, v, m, TAU, 0.0, band, 1.0, active,
+                                    stamp, 1, 0, geo, 0.0)
+    assert applied == 0 and active[0] == 2 and np.all(v[:2, 2] == 1.0)
+    v[:2, 2] = -100.0  # now it approaches: a later sweep (nodes changed in sweep 2)
+    stamp[:] = 2
+    fresh = v.copy()
+    J = edge_edge_correct(0, 1, 2, 3, x, fresh, m, TAU, 0.0, band, 1.0, 0.0, 0.0, -2.0)
+    applied, total, _ = edge_edge_sweep(pairs, edges, normals, x, v, m, TAU, 0.0, band, 1.0,
+                                        active, stamp, 3, 2, geo, 0.0)
+    assert J > 0 and applied == 1 and total == J and active[0] == 1 and geo[0, 0] == J
+    assert np.array_equal(v, fresh)

@@ -5,7 +5,8 @@ each node's rows in part order (solver/scatter.py), so every node sums its eleme
 order; reductions (stable time step, viscous work) are summed per fixed chunk in chunk order
 (docs/architecture.md), and which path an element takes in the kernel (vector block or scalar)
 depends only on its block. So a Johnson-Cook block hitting a wall, a few thousand elements over
-several parts, must end bit for bit the same on one thread and on two.
+several parts, must end bit for bit the same on one thread and on two (and with the one-thread
+kernel element_update uses for small meshes, as with the parallel one).
 """
 
 import numba
@@ -53,9 +54,10 @@ def _run(threads, steps=60):
 
 
 @pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two numba threads")
-def test_one_and_two_threads_give_the_same_bits():
-    a, sa = _run(1)
-    b, sb = _run(2)
+def test_one_and_two_threads_give_the_same_bits(monkeypatch):
+    a, sa = _run(1)  # below element.PARALLEL_ELEMENTS: the one-thread kernel
+    monkeypatch.setattr(E, "PARALLEL_ELEMENTS", 0)
+    b, sb = _run(2)  # the parallel kernel on two threads
     assert a.n_elem > 4 * 512  # several chunks, so two threads share the work
     assert np.count_nonzero(a.eps_p) > 100  # the Johnson-Cook return ran
     assert int(a.mat_params[0, P.STRENGTH]) == P.JOHNSON_COOK

@@ -2,8 +2,9 @@
 path (one element at a time, every branch): the same formulas, so the same numbers to round-off.
 
 The model mixes what decides the path: two materials whose boundary falls inside a block
-(Johnson-Cook copper with Mie-Grueneisen, elastic steel with the linear EOS), a damaged and a
-fractured element, and a partial block at the end of the mesh. Its state is random but
+(Johnson-Cook copper with Mie-Grueneisen, elastic steel with the linear EOS), a damaged, a
+fractured and eroded elements (the masked passes of `element._block`), and a partial block at
+the end of the mesh (`element._tail_block`). Its state is random but
 physical: deviators near the copper's yield surface, plastic strain, heated elements,
 compression and tension, so the radial return, the yield-floor cache, the bulk viscosity and
 both Hugoniot branches all run.
@@ -14,7 +15,7 @@ import numpy as np
 import pytest
 
 from impactsim.materials import params as P
-from impactsim.model import DAMAGED, FRACTURED
+from impactsim.model import DAMAGED, ERODED, FRACTURED
 from impactsim.solver import element as E
 from impactsim.solver.loop import Simulation
 from tests.builders import box_model, material
@@ -55,7 +56,8 @@ def _mixed_model(seed=3):
     model.mat_params = np.vstack([row, steel])
     model.elem_mat[E.B + 7: 3 * E.B + 5] = 1  # boundaries inside blocks 1 and 3
     model.status[5] = DAMAGED
-    model.status[4 * E.B + 3] = FRACTURED  # blocks 2 (steel) and 5 (copper) stay vector
+    model.status[4 * E.B + 3] = FRACTURED  # block 2 (steel) is all intact
+    model.status[[5 * E.B + 1, 5 * E.B + 30, ne - 2]] = ERODED  # masked lanes, one in the tail
     rng = np.random.default_rng(seed)
     grad = rng.normal(size=(3, 3)) * 2e4  # [1/s]: a strain increment of ~1e-4 per step
     model.v[:] = (model.x - model.x.mean(axis=0)) @ grad.T + rng.normal(size=model.v.shape)
@@ -83,6 +85,7 @@ def test_vector_and_scalar_paths_agree(element):
     names = ["sdev", "pressure", "q", "eps_p", "eps_rate", "temperature", "energy", "vol"]
     ep0 = model.eps_p.copy()
     ref = {k: getattr(model, k).copy() for k in names}
+    state0 = {k: v.copy() for k, v in ref.items()}
     ref["hard"], ref["thermal"] = sim.hardening.copy(), sim.thermal.copy()
     ref["vol_eos"] = sim.vol_eos.copy() if sim.use_anp else ref["vol"]
     ref["force"] = np.zeros_like(model.force)
@@ -107,6 +110,9 @@ def test_vector_and_scalar_paths_agree(element):
     assert sim.dt_stable == pytest.approx(dt_min, rel=1e-13)
     assert sim.worst_element == worst
     assert inverted == 0
+    eroded = m.status == ERODED
+    for k in names:  # an eroded element's state is left as it was, bit for bit
+        assert np.array_equal(getattr(m, k)[eroded], state0[k][eroded]), k
     out = sim.chunk_out
     assert out[:, E.OUT_QWORK].sum() == pytest.approx(qwork, rel=1e-12)
 
@@ -135,3 +141,42 @@ def test_yield_caches_stay_current():
         for rate in (0.0, 1.0, 1e3, 1e6):
             sy, _ = flow_stress.py_func(P.JOHNSON_COOK, mp, 0, ep, rate, temp)
             assert hard * thermal <= sy * (1 + 1e-14)
+
+
+def test_inverted_element_is_counted_and_left_alone():
+    """Inverted elements among intact ones: the kernel counts them, stores nothing for them and
+    adds no force from them; their neighbours in the block are updated as the scalar path
+    updates them."""
+    model = _mixed_model(seed=7)
+    model.status[:] = 0
+    model.elem_mat[:] = 0
+    sim = Simulation(model, [])
+    e = 2 * E.B + 9
+    a, b = model.conn[e, 0], model.conn[e, 1]
+    model.x[[a, b]] = model.x[[b, a]]  # two corners swapped: negative volume
+    names = ["sdev", "pressure", "q", "eps_p", "eps_rate", "temperature", "energy", "vol"]
+    m = model
+    ref = {k: getattr(m, k).copy() for k in names}
+    ref["hard"], ref["thermal"] = sim.hardening.copy(), sim.thermal.copy()
+    ref["force"] = np.zeros_like(m.force)
+    before = {k: v.copy() for k, v in ref.items()}
+    dt = 2e-9
+    *_, inverted_ref = _scalar_update(
+        m.x, m.v, m.conn, m.elem_mat, m.status, ref["sdev"], ref["pressure"], ref["q"],
+        ref["eps_p"], ref["eps_rate"], ref["temperature"], ref["hard"], ref["thermal"],
+        ref["energy"], ref["vol"], ref["vol"], m.vol0, m.elem_mass, m.mat_params, sim.jnode,
+        False, dt, sim.cq, sim.cl, m.conn, ref["force"])
+    fr = sim.force_rows
+    E.element_update(m.x, m.v, m.conn, m.elem_mat, m.status, m.sdev, m.pressure, m.q, m.eps_p,
+                     m.eps_rate, m.temperature, sim.hardening, sim.thermal, m.energy, m.vol,
+                     m.vol, m.vol0, m.elem_mass, m.mat_params, sim.jnode, False, dt, sim.cq,
+                     sim.cl, m.force, fr.rows, sim.fext, fr.extra_ptr, fr.extra_rows,
+                     fr.part_size // E.CHUNK, sim.chunk_out, 1, True)
+    # the swap inverts e and the other tets sharing both nodes
+    assert inverted_ref >= 1 and sim.chunk_out[:, E.OUT_INVERTED].sum() == inverted_ref
+    for k in names:
+        assert np.array_equal(getattr(m, k)[e], before[k][e]), k
+        np.testing.assert_allclose(getattr(m, k), ref[k], rtol=0,
+                                   atol=1e-12 * np.abs(ref[k]).max(), err_msg=k)
+    np.testing.assert_allclose(m.force, ref["force"], rtol=0,
+                               atol=1e-12 * np.abs(ref["force"]).max())

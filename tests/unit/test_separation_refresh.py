@@ -1,5 +1,6 @@
 """Node separation's refreshes in place (fracture/separation_refresh.py) against rebuilds: the
-free faces, live-corner counts and force rows after every release step equal those built afresh,
+free faces (tets' and hex quads), live-corner counts, force rows and node-to-element indices
+(the model's and a hex block's) after every release step equal those built afresh,
 and a run gives the same bits either way (tets and hexes, one and two threads)."""
 
 import numba
@@ -7,8 +8,10 @@ import numpy as np
 import pytest
 
 from impactsim.fracture.boundary import Boundary
+from impactsim.fracture.hexes import HexBoundary
 from impactsim.fracture.separation import SeparationPass
 from impactsim.model import ERODED
+from impactsim.solver.build import node_to_element
 from impactsim.solver.scatter import force_rows
 from tests.verification.test_node_separation import BAR, TEAR, _sim
 
@@ -33,7 +36,10 @@ def _node_sums(fr, conn, n_node):
 @pytest.mark.parametrize("text,steps", [
     (BAR.format(fs=0.25, element="tet", speed=300, measure="mean"), 160),
     (TEAR, 60),
-    (BAR.format(fs=0.25, element="hex8", speed=300, measure="max"), 160)])
+    # a spall strength it never reaches: the criteria run, and with them the hex block's
+    # patch-pressure index, which must follow the releases too
+    (BAR.format(fs=0.25, element="hex8", speed=300, measure="max").replace(
+        "fracture_strain = 0.25", 'fracture_strain = 0.25, spall_strength = "50 GPa"'), 160)])
 def test_refreshes_in_place_equal_rebuilds(text, steps):
     runs = []
     for incremental in (True, False):
@@ -41,6 +47,7 @@ def test_refreshes_in_place_equal_rebuilds(text, steps):
         sp = next(p for p in sim.fracture_passes if isinstance(p, SeparationPass))
         sp.incremental = incremental
         checked = 0
+        hexes_indexed = 0
         for _ in range(steps):
             sim.step()
             if not (incremental and sp.sep.moved):
@@ -60,6 +67,22 @@ def test_refreshes_in_place_equal_rebuilds(text, steps):
                 assert _node_sums(sim.force_rows, model.conn, model.n_node) == \
                     _node_sums(fr, model.conn, model.n_node)
                 assert sim.fext.shape[0] == sim.force_rows.n_rows
+                ptr, n2e = node_to_element(model.conn, model.n_node)  # summation order
+                assert np.array_equal(model.n2e_ptr, ptr) and np.array_equal(model.n2e, n2e)
+            for hf in fs.hexes:  # the free quads and the patch pressure's index
+                blk = hf.blk
+                fresh = HexBoundary(blk.conn, blk.elem_body, blk.status != ERODED)
+                b = hf.boundary
+                assert b.n == fresh.n
+                for name in ("faces", "face_slot", "face_body"):
+                    assert np.array_equal(getattr(b, name)[:b.n], getattr(fresh, name)[:b.n])
+                for name in ("pos", "face_flag", "adj", "alive", "conn"):
+                    assert np.array_equal(getattr(b, name), getattr(fresh, name)), name
+                if hf._n2e is not None:
+                    assert hf._n2e[2] is blk.conn
+                    ptr, n2e = node_to_element(blk.conn, model.n_node)
+                    assert np.array_equal(hf._n2e[0], ptr) and np.array_equal(hf._n2e[1], n2e)
+                    hexes_indexed += 1
             for r in sim.block_runners:
                 fr = force_rows(r.block.conn, model.n_node, r.rows.part_size)
                 assert _node_sums(r.rows, r.block.conn, model.n_node) == \
@@ -71,8 +94,11 @@ def test_refreshes_in_place_equal_rebuilds(text, steps):
                 live += np.bincount(blk.conn[blk.status != ERODED].reshape(-1),
                                     minlength=model.n_node)
             assert np.array_equal(fs.node_live, live)
-        runs.append((model.x.copy(), model.v.copy(), sp.sep.counts["new_nodes"], checked))
+        runs.append((model.x.copy(), model.v.copy(), sp.sep.counts["new_nodes"], checked,
+                     hexes_indexed))
     assert runs[0][3] >= 2 and runs[0][2] > 0
+    if "hex8" in text:  # the patch pressure's index followed releases (spall patch mode)
+        assert runs[0][4] >= 2
     assert np.array_equal(runs[0][0], runs[1][0]) and np.array_equal(runs[0][1], runs[1][1])
 
 

@@ -46,3 +46,31 @@ def test_predict_and_move_one_thread_and_all_threads_equal():
     np.testing.assert_array_equal(out["serial"][0], out["parallel"][0])
     np.testing.assert_array_equal(out["serial"][1], out["parallel"][1])
     np.testing.assert_array_equal(out["serial"][0][::7], v[::7])
+
+
+def test_fused_predict_wall_move_equals_the_three_passes():
+    """constraints.predict_walls_move (the time loop's one pass over the nodes when the scene's
+    only velocity pass is one wall, or none) gives the bits of predict, apply_walls and move,
+    with and without friction, nodes hitting the wall and massless nodes, and the same wall
+    work, touched count and impulse."""
+    from impactsim.solver import constraints as C
+
+    rng = np.random.default_rng(7)
+    n = 4000
+    force, mass = rng.normal(size=(n, 3)), rng.uniform(1e-6, 2e-6, n)
+    mass[::11] = 0.0
+    x0, v0 = rng.normal(size=(n, 3)) * 1e-3, rng.normal(size=(n, 3)) * 100.0
+    dt, dtv = 1e-7, 1.2e-7
+    for walls in (np.array([[0.0, 0.0, 0.0, 0.0, 0.6, 0.8, 0.0]]),
+                  np.array([[0.0, 0.0, 1e-4, 0.0, 0.6, 0.8, 0.3]]), np.zeros((0, 7))):
+        x, v = x0.copy(), v0.copy()
+        nodal.predict(force, mass, v, dtv)
+        three = C.apply_walls(x, v, mass, force, dtv, walls, dt)
+        nodal.move(x, v, dt)
+        xf, vf = x0.copy(), v0.copy()
+        fused = C.predict_walls_move(force, mass, vf, xf, dtv, walls, dt)
+        assert fused == three
+        assert len(walls) == 0 or three[1] > 100  # the wall acted on many nodes
+        np.testing.assert_array_equal(vf, v)
+        np.testing.assert_array_equal(xf, x)
+        np.testing.assert_array_equal(vf[::11], v0[::11])  # massless: velocity kept, moved

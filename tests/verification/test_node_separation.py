@@ -246,10 +246,14 @@ def test_released_parts_carry_the_force_of_their_own_elements(element):
             scale = np.abs(f).max()
             # tets: every node as assembled afresh; hexes: the new reps (the re-run of a
             # plastic hex at dt = 0 is within ~1 % of the kernel's force, so the old reps,
-            # which keep the kernel's force of their remaining hexes, match it that closely)
+            # which keep the kernel's force of their remaining hexes, match it that closely).
+            # A loose hex's pressure change of the centred heat adds dp dV/dx_I only; the
+            # re-run at the new pressure also changes its hourglass viscosity's sound speed,
+            # whose force stays as the kernel booked its work: 2e-7 of the force here
             new = np.unique(np.concatenate([m[4] for m in sp.sep.moved]))
             check = slice(None) if element == "tet" else new
-            assert np.abs(model_.force[check] - f[check]).max() <= 1e-12 * scale
+            tol = 1e-12 if element == "tet" else 1e-6
+            assert np.abs(model_.force[check] - f[check]).max() <= tol * scale
             np.testing.assert_allclose(model_.force.sum(axis=0), total, rtol=0,
                                        atol=1e-12 * scale)
 
@@ -443,3 +447,64 @@ def test_released_tets_book_the_viscous_heat_their_q_forces_do():
     assert heat[-2] > 5.0
     assert abs(heat[-2] + work) < 0.03 * heat[-2], (heat[-2], -work)
     assert worst < 0.05, worst
+
+
+def _eos_mismatch(model, sp):
+    """Largest |p - (a(rho) + b e)| / max(|p|, 0.1 GPa) of the intact loose elements the last
+    pass re-booked (Mie-Grueneisen: b = Gamma0 rho0, a from the element's density)."""
+    from impactsim.materials import params as P
+
+    worst = 0.0
+    for s in sp.sep.sets:
+        h = s.holder
+        ids = s.q_ids[h.status[s.q_ids] == 0]
+        if not ids.shape[0]:
+            continue
+        mp = model.mat_params[h.elem_mat[ids]]
+        rho0, g0, c0, sc = mp[:, P.RHO0], mp[:, P.GAMMA0], mp[:, P.C0], mp[:, P.S]
+        eta = 1.0 - rho0 * h.vol[ids] / h.elem_mass[ids]
+        den = np.maximum(1.0 - sc * np.maximum(eta, 0.0), 0.05)
+        ph = np.where(eta > 0.0, rho0 * c0 ** 2 * eta / den ** 2, rho0 * c0 ** 2 * eta)
+        p = ph * (1.0 - 0.5 * g0 * eta) + g0 * rho0 * h.energy[ids]
+        worst = max(worst, float(np.max(np.abs(h.pressure[ids] - p)
+                                        / np.maximum(np.abs(h.pressure[ids]), 1e8))))
+    return worst
+
+
+@pytest.mark.parametrize("scene", ["separation", "separation-hex"])
+def test_re_booked_heat_gives_the_pressure_of_the_eos(scene):
+    """The warm-up's block dragged at 2 km/s (Mie-Grueneisen), tet4 and hexes: after the centred
+    heat of the loose elements (SeparationPass.centre_heat) their pressure is the EOS's at the
+    re-booked energy (to round-off) and its forces are in the coming step's force (tets: equal
+    to a fresh assembly from the stored stress), momentum unchanged. With the kernel's pressure
+    left (consistent_pressure = False) it was 1.2 of |p| off (tets), 9 % (hexes)."""
+    from impactsim.warmup import scenes
+
+    text = dict((n, t) for n, t, _ in scenes())[scene]
+    for consistent in (True, False):
+        sim, model = _sim(text)
+        sp = next(p for p in sim.fracture_passes if isinstance(p, SeparationPass))
+        sp.consistent_pressure = consistent
+        real_run = sp.run
+        seen = {"worst": 0.0, "forces": 0}
+
+        def run(model_, dt):
+            total = model_.force.sum(axis=0)
+            real_run(model_, dt)
+            seen["worst"] = max(seen["worst"], _eos_mismatch(model_, sp))
+            scale = np.abs(model_.force).max()
+            np.testing.assert_allclose(model_.force.sum(axis=0), total, rtol=0,
+                                       atol=1e-12 * scale)
+            if consistent and model_.n_elem and sp.sep.sets[0].q_ids.shape[0]:
+                f = _live_forces(model_, sim)
+                assert np.abs(model_.force - f).max() <= 1e-12 * scale
+                seen["forces"] += 1
+
+        sp.run = run
+        for _ in range(25):
+            sim.step()
+        if consistent:
+            assert seen["worst"] < 1e-12, seen["worst"]
+            assert model.n_elem == 0 or seen["forces"] > 10
+        else:
+            assert seen["worst"] > 1e-2, seen["worst"]  # the kernel's pressure was off
