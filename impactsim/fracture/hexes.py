@@ -168,30 +168,59 @@ def hex_fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol,
 @numba.njit(cache=True)
 def pass_orphan_forces(ids, conn, node_live, force):
     """After removing hexes ``ids``: the force left on each orphaned corner (the difference
-    between what the hexes added at the last update and what ``hex_corner_forces`` took off,
-    round-off and the yield caches' update) goes, shared equally, to the remaining corners of
-    the first removed hex that has any, as its mass did (removal.py): a massless node's force
-    would be lost and the momentum with it. Returns how many orphans passed a force."""
+    between what the hexes added at the last update and what ``hex_corner_forces`` took off:
+    round-off, the yield caches' update, and the velocity impulses of the passes between the
+    update and the removal) goes, shared equally, to the remaining corners of a removed hex, as
+    its mass did (removal.py): a massless node's force would be lost and the momentum with it.
+    A removed hex with no remaining corner passes its orphans' forces to the remaining corners
+    of the nearest removed hex that has some, through the corners the removed hexes share (a
+    cluster of hexes removed together; with none in the cluster the forces stay, and they sum
+    to the round-off of the cluster's own forces). Returns how many orphans passed a force."""
     k = conn.shape[1]
-    n = 0
-    for q in range(ids.shape[0]):
-        e = ids[q]
-        n_rem = 0
+    m = ids.shape[0]
+    target = np.full(m, -1, np.int64)  # the removed hex whose remaining corners take q's forces
+    n_rem = np.zeros(m, np.int64)
+    for q in range(m):
         for j in range(k):
-            if node_live[conn[e, j]] > 0:
-                n_rem += 1
-        if n_rem == 0:
+            if node_live[conn[ids[q], j]] > 0:
+                n_rem[q] += 1
+        if n_rem[q] > 0:
+            target[q] = q
+    node_target = np.full(force.shape[0], -1, np.int64)
+    changed = True
+    while changed:  # spread the targets through shared corners, in the order of ids
+        changed = False
+        for q in range(m):
+            if target[q] >= 0:
+                for j in range(k):
+                    o = conn[ids[q], j]
+                    if node_target[o] < 0:
+                        node_target[o] = target[q]
+        for q in range(m):
+            if target[q] < 0:
+                for j in range(k):
+                    t = node_target[conn[ids[q], j]]
+                    if t >= 0:
+                        target[q] = t
+                        changed = True
+                        break
+    n = 0
+    for q in range(m):
+        if target[q] < 0:
             continue
+        e = ids[q]
+        r_e = ids[target[q]]
+        nr = n_rem[target[q]]
         for j in range(k):
             o = conn[e, j]
             if node_live[o] > 0 or (force[o, 0] == 0.0 and force[o, 1] == 0.0
                                     and force[o, 2] == 0.0):
                 continue
             for jj in range(k):
-                r = conn[e, jj]
+                r = conn[r_e, jj]
                 if node_live[r] > 0:
                     for d in range(3):
-                        force[r, d] += force[o, d] / n_rem
+                        force[r, d] += force[o, d] / nr
             force[o, 0] = 0.0
             force[o, 1] = 0.0
             force[o, 2] = 0.0
