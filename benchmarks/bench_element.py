@@ -96,7 +96,8 @@ def time_to_first_step(case: str = "cases/elastic-bar-wall.toml", cold: bool = F
     with tempfile.TemporaryDirectory() as tmp, tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, NUMBA_CACHE_DIR=cache) if cold else None
         for _ in range(1 if cold else 2):
-            subprocess.run([sys.executable, "-m", "impactsim.cli", "run", case, "-o", tmp, "-q"],
+            subprocess.run([sys.executable, "-m", "impactsim.cli", "run", case, "-o", tmp, "-q",
+                            "--overwrite"],
                            cwd=root, check=True, capture_output=True, env=env)
         return json.loads((Path(tmp) / "summary.json").read_text())["seconds_to_first_step"]
 
