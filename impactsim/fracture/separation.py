@@ -765,9 +765,15 @@ class SeparationPass:
                 sim.set_parts(sim.force_rows.part_size)
             changed = [m[1] for m in moved if m[0].holder is model]
             changed = np.concatenate(changed) if changed else np.zeros(0, np.int64)
+            hex_changed = np.zeros(0, np.int64)
+            if blocks_changed:  # the moved hexes, numbered in the blocks' concatenation
+                start = np.cumsum([0] + [b.conn.shape[0] for b in model.blocks])
+                hex_changed = np.concatenate(
+                    [start[[b is s.holder for b in model.blocks].index(True)] + e
+                     for s, e, j, old, new in moved if s.holder is not model] + [hex_changed])
             for ctx in self.contexts():
-                if self.incremental and not blocks_changed:
-                    ctx.reconnect_surface(model, changed)
+                if self.incremental:
+                    ctx.reconnect_surface(model, changed, hex_changed)
                 else:
                     ctx.rebuild_surface(model)
         fs = self.s
