@@ -36,9 +36,8 @@ Akantu's cohesive inserter, with the copies made at build time so that no node a
   force rows of the element kernels (tets and the block runners), the fracture passes' free
   faces and live-node counts, the hexes' free quads (``hexes.reconnect_hex_boundary``), the
   node-to-element indices (the model's, a hex block's patch index: ``move_node_elements``) and
-  the contact surface (``ContactContext.reconnect_surface``: only the moved tets and their
-  neighbours, giving the arrays a rebuild gives; a model with hexes rebuilds it: contact/hexes.py
-  has no in-place update). The faces exposed by a release are free faces of their bodies (contact with the other bodies,
+  the contact surface (``ContactContext.reconnect_surface``: only the moved tets and hexes and
+  their neighbours, giving the arrays a rebuild gives: Surface.reconnect, HexSurface.reconnect). The faces exposed by a release are free faces of their bodies (contact with the other bodies,
   and self-contact of the fragments when ``contact.self_contact``) at the next velocity stage.
   ``SeparationPass.incremental = False`` rebuilds everything (the reference of the tests).
 - Every step the stable step is lowered to that of the tets with a corner in a split family,
@@ -737,9 +736,8 @@ class SeparationPass:
 
     def refresh(self, model) -> None:
         """What depends on the connectivity, after a release: in place at the cost of the moved
-        corners (fracture/separation_refresh.py, hexes.reconnect_hex_boundary, Surface.reconnect)
-        when ``incremental``, else rebuilt (the reference); a model with hexes rebuilds the
-        contact surface either way (contact/hexes.py has no in-place update)."""
+        corners (fracture/separation_refresh.py, hexes.reconnect_hex_boundary, Surface.reconnect,
+        HexSurface.reconnect) when ``incremental``, else rebuilt (the reference)."""
         from impactsim.solver.build import node_to_element
         from impactsim.solver.scatter import force_rows
 
