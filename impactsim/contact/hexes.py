@@ -21,7 +21,9 @@ diagonals, none elsewhere); with them, below 1 um. The diagonal is not an edge o
 Triangles of a split quad list -1 for their diagonal in `face_edges` when CREASES is off.
 
 `HexSurface` extends the tets' `Surface` with these faces, edges and nodes, following the hex
-blocks' status as hexes leave (fracture/hexes.py) in O(change), as the tets' surface does.
+blocks' status as hexes leave (fracture/hexes.py) in O(change), as the tets' surface does, and
+node separation's releases in place (`HexSurface.reconnect`, `ProxyTets.reconnect`: the moved
+hexes and their face neighbours only; the same arrays as a fresh build).
 
 Self-contact: the broad phase excludes pairs that share a node (contact/broadphase.py). With
 quads split in two, that would pair a node with the other triangle of its own quad and a split's
@@ -39,7 +41,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from impactsim.contact.surface import ERODED, Surface
+from impactsim.contact.surface import ERODED, Surface, insert_edges
 
 CREASES = True  # the split diagonals take part in edge-edge contact (module docstring)
 
@@ -271,25 +273,16 @@ class HexSurface(Surface):
         e = np.concatenate([np.stack([q, np.roll(q, -1, axis=1)], axis=-1), diag[:, None, :]],
                            axis=1)
         e.sort(axis=2)
-        n = np.int64(max(self.n_node, 1))
-        keys = (e[..., 0] * n + e[..., 1]).reshape(-1)
-        old = self.hex_mesh_edges[:, 0].astype(np.int64) * n + self.hex_mesh_edges[:, 1]
-        at = np.searchsorted(old, keys)
-        found = (at < old.shape[0]) & (old[np.minimum(at, max(old.shape[0] - 1, 0))] == keys) \
-            if old.shape[0] else np.zeros(keys.shape[0], bool)
-        if not np.all(found):
-            add = np.unique(keys[~found])
-            merged = np.insert(old, np.searchsorted(old, add), add)
-            pos = np.arange(old.shape[0]) + np.searchsorted(add, old)
+        self.hex_mesh_edges, pos, at = insert_edges(self.hex_mesh_edges, e.reshape(-1, 2),
+                                                    self.n_node)
+        if pos is not None:
             self.quad_edges = pos[self.quad_edges]
-            count = np.zeros(merged.shape[0], np.int32)
+            count = np.zeros(self.hex_mesh_edges.shape[0], np.int32)
             count[pos] = self.hex_edge_count
             self.hex_edge_count = count
-            self.hex_mesh_edges = np.stack([merged // n, merged % n], axis=1).astype(np.int32)
-            self._hex_edge_index = np.empty(merged.shape[0], np.int64)
-            old = merged
+            self._hex_edge_index = np.empty(self.hex_mesh_edges.shape[0], np.int64)
         rows = (6 * changed[:, None] + np.arange(6)).reshape(-1)
-        self.quad_edges[rows] = np.searchsorted(old, keys).reshape(-1, 5)
+        self.quad_edges[rows] = at.reshape(-1, 5)
         _open_faces_k(changed, self.hex_conn, self.hex_adj, QUADS)
         nb = self.hex_adj[touched]
         alive = self.hex_alive
