@@ -37,7 +37,8 @@ Akantu's cohesive inserter, with the copies made at build time so that no node a
   faces and live-node counts, the hexes' free quads (``hexes.reconnect_hex_boundary``), the
   node-to-element indices (the model's, a hex block's patch index: ``move_node_elements``) and
   the contact surface (``ContactContext.reconnect_surface``: only the moved tets and hexes and
-  their neighbours, giving the arrays a rebuild gives: Surface.reconnect, HexSurface.reconnect). The faces exposed by a release are free faces of their bodies (contact with the other bodies,
+  their neighbours, giving the arrays a rebuild gives: Surface.reconnect, HexSurface.reconnect).
+  The faces exposed by a release are free faces of their bodies (contact with the other bodies,
   and self-contact of the fragments when ``contact.self_contact``) at the next velocity stage.
   ``SeparationPass.incremental = False`` rebuilds everything (the reference of the tests).
 - Every step the stable step is lowered to that of the tets with a corner in a split family,
