@@ -7,7 +7,8 @@ Al plate of 24 x 24 x 2 mm at 1 mm (6,912 tets, every tet with its own node copi
 made twice from the same start, once with each update; both give the same bits (tests/unit/
 test_contact_surface.py), so the same release steps are timed. Prints ms per release step of
 the surface update and of the whole refresh (surface, free faces, force rows, node-to-element
-index) and the speed-ups, and the whole step time of both runs, on one thread.
+index) and the speed-ups, and the whole step time of both runs, on one thread. ``--hex``: the
+plate in hexes (1,152; HexSurface.reconnect, ProxyTets.reconnect against their rebuild).
 """
 
 from __future__ import annotations
@@ -47,7 +48,7 @@ self_contact = true
 STEPS = 200
 
 
-def run(incremental: bool):
+def run(incremental: bool, hexes: bool = False):
     from impactsim.case import load_case_text
     from impactsim.contact.passes import ContactContext
     from impactsim.fracture.separation import SeparationPass
@@ -55,7 +56,9 @@ def run(incremental: bool):
     from impactsim.solver.loop import Simulation
     from impactsim.solver.pipeline import build_passes
 
-    case = load_case_text(SCENE)
+    text = SCENE.replace('mesher = "structured"', 'mesher = "structured"\nelement = "hex8"') \
+        if hexes else SCENE
+    case = load_case_text(text)
     model = build_model(case)
     sim = Simulation(model, build_passes(case, model), cfl=case.run.cfl)
     sp = next(p for p in sim.fracture_passes if isinstance(p, SeparationPass))
@@ -86,19 +89,21 @@ def run(incremental: bool):
 
 def main() -> int:
     numba.set_num_threads(1)
+    hexes = "--hex" in sys.argv[1:]  # the plate in hexes (HexSurface.reconnect)
     import impactsim.contact.passes as P
 
     originals = (P.ContactContext.rebuild_surface, P.ContactContext.reconnect_surface)
-    run(True)  # compiles, loads the caches
+    run(True, hexes)  # compiles, loads the caches
     P.ContactContext.rebuild_surface, P.ContactContext.reconnect_surface = originals
     out = {}
     for incremental in (False, True):
-        out[incremental] = run(incremental)
+        out[incremental] = run(incremental, hexes)
         P.ContactContext.rebuild_surface, P.ContactContext.reconnect_surface = originals
     (rs, rw, rm, rc), (is_, iw, im, ic) = out[False], out[True]
     same = bool((rm.x == im.x).all() and (rm.v == im.v).all())
     n = max(rs["calls"], 1)
-    print(f"{rm.n_elem} tets, {STEPS} steps, {rc['release_steps']} release steps, "
+    n_hex = sum(b.conn.shape[0] for b in rm.blocks)
+    print(f"{rm.n_elem} tets, {n_hex} hexes, {STEPS} steps, {rc['release_steps']} release steps, "
           f"{rc['new_nodes']} new nodes; same bits: {same}")
     print(f"{'surface update':<16}{'ms / release step':>20}{'whole run s':>14}")
     print(f"{'rebuild':<16}{1e3 * rs['surface'] / n:>20.2f}{rw:>14.2f}")

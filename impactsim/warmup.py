@@ -142,7 +142,9 @@ distortion_interval = "20 ns"
     sep_hex = sep.replace('mesher = "structured"',
                           'mesher = "structured"\nelement = "hex8"\nhourglass = "stiffness"'
                           )
-    out.append(("separation-hex", sep_hex, 12))
+    # with self-contact: the hex contact surface and its tet cover follow the releases in
+    # place (HexSurface.reconnect, ProxyTets.reconnect)
+    out.append(("separation-hex", sep_hex + "[contact]\nself_contact = true\n", 12))
     return out
 
 

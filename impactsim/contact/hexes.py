@@ -21,7 +21,9 @@ diagonals, none elsewhere); with them, below 1 um. The diagonal is not an edge o
 Triangles of a split quad list -1 for their diagonal in `face_edges` when CREASES is off.
 
 `HexSurface` extends the tets' `Surface` with these faces, edges and nodes, following the hex
-blocks' status as hexes leave (fracture/hexes.py) in O(change), as the tets' surface does.
+blocks' status as hexes leave (fracture/hexes.py) in O(change), as the tets' surface does, and
+node separation's releases in place (`HexSurface.reconnect`, `ProxyTets.reconnect`: the moved
+hexes and their face neighbours only; the same arrays as a fresh build).
 
 Self-contact: the broad phase excludes pairs that share a node (contact/broadphase.py). With
 quads split in two, that would pair a node with the other triangle of its own quad and a split's
@@ -39,7 +41,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from impactsim.contact.surface import ERODED, Surface
+from impactsim.contact.surface import ERODED, Surface, insert_edges
 
 CREASES = True  # the split diagonals take part in edge-edge contact (module docstring)
 
@@ -233,6 +235,64 @@ class HexSurface(Surface):
             self._compact()
         return True
 
+    def reconnect(self, conn, changed, hex_changed=None, hex_rows=None) -> None:
+        """Follow node separation: the tets ``changed`` had corners repointed in ``conn``
+        (Surface.reconnect), the hexes ``hex_changed`` (sorted unique indices into the blocks'
+        concatenated hexes; ``hex_rows`` their new corners). Only the changed hexes and their face
+        neighbours are touched, as for the tets: their free quads' counts are withdrawn, their
+        new corners and quad edges (the split diagonal follows the smallest node, so it can
+        move) taken, the quads a release opened cut in the adjacency, and the counts of their
+        free quads added back. The hex mesh edges stay sorted (new ones inserted; unused ones
+        stay, with count 0), so the compact arrays equal those of a surface built afresh
+        (tests/unit/test_contact_surface.py)."""
+        hc = np.asarray(hex_changed if hex_changed is not None else [], np.int64)
+        if hc.shape[0]:
+            self._reconnect_hexes(hex_rows, hc)
+        tc = np.asarray(changed, np.int64).reshape(-1)
+        if tc.shape[0]:
+            super().reconnect(conn, tc)  # compacts both
+        elif hc.shape[0]:
+            self._compact()
+
+    def _reconnect_hexes(self, rows, changed) -> None:
+        from impactsim.fracture.separation_refresh import _open_faces_k
+
+        nbs = self.hex_adj[changed].reshape(-1)
+        touched = np.unique(np.concatenate([changed, nbs[nbs >= 0]]))
+        slots = (6 * touched[:, None] + np.arange(6)).reshape(-1)
+        slots = slots[self.hex_face_flag[slots]]
+        events = -1 - slots  # withdraw the touched free quads' counts
+        _quad_counts(events, events.shape[0], self.quad_edges, self.hex_conn, QUADS,
+                     self.hex_edge_count, self.hex_node_count, CREASES)
+        self.hex_conn[changed] = rows
+        # the changed hexes' quad edges (true edges and split diagonal), merged into the sorted
+        # hex mesh edges as Surface.reconnect merges the tets' edges
+        q = self.hex_conn[changed][:, QUADS].reshape(-1, 4).astype(np.int64)
+        t = split_quads(q).reshape(-1, 2, 3)
+        diag = np.stack([t[:, 0, 0], t[:, 0, 2]], axis=1)
+        e = np.concatenate([np.stack([q, np.roll(q, -1, axis=1)], axis=-1), diag[:, None, :]],
+                           axis=1)
+        e.sort(axis=2)
+        self.hex_mesh_edges, pos, at = insert_edges(self.hex_mesh_edges, e.reshape(-1, 2),
+                                                    self.n_node)
+        if pos is not None:
+            self.quad_edges = pos[self.quad_edges]
+            count = np.zeros(self.hex_mesh_edges.shape[0], np.int32)
+            count[pos] = self.hex_edge_count
+            self.hex_edge_count = count
+            self._hex_edge_index = np.empty(self.hex_mesh_edges.shape[0], np.int64)
+        rows = (6 * changed[:, None] + np.arange(6)).reshape(-1)
+        self.quad_edges[rows] = at.reshape(-1, 5)
+        _open_faces_k(changed, self.hex_conn, self.hex_adj, QUADS)
+        nb = self.hex_adj[touched]
+        alive = self.hex_alive
+        flag = alive[touched][:, None] & ~((nb >= 0) & alive[np.maximum(nb, 0)])
+        self.hex_face_flag.reshape(-1, 6)[touched] = flag
+        slots = (6 * touched[:, None] + np.arange(6)).reshape(-1)
+        slots = slots[self.hex_face_flag[slots]]
+        _quad_counts(slots, slots.shape[0], self.quad_edges, self.hex_conn, QUADS,
+                     self.hex_edge_count, self.hex_node_count, CREASES)
+
     def _compact(self) -> None:
         super()._compact()
         (faces, face_elem, face_local, face_body, face_edges, edges, edge_mesh) = _quad_compact(
@@ -280,17 +340,35 @@ class ProxyTets:
         hconn = np.concatenate([b.conn for b in model.blocks]).astype(np.int64)
         self.hconn = hconn
         n_hex = len(hconn)
-        centre = model.n_node + np.arange(n_hex)
-        faces = hconn[:, QUADS].reshape(-1, 4)  # every face of every hex, outward
-        tris = split_quads(faces).reshape(n_hex, 12, 3)
-        # outward triangle (a, b, c) with the centre g inside: (a, c, b, g) is positive
-        tets = np.concatenate([tris[:, :, [0, 2, 1]],
-                               np.broadcast_to(centre[:, None, None], (n_hex, 12, 1))], axis=2)
+        self.n_node = model.n_node
+        tets = self._tets(np.arange(n_hex))
         self.conn = np.ascontiguousarray(np.vstack([model.conn, tets.reshape(-1, 4)]), np.int32)
         self.elem_body = np.concatenate(
             [model.elem_body] + [np.repeat(b.elem_body, 12) for b in model.blocks]).astype(np.int32)
         self.status = np.zeros(len(self.conn), np.int8)
         self.x = np.zeros((model.n_node + n_hex, 3))
+
+    def _tets(self, ids) -> np.ndarray:
+        """(len(ids), 12, 4) the cover tets of hexes ``ids``."""
+        centre = self.n_node + ids
+        faces = self.hconn[ids][:, QUADS].reshape(-1, 4)  # every face of every hex, outward
+        tris = split_quads(faces).reshape(len(ids), 12, 3)
+        # outward triangle (a, b, c) with the centre g inside: (a, c, b, g) is positive
+        return np.concatenate([tris[:, :, [0, 2, 1]],
+                               np.broadcast_to(centre[:, None, None], (len(ids), 12, 1))],
+                              axis=2)
+
+    def reconnect(self, model, changed, hex_changed, hex_rows) -> None:
+        """After node separation repointed the corners of the tets ``changed`` and the hexes
+        ``hex_changed`` (sorted unique, into the blocks' concatenation; ``hex_rows`` their new
+        corners): their cover tets, in place."""
+        changed = np.asarray(changed, np.int64)
+        self.conn[changed] = model.conn[changed]
+        ids = np.asarray(hex_changed, np.int64)
+        if ids.shape[0]:
+            self.hconn[ids] = hex_rows
+            rows = (model.conn.shape[0] + 12 * ids[:, None] + np.arange(12)).reshape(-1)
+            self.conn[rows] = self._tets(ids).reshape(-1, 4)
 
     def update(self, model) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(positions, conn, elem_body, status) at the model's current state."""

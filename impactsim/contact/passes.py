@@ -142,14 +142,25 @@ class ContactContext:
         self._h_key = None
         self.proxy = _proxy(model)
 
-    def reconnect_surface(self, model, changed) -> None:
-        """After node separation repointed the corners of the tets ``changed``: the surface
-        updated in place (``Surface.reconnect``: the same arrays as ``rebuild_surface``, in
-        proportion to the change); a surface with hexes is rebuilt."""
-        if type(self.surface) is not Surface:
-            self.rebuild_surface(model)
-            return
-        self.surface.reconnect(model.conn, changed)
+    def reconnect_surface(self, model, changed, hex_changed=None) -> None:
+        """After node separation repointed the corners of the tets ``changed`` and of the hexes
+        ``hex_changed`` (indices into the blocks' concatenated hexes): the surface updated in
+        place (``Surface.reconnect``, ``HexSurface.reconnect``: the same arrays as
+        ``rebuild_surface``, in proportion to the change), and the hexes' penetration cover."""
+        hex_changed = np.unique(np.asarray(
+            hex_changed if hex_changed is not None else [], np.int64))
+        if hex_changed.shape[0] or self.proxy is not None:
+            sizes = [b.conn.shape[0] for b in model.blocks]
+            start = np.concatenate([[0], np.cumsum(sizes)])
+            k = np.searchsorted(start, hex_changed, side="right") - 1
+            rows = np.zeros((hex_changed.shape[0], 8), np.int32)
+            for i, blk in enumerate(model.blocks):  # a loop over the (few) blocks
+                sel = k == i
+                rows[sel] = blk.conn[hex_changed[sel] - start[i]]
+            self.surface.reconnect(model.conn, changed, hex_changed, rows)
+            self.proxy.reconnect(model, changed, hex_changed, rows)
+        else:
+            self.surface.reconnect(model.conn, changed)
         self._conn_shape = model.conn.shape
         self._h_key = None
 

@@ -294,22 +294,13 @@ class Surface:
         # the edges of the changed elements, merged into the sorted mesh edges
         pairs = self.conn[changed][:, LOCAL_EDGES].reshape(-1, 2).astype(np.int64)
         pairs.sort(axis=1)
-        n = np.int64(max(self.n_node, 1))
-        keys = pairs[:, 0] * n + pairs[:, 1]
-        old = self.mesh_edges[:, 0].astype(np.int64) * n + self.mesh_edges[:, 1]
-        at = np.searchsorted(old, keys)
-        found = (at < old.shape[0]) & (old[np.minimum(at, old.shape[0] - 1)] == keys)
-        if not np.all(found):
-            add = np.unique(keys[~found])  # few: insert them, no sort of the whole list
-            merged = np.insert(old, np.searchsorted(old, add), add)
-            pos = np.arange(old.shape[0]) + np.searchsorted(add, old)
+        self.mesh_edges, pos, at = insert_edges(self.mesh_edges, pairs, self.n_node)
+        if pos is not None:
             self.elem_edges = pos[self.elem_edges]
-            count = np.zeros(merged.shape[0], np.int32)
+            count = np.zeros(self.mesh_edges.shape[0], np.int32)
             count[pos] = self.edge_count
             self.edge_count = count
-            self.mesh_edges = np.stack([merged // n, merged % n], axis=1).astype(np.int32)
-            old = merged
-        self.elem_edges[changed] = np.searchsorted(old, keys).reshape(-1, 6)
+        self.elem_edges[changed] = at.reshape(-1, 6)
         _open_faces(changed, self.conn, self.adj, LOCAL_FACES)
         _reflag(touched, self.adj, self.alive, self.face_flag)
         _face_counts(touched, self.conn, self.elem_edges, self.face_flag, self.edge_count,
@@ -360,6 +351,28 @@ class Surface:
         """Mean length [m] of the boundary edges at positions x (0 when there are none)."""
         return float(mean_length(x, self.edges))
 
+
+
+def insert_edges(mesh_edges, pairs, n_node):
+    """(edges, pos, at): the sorted unique node pairs ``mesh_edges`` (m, 2) with those of
+    ``pairs`` (k, 2) int64, smaller node first, that it lacks inserted in order (few: no sort
+    of the whole list); ``pos`` (m,) the new index of each old edge, None when none was added;
+    ``at`` (k,) the index of each pair. Edges already there keep their relative order, so
+    arrays built from the list come out in the order a fresh unique gives (Surface.reconnect,
+    HexSurface.reconnect)."""
+    n = np.int64(max(n_node, 1))
+    keys = pairs[:, 0] * n + pairs[:, 1]
+    old = mesh_edges[:, 0].astype(np.int64) * n + mesh_edges[:, 1]
+    at = np.searchsorted(old, keys)
+    found = (at < old.shape[0]) & (old[np.minimum(at, max(old.shape[0] - 1, 0))] == keys) \
+        if old.shape[0] else np.zeros(keys.shape[0], bool)
+    if np.all(found):
+        return mesh_edges, None, at
+    add = np.unique(keys[~found])
+    merged = np.insert(old, np.searchsorted(old, add), add)
+    pos = np.arange(old.shape[0]) + np.searchsorted(add, old)
+    edges = np.stack([merged // n, merged % n], axis=1).astype(np.int32)
+    return edges, pos, np.searchsorted(merged, keys)
 
 
 def events_buffer(buf, n_ids, faces: int = 4) -> np.ndarray:

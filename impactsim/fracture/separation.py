@@ -36,9 +36,9 @@ Akantu's cohesive inserter, with the copies made at build time so that no node a
   force rows of the element kernels (tets and the block runners), the fracture passes' free
   faces and live-node counts, the hexes' free quads (``hexes.reconnect_hex_boundary``), the
   node-to-element indices (the model's, a hex block's patch index: ``move_node_elements``) and
-  the contact surface (``ContactContext.reconnect_surface``: only the moved tets and their
-  neighbours, giving the arrays a rebuild gives; a model with hexes rebuilds it: contact/hexes.py
-  has no in-place update). The faces exposed by a release are free faces of their bodies (contact with the other bodies,
+  the contact surface (``ContactContext.reconnect_surface``: only the moved tets and hexes and
+  their neighbours, giving the arrays a rebuild gives: Surface.reconnect, HexSurface.reconnect).
+  The faces exposed by a release are free faces of their bodies (contact with the other bodies,
   and self-contact of the fragments when ``contact.self_contact``) at the next velocity stage.
   ``SeparationPass.incremental = False`` rebuilds everything (the reference of the tests).
 - Every step the stable step is lowered to that of the tets with a corner in a split family,
@@ -737,9 +737,8 @@ class SeparationPass:
 
     def refresh(self, model) -> None:
         """What depends on the connectivity, after a release: in place at the cost of the moved
-        corners (fracture/separation_refresh.py, hexes.reconnect_hex_boundary, Surface.reconnect)
-        when ``incremental``, else rebuilt (the reference); a model with hexes rebuilds the
-        contact surface either way (contact/hexes.py has no in-place update)."""
+        corners (fracture/separation_refresh.py, hexes.reconnect_hex_boundary, Surface.reconnect,
+        HexSurface.reconnect) when ``incremental``, else rebuilt (the reference)."""
         from impactsim.solver.build import node_to_element
         from impactsim.solver.scatter import force_rows
 
@@ -765,9 +764,15 @@ class SeparationPass:
                 sim.set_parts(sim.force_rows.part_size)
             changed = [m[1] for m in moved if m[0].holder is model]
             changed = np.concatenate(changed) if changed else np.zeros(0, np.int64)
+            hex_changed = np.zeros(0, np.int64)
+            if blocks_changed:  # the moved hexes, numbered in the blocks' concatenation
+                start = np.cumsum([0] + [b.conn.shape[0] for b in model.blocks])
+                hex_changed = np.concatenate(
+                    [start[[b is s.holder for b in model.blocks].index(True)] + e
+                     for s, e, j, old, new in moved if s.holder is not model] + [hex_changed])
             for ctx in self.contexts():
-                if self.incremental and not blocks_changed:
-                    ctx.reconnect_surface(model, changed)
+                if self.incremental:
+                    ctx.reconnect_surface(model, changed, hex_changed)
                 else:
                     ctx.rebuild_surface(model)
         fs = self.s

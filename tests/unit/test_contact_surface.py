@@ -1,6 +1,7 @@
 """Contact surfaces: per-body boundary faces/edges/nodes, and incremental erosion == rebuild."""
 
 import numpy as np
+import pytest
 
 from impactsim.contact.surface import ERODED, Surface
 from impactsim.mesh.structured import structured_box
@@ -124,15 +125,24 @@ SURFACE_ARRAYS = ("faces", "face_elem", "face_local", "face_body", "face_edges",
                   "edge_body", "nodes", "node_body")
 
 
-def test_reconnect_gives_the_rebuilt_surface():
-    """A separable bar pulled apart: after every release step the surface updated in place
-    (Surface.reconnect of the moved tets) has the arrays of a surface built afresh, and a run
-    with it gives the same bits as a run that rebuilds the surface."""
+@pytest.mark.parametrize("element", ["tet", "hex8"])
+def test_reconnect_gives_the_rebuilt_surface(element):
+    """A separable bar pulled apart (tets), a block torn by its dragged end (hexes: 7 release
+    steps, 112 new nodes): after every release step the surface updated in place
+    (Surface.reconnect of the moved tets, HexSurface.reconnect of the moved hexes) has the
+    arrays of a surface built afresh (with hexes: the self-contact keys and the penetration
+    measure's tet cover too), and a run with it gives the same bits as a run that rebuilds
+    the surface."""
+    from impactsim.contact.hexes import ProxyTets
     from impactsim.fracture.separation import SeparationPass
-    from tests.verification.test_node_separation import BAR, _sim
+    from tests.verification.test_node_separation import BAR, TEAR, _sim
 
-    text = BAR.format(fs=0.25, element="tet", speed=300, measure="mean") + \
-        "[contact]\nself_contact = true\n"
+    if element == "tet":
+        text = BAR.format(fs=0.25, element=element, speed=300, measure="mean")
+    else:  # the hex bar parts in two release steps; the torn block releases in seven
+        text = TEAR.replace('mesher = "structured"', 'mesher = "structured"\nelement = "hex8"')
+    text += "[contact]\nself_contact = true\n"
+    names = SURFACE_ARRAYS + (("face_key", "edge_key") if element == "hex8" else ())
     runs = []
     for incremental in (True, False):
         sim, model = _sim(text)
@@ -144,8 +154,13 @@ def test_reconnect_gives_the_rebuilt_surface():
             sim.step()
             if incremental and sp.sep.moved:
                 fresh = Surface.from_model(model)
-                for name in SURFACE_ARRAYS:
+                assert type(fresh) is type(ctx.surface)
+                for name in names:
                     assert np.array_equal(getattr(ctx.surface, name), getattr(fresh, name)), name
+                if element == "hex8":
+                    proxy = ProxyTets(model)
+                    assert np.array_equal(ctx.proxy.conn, proxy.conn)
+                    assert np.array_equal(ctx.proxy.hconn, proxy.hconn)
                 checked += 1
         runs.append((model.x.copy(), model.v.copy(), sp.sep.counts["new_nodes"], checked))
     assert runs[0][3] >= 5 and runs[0][2] > 0

@@ -46,6 +46,9 @@ def test_warmup_scenes_cover_the_pipeline_and_leave_a_cache_a_later_process_uses
     assert "contact.node-face" in s["separation-contact"]["passes"]
     assert s["separation"]["fracture"]["distortion"]["deleted"] > 0
     assert s["separation-hex"]["fracture"]["separation"]["new_nodes"] > 0
+    # with self-contact: the hex contact surface reconnected in place (HexSurface.reconnect)
+    assert s["separation-hex"]["fracture"]["separation"]["release_steps"] > 0
+    assert "contact.node-face" in s["separation-hex"]["passes"]
     # a fresh interpreter (same cache folder) loads every kernel and compiles none
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     p = subprocess.run([sys.executable, "-c", _SECOND], cwd=ROOT, env=env, check=True,
