@@ -48,7 +48,7 @@ import numba
 import numpy as np
 
 from impactsim.contact.cubic import cubic_coefficients, cubic_roots_in
-from impactsim.contact.geometry import point_at, triangle_normal
+from impactsim.contact.geometry import point_at, triangle_normal, unit_cross
 from impactsim.contact.impulse import NO_LOCK, inverse_mass, lock_row, push
 from impactsim.contact.rows import first_visit, pushes_again, stamp_nodes, unchanged_since
 
@@ -273,15 +273,8 @@ def stay_apart(ia, ib, ie, jf, x, v, tau, band):
     d2z = fz - ez
     ll = max(d1x * d1x + d1y * d1y + d1z * d1z, d2x * d2x + d2y * d2y + d2z * d2z)
     tol = band + APART_MARGIN * math.sqrt(ll)
-    nx = d1y * d2z - d1z * d2y
-    ny = d1z * d2x - d1x * d2z
-    nz = d1x * d2y - d1y * d2x
-    nn = nx * nx + ny * ny + nz * nz
-    if nn > 0.0:
-        inv = 1.0 / math.sqrt(nn)
-        nx *= inv
-        ny *= inv
-        nz *= inv
+    nx, ny, nz, normal = unit_cross(d1x, d1y, d1z, d2x, d2y, d2z)
+    if normal:
         if _apart(ax * nx + ay * ny + az * nz, bx * nx + by * ny + bz * nz,
                   Ax * nx + Ay * ny + Az * nz, Bx * nx + By * ny + Bz * nz,
                   ex * nx + ey * ny + ez * nz, fx * nx + fy * ny + fz * nz,
@@ -291,27 +284,16 @@ def stay_apart(ia, ib, ie, jf, x, v, tau, band):
             or _apart(ay, by, Ay, By, ey, fy, Ey, Fy, tol)
             or _apart(az, bz, Az, Bz, ez, fz, Ez, Fz, tol)):
         return True
-    if not nn > 0.0:
+    if not normal:
         return False
     # in the plane of the two segments (a flat contact: coplanar segments that do not cross)
     for j in range(2):
-        ux = d1x if j == 0 else d2x
-        uy = d1y if j == 0 else d2y
-        uz = d1z if j == 0 else d2z
-        mx = ny * uz - nz * uy
-        my = nz * ux - nx * uz
-        mz = nx * uy - ny * ux
-        mm = mx * mx + my * my + mz * mz
-        if not mm > 0.0:
-            continue
-        inv = 1.0 / math.sqrt(mm)
-        mx *= inv
-        my *= inv
-        mz *= inv
-        if _apart(ax * mx + ay * my + az * mz, bx * mx + by * my + bz * mz,
-                  Ax * mx + Ay * my + Az * mz, Bx * mx + By * my + Bz * mz,
-                  ex * mx + ey * my + ez * mz, fx * mx + fy * my + fz * mz,
-                  Ex * mx + Ey * my + Ez * mz, Fx * mx + Fy * my + Fz * mz, tol):
+        mx, my, mz, ok = unit_cross(nx, ny, nz, d1x if j == 0 else d2x,
+                                    d1y if j == 0 else d2y, d1z if j == 0 else d2z)
+        if ok and _apart(ax * mx + ay * my + az * mz, bx * mx + by * my + bz * mz,
+                         Ax * mx + Ay * my + Az * mz, Bx * mx + By * my + Bz * mz,
+                         ex * mx + ey * my + ez * mz, fx * mx + fy * my + fz * mz,
+                         Ex * mx + Ey * my + Ez * mz, Fx * mx + Fy * my + Fz * mz, tol):
             return True
     return False
 

@@ -81,3 +81,17 @@ def segment(x, i, y, j):
     dy = y[j, 1] - x[i, 1]
     dz = y[j, 2] - x[i, 2]
     return dx, dy, dz, math.sqrt(dx * dx + dy * dy + dz * dz)
+
+
+@numba.njit(cache=True, inline="always")
+def unit_cross(ax, ay, az, bx, by, bz):
+    """a x b normalised, and False (with zeros) when a x b = 0: a separating axis across a
+    segment in a contact plane (contact/edgeedge.py, nodeface.py)."""
+    mx = ay * bz - az * by
+    my = az * bx - ax * bz
+    mz = ax * by - ay * bx
+    mm = mx * mx + my * my + mz * mz
+    if not mm > 0.0:
+        return 0.0, 0.0, 0.0, False
+    inv = 1.0 / math.sqrt(mm)
+    return mx * inv, my * inv, mz * inv, True

@@ -52,7 +52,7 @@ import numpy as np
 
 from impactsim.contact.cubic import cubic_coefficients, cubic_roots_in
 from impactsim.contact.geometry import (barycentric_numerators, clamped_weights, point_at,
-                                        triangle_normal, unit_normal)
+                                        triangle_normal, unit_cross, unit_normal)
 from impactsim.contact.impulse import NO_LOCK, inverse_mass, lock_row, push
 from impactsim.contact.rows import first_visit, pushes_again, stamp_nodes, unchanged_since
 
@@ -235,23 +235,14 @@ def node_face_apart(p, ia, ib, ic, x, v, tau, band):
         return True
     # in the face's plane across each edge (a flat contact: a node beside the triangle)
     for j in range(3):
-        ux = e1x if j == 0 else (e2x if j == 1 else cx - bx)
-        uy = e1y if j == 0 else (e2y if j == 1 else cy - by)
-        uz = e1z if j == 0 else (e2z if j == 1 else cz - bz)
-        mx = ny * uz - nz * uy
-        my = nz * ux - nx * uz
-        mz = nx * uy - ny * ux
-        mm = mx * mx + my * my + mz * mz
-        if not mm > 0.0:
-            continue
-        inv = 1.0 / math.sqrt(mm)
-        mx *= inv
-        my *= inv
-        mz *= inv
-        if _apart(px * mx + py * my + pz * mz, Px * mx + Py * my + Pz * mz,
-                  ax * mx + ay * my + az * mz, bx * mx + by * my + bz * mz,
-                  cx * mx + cy * my + cz * mz, Ax * mx + Ay * my + Az * mz,
-                  Bx * mx + By * my + Bz * mz, Cx * mx + Cy * my + Cz * mz, tol):
+        mx, my, mz, ok = unit_cross(nx, ny, nz,
+                                    e1x if j == 0 else (e2x if j == 1 else cx - bx),
+                                    e1y if j == 0 else (e2y if j == 1 else cy - by),
+                                    e1z if j == 0 else (e2z if j == 1 else cz - bz))
+        if ok and _apart(px * mx + py * my + pz * mz, Px * mx + Py * my + Pz * mz,
+                         ax * mx + ay * my + az * mz, bx * mx + by * my + bz * mz,
+                         cx * mx + cy * my + cz * mz, Ax * mx + Ay * my + Az * mz,
+                         Bx * mx + By * my + Bz * mz, Cx * mx + Cy * my + Cz * mz, tol):
             return True
     return False
 
