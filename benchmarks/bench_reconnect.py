@@ -99,7 +99,7 @@ def main() -> int:
     for incremental in (False, True):
         out[incremental] = run(incremental, hexes)
         P.ContactContext.rebuild_surface, P.ContactContext.reconnect_surface = originals
-    (rs, rw, rm, rc), (is_, iw, im, ic) = out[False], out[True]
+    (rs, rw, rm, rc), (is_, iw, im, _) = out[False], out[True]
     same = bool((rm.x == im.x).all() and (rm.v == im.v).all())
     n = max(rs["calls"], 1)
     n_hex = sum(b.conn.shape[0] for b in rm.blocks)

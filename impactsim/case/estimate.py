@@ -253,7 +253,6 @@ def _smallest_extent(body: Body) -> float:
 def body_elements(body: Body) -> int | None:
     """Tetrahedra of the body's mesh: exact for structured boxes and cube12, fitted for gmsh."""
     from impactsim.case.describe import body_volume
-    from impactsim.mesh.structured import cells_per_axis
 
     if body.shape == "cube12":
         return 12

@@ -179,7 +179,6 @@ def _build(raw: dict, source: Path | None) -> QSCase:
     if gap_tol is None or gap_tol is COMPUTED_SENTINEL:
         gap_tol = 0.01 * min(sizes) if sizes else 1e-6
     pairs = []
-    names = [b.name for b in bodies]
     for j, (rp, wp) in enumerate(c.items("pair")):
         r = Reader(rp, QS_ROOT.get("contact").get("pair"), wp)
         bs = r.require("bodies")

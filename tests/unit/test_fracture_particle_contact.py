@@ -165,7 +165,6 @@ def test_particle_pass_equals_the_sweeps_over_brute_force_pairs(monkeypatch, col
     model, ppass = _particles_over_a_plate(n, collisions)
     s = ppass.s
     b = s.boundary
-    pa = s.particles
     # the reference: boxes as the pass makes them, every overlapping pair, the same sweeps
     ref_model, ref_pass = _particles_over_a_plate(n, collisions)
     rpa = ref_pass.s.particles

@@ -118,8 +118,6 @@ def test_pulled_bar_separates_where_and_when_the_strain_is_reached(element, meas
     for step in range(4000):
         before, _, _ = _face_measures(s, h, measure == "max")
         n_failed = int(s.failed.sum())
-        p_pre = model.mass @ model.v
-        m_pre = model.mass.sum()
         sp_run = sp.run
         record = {}
 
