@@ -201,7 +201,7 @@ def symmetric_pair():
 
 def projected_round(pairs, nodes, faces, v, m, geo, active, stamp, sweep):
     """One round of impactsim.contact.rows over the node-face rows (written back to geo)."""
-    rows = np.flatnonzero(active)
+    rows = np.flatnonzero(active == 1)  # rows (3: apart, its axis kept)
     n = len(rows)
     idx, coef, nrm = np.zeros((n, 4), np.int64), np.zeros((n, 4)), np.zeros((n, 3))
     tgt, lam, diag, partner = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n, np.int64)
