@@ -154,6 +154,15 @@ def _edge_edge_at(t, force_nu, band, restore, ia, ib, ie, jf, x, v, mass, tau, m
     d2y = fy - ey
     d2z = fz - ez
     al, be, den, ae = line_parameters(ax, ay, az, d1x, d1y, d1z, ex, ey, ez, d2x, d2y, d2z)
+    return _crossing(al, be, den, ae, d1x, d1y, d1z, d2x, d2y, d2z, force_nu, band, restore,
+                     ia, ib, ie, jf, x, v, mass, tau, mu, nu_x, nu_y, nu_z, geo, k, lock)
+
+
+@numba.njit(cache=True)
+def _crossing(al, be, den, ae, d1x, d1y, d1z, d2x, d2y, d2z, force_nu, band, restore, ia, ib,
+              ie, jf, x, v, mass, tau, mu, nu_x, nu_y, nu_z, geo, k, lock):
+    """``_edge_edge_at`` from the lines' parameters at its time t (``line_parameters`` of the
+    segments b - a = d1 and f - e = d2 there): the touching test at t = 0 has them already."""
     if not den > PARALLEL_SIN * PARALLEL_SIN * ae:
         return -1.0
     if al < -SEGMENT_EPS or al > 1.0 + SEGMENT_EPS or be < -SEGMENT_EPS or be > 1.0 + SEGMENT_EPS:
@@ -403,8 +412,10 @@ def edge_edge_test(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, nu_
             gy = x[ie, 1] + be * d2y - ay - al * d1y
             gz = x[ie, 2] + be * d2z - az - al * d1z
             if gx * gx + gy * gy + gz * gz <= band * band:
-                J = _edge_edge_at(0.0, True, band, restore, ia, ib, ie, jf, x, v, mass, tau, mu,
-                                  nu_x, nu_y, nu_z, geo, k, lock)
+                # _edge_edge_at(0.0, True, ...), its line parameters being those just computed
+                J = _crossing(al, be, den, ae, d1x, d1y, d1z, d2x, d2y, d2z, True, band, restore,
+                              ia, ib, ie, jf, x, v, mass, tau, mu, nu_x, nu_y, nu_z, geo, k,
+                              lock)
                 if J > 0.0:
                     return J
                 held = J == HELD
