@@ -380,7 +380,7 @@ def edge_edge_detect(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, n
     return J if J > 0.0 else 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def edge_edge_test(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, nu_y, nu_z, geo,
                    k, lock):
     """One edge-edge pair (ALGORITHMS.md 3.2): the cubic, root selection in [0, tau], segment
@@ -436,7 +436,7 @@ def edge_edge_test(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, nu_
     return HELD if held else 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def edge_edge_held(ia, ib, ie, jf, v, mass, tau, mu, geo, k, lock):
     """A later visit of touching edges whose test found no impulse (``edge_edge_test``: HELD,
     their touching row in row k of ``geo``): the touching branch of that test again, from the
@@ -465,7 +465,7 @@ def edge_edge_held(ia, ib, ie, jf, v, mass, tau, mu, geo, k, lock):
     return J
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def edge_edge_relax(ia, ib, ie, jf, v, mass, mu, geo, k, slack, lock):
     """A later visit of an edge pair that got an impulse earlier in the step (row k of ``geo``):
     with its stored alpha, beta, n and gap term, the push tau N_c of [D19 eq. 11, 12] (with
