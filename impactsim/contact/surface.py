@@ -356,11 +356,13 @@ class Surface:
 
 @numba.njit(cache=True)
 def alive_changed(status, alive):
-    """True when some element's (status != ERODED) differs from ``alive``."""
+    """True when some element's (status != ERODED) differs from ``alive``. A count without an
+    early exit: the loop vectorises (15 us for 200,000 elements, against 100 us for numpy's
+    compare and array_equal, and 350 us for the loop that stops at the first change)."""
+    c = 0
     for e in range(status.shape[0]):
-        if (status[e] != ERODED) != alive[e]:
-            return True
-    return False
+        c += np.int64((status[e] != ERODED) != alive[e])
+    return c != 0
 
 
 def insert_edges(mesh_edges, pairs, n_node):
