@@ -59,6 +59,7 @@ GEO_COLS = 7  # a constraint row: lam, alpha, beta, nx, ny, nz, gap / tau
 APART_MARGIN = 1e-3  # stay_apart: the margin beyond band, a share of the segments' half-lengths
 HELD = -2.0  # edge_edge_test: touching edges that need no impulse (their row kept, no impulse)
 APART = 3  # edge_edge_sweep: a pair apart on a separating axis, kept in its row (still_apart)
+FAR = 4  # edge_edge_sweep: a pair apart for as long as the candidate list is kept (far_apart)
 
 
 @numba.njit(cache=True)
@@ -364,6 +365,54 @@ def still_apart(ia, ib, ie, jf, v, tau, geo, k):
 
 
 @numba.njit(cache=True)
+def far_apart(pairs, edges, x, band_max, reach, out):
+    """For the kept candidate list (``contact.skin``), built at positions x: out[k] = FAR for
+    each pair k (rows of ``edges``) that ``stay_apart`` would find apart at every step the list
+    is kept, else 0. While it is kept, every surface node's positions at 0 and tau lie within
+    the skin's reach of x along each axis, and the broad phase allows the corrections of a step
+    its BOX_PAD: together at most ``reach`` (pad_b) per axis, so at most reach |m|_1 along a unit
+    axis m. A pair whose segments are apart on m by more than the largest tolerance of those
+    steps (``band_max``, band of the largest h those moves allow; the segments' lengths grown
+    by as much) plus 2 reach |m|_1 therefore stays apart on m, and a test of it would find
+    nothing: the sweep skips it. The axes: the segments' common normal and the two directions
+    across the segments in their plane at x (x, y, z need no test: the per-step filter of the
+    kept list already drops the pairs apart on them)."""
+    grow = 2.0 * math.sqrt(3.0) * reach
+    for k in range(pairs.shape[0]):
+        out[k] = 0
+        ia = edges[pairs[k, 0], 0]
+        ib = edges[pairs[k, 0], 1]
+        ie = edges[pairs[k, 1], 0]
+        jf = edges[pairs[k, 1], 1]
+        d1x = x[ib, 0] - x[ia, 0]
+        d1y = x[ib, 1] - x[ia, 1]
+        d1z = x[ib, 2] - x[ia, 2]
+        d2x = x[jf, 0] - x[ie, 0]
+        d2y = x[jf, 1] - x[ie, 1]
+        d2z = x[jf, 2] - x[ie, 2]
+        ll = max(d1x * d1x + d1y * d1y + d1z * d1z, d2x * d2x + d2y * d2y + d2z * d2z)
+        tol = band_max + APART_MARGIN * (math.sqrt(ll) + grow)
+        nx, ny, nz, normal = unit_cross(d1x, d1y, d1z, d2x, d2y, d2z)
+        if not normal:
+            continue
+        for j in range(3):
+            mx, my, mz, ok = nx, ny, nz, True
+            if j > 0:
+                mx, my, mz, ok = unit_cross(nx, ny, nz, d1x if j == 1 else d2x,
+                                            d1y if j == 1 else d2y, d1z if j == 1 else d2z)
+            if not ok:
+                continue
+            pa = x[ia, 0] * mx + x[ia, 1] * my + x[ia, 2] * mz
+            pb = x[ib, 0] * mx + x[ib, 1] * my + x[ib, 2] * mz
+            qe = x[ie, 0] * mx + x[ie, 1] * my + x[ie, 2] * mz
+            qf = x[jf, 0] * mx + x[jf, 1] * my + x[jf, 2] * mz
+            gap = max(min(pa, pb) - max(qe, qf), min(qe, qf) - max(pa, pb))
+            if gap > tol + 2.0 * reach * (abs(mx) + abs(my) + abs(mz)):
+                out[k] = FAR
+                break
+
+
+@numba.njit(cache=True)
 def edge_edge_correct(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, nu_y, nu_z,
                       lock=NO_LOCK):
     """One edge-edge pair, see ``edge_edge_detect`` (the constraint row is not kept)."""
@@ -539,6 +588,8 @@ def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band, restore, a
     total = 0.0
     jump = 0.0
     for k in range(pairs.shape[0]):
+        if active[k] == FAR:
+            continue  # apart while the candidate list is kept (far_apart)
         g1 = pairs[k, 0]
         g2 = pairs[k, 1]
         ia = edges[g1, 0]

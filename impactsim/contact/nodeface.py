@@ -58,6 +58,7 @@ from impactsim.contact.rows import first_visit, pushes_again, stamp_nodes, uncha
 
 GEO_COLS = 8  # a constraint row: lam, wa, wb, wc, nx, ny, nz, vmin
 APART = 3  # node_face_sweep: a pair apart on a separating axis, kept in its row (still_apart)
+FAR = 4  # node_face_sweep: a pair apart for as long as the candidate list is kept (far_apart)
 APART_MARGIN = 1e-3  # node_face_apart: the margin beyond band, a share of the face's edges
 
 
@@ -305,6 +306,47 @@ def still_apart(p, ia, ib, ic, v, tau, geo, k):
 
 
 @numba.njit(cache=True)
+def far_apart(pairs, nodes, faces, x, band_max, reach, out):
+    """For the kept candidate list (``contact.skin``), built at positions x: out[k] = FAR for
+    each pair k (row of ``nodes``, row of ``faces``) that ``node_face_apart`` would find apart
+    at every step the list is kept, else 0: apart on the face's normal or on a direction across
+    one of its edges in its plane at x by more than the largest tolerance of those steps plus
+    2 reach |m|_1 (the edge-edge pass's ``far_apart``, which gives the reasons)."""
+    grow = 2.0 * math.sqrt(3.0) * reach
+    for k in range(pairs.shape[0]):
+        out[k] = 0
+        p = nodes[pairs[k, 0]]
+        ia = faces[pairs[k, 1], 0]
+        ib = faces[pairs[k, 1], 1]
+        ic = faces[pairs[k, 1], 2]
+        e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz, nn = triangle_normal(
+            x[ia, 0], x[ia, 1], x[ia, 2], x[ib, 0], x[ib, 1], x[ib, 2], x[ic, 0], x[ic, 1],
+            x[ic, 2])
+        if not nn > 0.0:
+            continue
+        ll = max(e1x * e1x + e1y * e1y + e1z * e1z, e2x * e2x + e2y * e2y + e2z * e2z)
+        tol = band_max + APART_MARGIN * (math.sqrt(ll) + grow)
+        nx, ny, nz = unit_normal(nx, ny, nz, nn)
+        for j in range(4):
+            mx, my, mz, ok = nx, ny, nz, True
+            if j > 0:
+                mx, my, mz, ok = unit_cross(
+                    nx, ny, nz, e1x if j == 1 else (e2x if j == 2 else x[ic, 0] - x[ib, 0]),
+                    e1y if j == 1 else (e2y if j == 2 else x[ic, 1] - x[ib, 1]),
+                    e1z if j == 1 else (e2z if j == 2 else x[ic, 2] - x[ib, 2]))
+            if not ok:
+                continue
+            pp = x[p, 0] * mx + x[p, 1] * my + x[p, 2] * mz
+            qa = x[ia, 0] * mx + x[ia, 1] * my + x[ia, 2] * mz
+            qb = x[ib, 0] * mx + x[ib, 1] * my + x[ib, 2] * mz
+            qc = x[ic, 0] * mx + x[ic, 1] * my + x[ic, 2] * mz
+            gap = max(pp - max(max(qa, qb), qc), min(min(qa, qb), qc) - pp)
+            if gap > tol + 2.0 * reach * (abs(mx) + abs(my) + abs(mz)):
+                out[k] = FAR
+                break
+
+
+@numba.njit(cache=True)
 def node_face_correct(p, ia, ib, ic, x, v, mass, tau, mu, band, eps_bary, restore,
                       lock=NO_LOCK):
     """One node-face pair (ALGORITHMS.md 3.1): continuous crossing test over [0, tau] (cubic in
@@ -408,6 +450,8 @@ def node_face_sweep(pairs, nodes, faces, x, v, mass, tau, mu, band, eps_bary, re
     total = 0.0
     jump = 0.0
     for k in range(pairs.shape[0]):
+        if active[k] == FAR:
+            continue  # apart while the candidate list is kept (far_apart)
         p = nodes[pairs[k, 0]]
         f = pairs[k, 1]
         a = faces[f, 0]
