@@ -572,6 +572,35 @@ def edge_normals(x, faces, face_edges, out):
 
 
 @numba.njit(cache=True)
+def edge_normals_of(x, faces, face_edges, fsel, out):
+    """``edge_normals`` for the edges of the faces ``fsel`` (increasing) alone: their rows of
+    out are those ``edge_normals`` gives (the same sums, in the same order) when ``fsel`` holds
+    every face of each of them; other rows are left as they are."""
+    for q in range(fsel.shape[0]):
+        for j in range(3):
+            g = face_edges[fsel[q], j]
+            if g >= 0:
+                out[g, 0] = 0.0
+                out[g, 1] = 0.0
+                out[g, 2] = 0.0
+    for q in range(fsel.shape[0]):
+        f = fsel[q]
+        a = faces[f, 0]
+        b = faces[f, 1]
+        c = faces[f, 2]
+        nx, ny, nz, nn = triangle_normal(x[a, 0], x[a, 1], x[a, 2], x[b, 0], x[b, 1], x[b, 2],
+                                         x[c, 0], x[c, 1], x[c, 2])[6:]
+        nn = math.sqrt(nn)
+        if nn > 0.0:
+            for j in range(3):
+                g = face_edges[f, j]
+                if g >= 0:
+                    out[g, 0] += nx / nn
+                    out[g, 1] += ny / nn
+                    out[g, 2] += nz / nn
+
+
+@numba.njit(cache=True)
 def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band, restore, active, stamp,
                     sweep, since, geo, slack, lock=NO_LOCK):
     """Gauss-Seidel sweep over candidate edge pairs (ALGORITHMS.md 3.2): sequentially, in the

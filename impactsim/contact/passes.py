@@ -64,7 +64,7 @@ from impactsim.contact.broadphase import (SpatialHash, body_bounds, grid_from_bo
                                           select_boxes)
 from impactsim.contact.diagnostics import PenetrationMeter
 from impactsim.contact.edgeedge import GEO_COLS as EE_GEO_COLS
-from impactsim.contact.edgeedge import edge_edge_sweep, edge_normals
+from impactsim.contact.edgeedge import edge_edge_sweep, edge_normals, edge_normals_of
 from impactsim.contact.edgeedge import far_apart as ee_far_apart
 from impactsim.contact.energy import impulse_work
 from impactsim.contact.impulse import NO_LOCK as _NO_LOCK
@@ -438,6 +438,7 @@ class ContactPass(Pass):
         self.ctx = ctx
         self.hash = SpatialHash()
         self.skin = SkinList()
+        self._init = None  # the sweeps' start values of this step's pairs (_broad_phase)
         self.reports_history = False
         self.totals = {"pairs": 0, "impulse": 0.0, "candidates": 0, "sweeps": 0, "rounds": 0,
                        "steps_in_contact": 0}
@@ -653,8 +654,24 @@ class EdgeEdgePass(ContactPass):
         if pairs.shape[0]:
             # outward normals at the edges, for touching pairs (edgeedge module docstring)
             self.normals = ctx.buffer("ee.normals", (s.n_edges, 3))
-            edge_normals(model.x, s.faces, s.face_edges, self.normals)
+            if self._init is None:
+                edge_normals(model.x, s.faces, s.face_edges, self.normals)
+            else:  # pairs of the kept list: the faces at its edges are enough
+                edge_normals_of(model.x, s.faces, s.face_edges, self._normal_faces(),
+                                self.normals)
         return pairs
+
+    def _normal_faces(self) -> np.ndarray:
+        """The faces at the edges of the kept candidate list (``edge_normals_of``), found again
+        at each of its builds."""
+        sk = self.skin
+        if getattr(self, "_faces_build", None) != sk.builds:
+            fe = self.ctx.surface.face_edges
+            used = np.zeros(self.ctx.surface.n_edges + 1, bool)
+            used[sk.e_map] = True
+            self._faces = np.flatnonzero(used[fe].any(axis=1))  # (-1, no edge: the last row)
+            self._faces_build = sk.builds
+        return self._faces
 
     def _far_apart(self, model, kept, h, pad_b):
         s = self.ctx.surface
