@@ -256,7 +256,7 @@ def _kept_axis(s, mx, my, mz, pa, pb, qe, qf, tol):
     return s * mx, s * my, s * mz, s * pa, s * pb, s * qe + tol, s * qf + tol
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def apart_axis(ia, ib, ie, jf, x, v, tau, band):
     """``stay_apart`` and the separating axis it found: (apart, mx, my, mz, pa, pb, qe, qf),
     the axis turned so that segment [ia, ib] lies above, pa, pb the projections of a and b at

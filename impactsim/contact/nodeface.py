@@ -201,7 +201,7 @@ def _kept_axis(s, mx, my, mz, pp, qa, qb, qc, tol):
     return s * mx, s * my, s * mz, s * pp, s * qa + tol, s * qb + tol, s * qc + tol
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def apart_axis(p, ia, ib, ic, x, v, tau, band):
     """``node_face_apart`` and the separating axis it found: (apart, mx, my, mz, pp, qa, qb,
     qc), the axis turned so that the node lies above, pp its projection at t = 0 on it and qa,
