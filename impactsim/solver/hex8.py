@@ -70,7 +70,7 @@ SCRATCH = 8 * 3 * 4 + 8  # per-thread work space of `_hex_element`
 # the digest of hex8_block.py, written by scripts/gen_hex8_block.py: numba keys the cache of a
 # function by its own file's contents, and hex_update compiles the block functions into itself,
 # so this line changes this file whenever they change (else a stale hex_update is loaded)
-BLOCK_SOURCE = "8d54954070574919"
+BLOCK_SOURCE = "e61240c045f29674"
 
 #: the hourglass base vectors, rows alpha = 0..3, columns the 8 nodes
 GAMMA = np.array([[1.0, 1.0, -1.0, -1.0, -1.0, -1.0, 1.0, 1.0],
