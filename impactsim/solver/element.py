@@ -114,6 +114,9 @@ ITERATING, FINISHED, STALLED, FIRST = 0.0, 1.0, 2.0, 3.0
 # yielding elements) is redone by the scalar return, so that one slow lane does not make the
 # whole block iterate
 VECTOR_ITERATIONS = 5
+# lanes of a group in the vector return's loops (`_jc_start`, `_jc_newton`, `_jc_finish`): a
+# group with no lane to work on is skipped (two 4-wide vectors with AVX2, one with AVX-512)
+JG = 8
 
 
 def n_chunks(n_elem: int) -> int:
@@ -559,26 +562,40 @@ def _jc_start(buf, a0, n, c, g3, inv_rate0):
     (`laws.first_yield_return`: iterating such lanes in vector form made whole blocks iterate
     up to eight times, which cost more than it saved). Returns the number of yielding lanes
     (ITERATING or FIRST): a block above its yield floor may still be elastic at the step's
-    rate, and then needs no Newton iteration and no update."""
+    rate, and then needs no Newton iteration and no update.
+
+    The lanes go in groups of JG: a group with no lane above its yield floor (hard x thermal,
+    below the yield stress at any rate when C >= 0) is elastic at any rate and only gets the
+    rows the later steps read (not yielding, FINISHED, no increment), without the logarithm."""
     active = 0
-    for i in range(B):
-        seq = buf[R_SEQ * B + i]
-        ep = buf[R_EP * B + i]
-        hard = buf[R_HARD * B + i]
-        rt = (1.0 + c * VM.ln(max(buf[R_RATE * B + i] * inv_rate0, 1.0))) * buf[R_THERM * B + i]
-        sy = hard * rt
-        act = seq > sy
-        hi = (seq - sy) / g3
-        d = newton_start(seq, sy, hard, a0, rt, n, g3, ep) if ep > 0.0 else hi
-        buf[R_RT * B + i] = rt
-        buf[R_ACT * B + i] = 1.0 if act else 0.0
-        buf[R_DONE * B + i] = (ITERATING if ep > 0.0 else FIRST) if act else FINISHED
-        buf[R_DEPS * B + i] = d if act else 0.0
-        buf[R_LO * B + i] = 0.0
-        buf[R_HI * B + i] = hi if act else 0.0
-        buf[R_SY * B + i] = sy
-        buf[R_HN * B + i] = hard
-        active += 1 if act else 0
+    for g in range(0, B, JG):
+        above = False
+        for i in range(g, g + JG):
+            above |= buf[R_SEQ * B + i] > buf[R_HARD * B + i] * buf[R_THERM * B + i]
+        if not above:
+            for i in range(g, g + JG):
+                buf[R_ACT * B + i] = 0.0
+                buf[R_DONE * B + i] = FINISHED
+                buf[R_DEPS * B + i] = 0.0
+            continue
+        for i in range(g, g + JG):
+            seq = buf[R_SEQ * B + i]
+            ep = buf[R_EP * B + i]
+            hard = buf[R_HARD * B + i]
+            rt = (1.0 + c * VM.ln(max(buf[R_RATE * B + i] * inv_rate0, 1.0))) * buf[R_THERM * B + i]
+            sy = hard * rt
+            act = seq > sy
+            hi = (seq - sy) / g3
+            d = newton_start(seq, sy, hard, a0, rt, n, g3, ep) if ep > 0.0 else hi
+            buf[R_RT * B + i] = rt
+            buf[R_ACT * B + i] = 1.0 if act else 0.0
+            buf[R_DONE * B + i] = (ITERATING if ep > 0.0 else FIRST) if act else FINISHED
+            buf[R_DEPS * B + i] = d if act else 0.0
+            buf[R_LO * B + i] = 0.0
+            buf[R_HI * B + i] = hi if act else 0.0
+            buf[R_SY * B + i] = sy
+            buf[R_HN * B + i] = hard
+            active += 1 if act else 0
     return active
 
 
@@ -589,70 +606,85 @@ def _jc_newton(buf, a0, b0, n, g3):
     tolerance (`laws.newton_step_converged`) takes it and finishes; a lane whose bracket has
     shrunk to round-off finishes at the next call with the yield stress at its last iterate, as
     the scalar return does. FIRST lanes are left to the scalar return. Returns the number of
-    lanes still iterating here."""
+    lanes still iterating here. A group of JG lanes none of which is iterating (or STALLED) is
+    skipped: it would change nothing."""
     curv = b0 * n * abs(1.0 - n)
     left = 0
-    for i in range(B):
-        done = buf[R_DONE * B + i]
-        seq = buf[R_SEQ * B + i]
-        ep0 = buf[R_EP * B + i]
-        rt = buf[R_RT * B + i]
-        d = buf[R_DEPS * B + i]
-        lo = buf[R_LO * B + i]
-        hi = buf[R_HI * B + i]
-        iterating = done == ITERATING
-        final = done == STALLED
-        ep = ep0 + d if iterating or final else 1.0
-        pw = VM.power(ep, n)
-        a = a0 * rt
-        b = b0 * rt
-        sy = a + b * pw
-        f = seq - g3 * d - sy
-        tol = 1e-12 * seq
-        conv = abs(f) <= tol
-        lo2 = d if f > 0.0 else lo
-        hi2 = hi if f > 0.0 else d
-        step = f / (g3 + b * n * pw / ep)
-        dn = d + step
-        accept = (newton_step_converged(step, ep, rt * curv * pw / (ep * ep), tol)
-                  and dn > lo2 and dn < hi2 and not conv)
-        pw = power_near(pw, step / ep, n) if accept else pw
-        dn = 0.5 * (lo2 + hi2) if (dn <= lo2 or dn >= hi2) else dn
-        stall = hi2 - lo2 <= 1e-15 * (1.0 + ep0)
-        finish = final or (iterating and (conv or accept))
-        going = iterating and not (conv or accept)
-        new = FINISHED if finish else (STALLED if going and stall else done)
-        buf[R_DONE * B + i] = new
-        buf[R_SY * B + i] = a + b * pw if finish else buf[R_SY * B + i]
-        buf[R_HN * B + i] = a0 + b0 * pw if finish else buf[R_HN * B + i]
-        buf[R_LO * B + i] = lo2 if going else lo
-        buf[R_HI * B + i] = hi2 if going else hi
-        buf[R_DEPS * B + i] = dn if going or (iterating and accept) else d
-        left += 1 if new == ITERATING or new == STALLED else 0
+    for g in range(0, B, JG):
+        busy = False
+        for i in range(g, g + JG):
+            dn = buf[R_DONE * B + i]
+            busy |= dn == ITERATING or dn == STALLED
+        if not busy:
+            continue
+        for i in range(g, g + JG):
+            done = buf[R_DONE * B + i]
+            seq = buf[R_SEQ * B + i]
+            ep0 = buf[R_EP * B + i]
+            rt = buf[R_RT * B + i]
+            d = buf[R_DEPS * B + i]
+            lo = buf[R_LO * B + i]
+            hi = buf[R_HI * B + i]
+            iterating = done == ITERATING
+            final = done == STALLED
+            ep = ep0 + d if iterating or final else 1.0
+            pw = VM.power(ep, n)
+            a = a0 * rt
+            b = b0 * rt
+            sy = a + b * pw
+            f = seq - g3 * d - sy
+            tol = 1e-12 * seq
+            conv = abs(f) <= tol
+            lo2 = d if f > 0.0 else lo
+            hi2 = hi if f > 0.0 else d
+            step = f / (g3 + b * n * pw / ep)
+            dn = d + step
+            accept = (newton_step_converged(step, ep, rt * curv * pw / (ep * ep), tol)
+                      and dn > lo2 and dn < hi2 and not conv)
+            pw = power_near(pw, step / ep, n) if accept else pw
+            dn = 0.5 * (lo2 + hi2) if (dn <= lo2 or dn >= hi2) else dn
+            stall = hi2 - lo2 <= 1e-15 * (1.0 + ep0)
+            finish = final or (iterating and (conv or accept))
+            going = iterating and not (conv or accept)
+            new = FINISHED if finish else (STALLED if going and stall else done)
+            buf[R_DONE * B + i] = new
+            buf[R_SY * B + i] = a + b * pw if finish else buf[R_SY * B + i]
+            buf[R_HN * B + i] = a0 + b0 * pw if finish else buf[R_HN * B + i]
+            buf[R_LO * B + i] = lo2 if going else lo
+            buf[R_HI * B + i] = hi2 if going else hi
+            buf[R_DEPS * B + i] = dn if going or (iterating and accept) else d
+            left += 1 if new == ITERATING or new == STALLED else 0
     return left
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
 def _jc_finish(buf, tq_cv, t_room, inv_t_range, m):
     """Plastic strain, adiabatic heating, the thermal factor 1 - T*^m (`laws.thermal_factor`)
-    and the returned deviator of the yielded lanes."""
-    for i in range(B):
-        upd = buf[R_ACT * B + i] > 0.0 and buf[R_DEPS * B + i] > 0.0
-        deps = buf[R_DEPS * B + i]
-        sy = buf[R_SY * B + i]
-        seq = buf[R_SEQ * B + i]
-        rho = buf[R_MASS * B + i] / (buf[R_DET * B + i] * (1.0 / 6.0))
-        temp = buf[R_TEMP * B + i] + tq_cv * sy * deps / rho
-        scale = sy / seq if upd else 1.0
-        for c in range(6):
-            buf[(R_SN + c) * B + i] *= scale
-        t_star = (temp - t_room) * inv_t_range
-        tm = VM.power(t_star if (t_star > 0.0 and t_star < 1.0) else 0.5, m)
-        th = 0.0 if t_star >= 1.0 else (1.0 - tm if t_star > 0.0 else 1.0)
-        buf[R_EP * B + i] = buf[R_EP * B + i] + deps if upd else buf[R_EP * B + i]
-        buf[R_TEMP * B + i] = temp if upd else buf[R_TEMP * B + i]
-        buf[R_HARD * B + i] = buf[R_HN * B + i] if upd else buf[R_HARD * B + i]
-        buf[R_THERM * B + i] = th if upd else buf[R_THERM * B + i]
+    and the returned deviator of the yielded lanes (in groups of JG lanes: a group with none
+    is left as it is)."""
+    for g in range(0, B, JG):
+        any_upd = False
+        for i in range(g, g + JG):
+            any_upd |= buf[R_ACT * B + i] > 0.0 and buf[R_DEPS * B + i] > 0.0
+        if not any_upd:
+            continue
+        for i in range(g, g + JG):
+            upd = buf[R_ACT * B + i] > 0.0 and buf[R_DEPS * B + i] > 0.0
+            deps = buf[R_DEPS * B + i]
+            sy = buf[R_SY * B + i]
+            seq = buf[R_SEQ * B + i]
+            rho = buf[R_MASS * B + i] / (buf[R_DET * B + i] * (1.0 / 6.0))
+            temp = buf[R_TEMP * B + i] + tq_cv * sy * deps / rho
+            scale = sy / seq if upd else 1.0
+            for c in range(6):
+                buf[(R_SN + c) * B + i] *= scale
+            t_star = (temp - t_room) * inv_t_range
+            tm = VM.power(t_star if (t_star > 0.0 and t_star < 1.0) else 0.5, m)
+            th = 0.0 if t_star >= 1.0 else (1.0 - tm if t_star > 0.0 else 1.0)
+            buf[R_EP * B + i] = buf[R_EP * B + i] + deps if upd else buf[R_EP * B + i]
+            buf[R_TEMP * B + i] = temp if upd else buf[R_TEMP * B + i]
+            buf[R_HARD * B + i] = buf[R_HN * B + i] if upd else buf[R_HARD * B + i]
+            buf[R_THERM * B + i] = th if upd else buf[R_THERM * B + i]
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -661,26 +693,57 @@ def _jc_return_block(buf, mat_params, mk, shear, eps_p, temperature, hard, therm
     caches' update of `_return_map`, lane by lane the same iteration (ln and exp from
     `vecmath`); a lane not finished after VECTOR_ITERATIONS is redone by the scalar return.
     Requires C >= 0 (hard x thermal is then a lower bound: lanes below it skip, and a block
-    with no lane above it costs one comparison per lane)."""
-    hd = hard[e0:e0 + B]  # views of the block (see `_load_block`)
-    th = thermal[e0:e0 + B]
+    with no lane above it costs one comparison per lane).
+
+    `_chunk` does the same with the three parts written out: numba keeps an NRT incref and
+    decref of every array argument of a function that calls another (12 atomic counts per
+    block for this one; docs/performance.md, "The tet kernel, session 9")."""
+    if _jc_load(buf, eps_p, temperature, hard, thermal, e0):
+        if _jc_lanes(buf, mat_params, mk, shear):
+            _jc_store(buf, eps_p, temperature, hard, thermal, e0)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _jc_load(buf, eps_p, temperature, hard, thermal, e0):
+    """False if no lane of the block is above its yield floor (hard x thermal); else copies
+    the lanes' plastic strain, temperature and caches into rows R_EP .. R_THERM and returns
+    True. The arrays are indexed by unsigned integers (no wraparound test), not through views
+    of the block as in `_load_block`: a view is an array of its own, with its reference count."""
     any_active = False
     for i in range(B):
-        if buf[R_SEQ * B + i] > hd[i] * th[i]:
+        j = np.uint64(e0 + i)
+        if buf[R_SEQ * B + i] > hard[j] * thermal[j]:
             any_active = True
             break
-    if not any_active:
-        return
-    ep = eps_p[e0:e0 + B]
-    tp = temperature[e0:e0 + B]
-    _copy_in(ep, buf, R_EP)
-    _copy_in(tp, buf, R_TEMP)
-    _copy_in(hd, buf, R_HARD)
-    _copy_in(th, buf, R_THERM)
+    if any_active:
+        for i in range(B):
+            j = np.uint64(e0 + i)
+            buf[R_EP * B + i] = eps_p[j]
+            buf[R_TEMP * B + i] = temperature[j]
+            buf[R_HARD * B + i] = hard[j]
+            buf[R_THERM * B + i] = thermal[j]
+    return any_active
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _jc_store(buf, eps_p, temperature, hard, thermal, e0):
+    """Rows R_EP .. R_THERM back to the element arrays (see `_jc_load`)."""
+    for i in range(B):
+        j = np.uint64(e0 + i)
+        eps_p[j] = buf[R_EP * B + i]
+        temperature[j] = buf[R_TEMP * B + i]
+        hard[j] = buf[R_HARD * B + i]
+        thermal[j] = buf[R_THERM * B + i]
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _jc_lanes(buf, mat_params, mk, shear):
+    """`_jc_return_block`'s iteration on the block's rows R_EP .. R_THERM; False when no lane
+    yields at the step's rate (nothing changes)."""
     a0, b0, n = mat_params[mk, P.JC_A], mat_params[mk, P.JC_B], mat_params[mk, P.JC_N]
     g3 = 3.0 * shear
     if _jc_start(buf, a0, n, mat_params[mk, P.JC_C], g3, 1.0 / mat_params[mk, P.EPSDOT0]) == 0:
-        return  # elastic at the step's rate: nothing changes
+        return False  # elastic at the step's rate: nothing changes
     for _ in range(VECTOR_ITERATIONS):
         if _jc_newton(buf, a0, b0, n, g3) == 0:
             break
@@ -696,10 +759,7 @@ def _jc_return_block(buf, mat_params, mk, shear, eps_p, temperature, hard, therm
     t_room = mat_params[mk, P.T_ROOM]
     _jc_finish(buf, mat_params[mk, P.TQ] / mat_params[mk, P.CV], t_room,
                1.0 / (mat_params[mk, P.T_MELT] - t_room), mat_params[mk, P.JC_M])
-    _copy_out(buf, R_EP, ep)
-    _copy_out(buf, R_TEMP, tp)
-    _copy_out(buf, R_HARD, hd)
-    _copy_out(buf, R_THERM, th)
+    return True
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
@@ -1008,8 +1068,15 @@ def _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                     if not buf[R_DET * B + i] > 0.0:
                         mk = -1
             if mk >= 0:
-                if plastic is not None:
-                    _return(buf, mat_params, mk, shear, eps_p, temperature, hard, thermal, e0)
+                if plastic is not None:  # `_return` written out (its inlining kept increfs)
+                    code = int(mat_params[mk, P.STRENGTH])
+                    if code == P.JOHNSON_COOK and mat_params[mk, P.JC_C] >= 0.0:
+                        if _jc_load(buf, eps_p, temperature, hard, thermal, e0):
+                            if _jc_lanes(buf, mat_params, mk, shear):
+                                _jc_store(buf, eps_p, temperature, hard, thermal, e0)
+                    elif code != P.ELASTIC:
+                        _return_block(buf, code, mat_params, mk, shear, eps_p, temperature, hard,
+                                      thermal, e0)
                 _pressure_block(buf, dt, use_anp, int(mat_params[mk, P.EOS]),
                                 mat_params[mk, P.RHO0], mat_params[mk, P.K], mat_params[mk, P.C0],
                                 mat_params[mk, P.S], mat_params[mk, P.GAMMA0], shear, cq, cl, None)
