@@ -70,7 +70,7 @@ R_X = 0  # 12 rows: x^{n+1} of corners 0..3 (x, y, z each)
 R_V = 12  # 12 rows: U^{n+1} of corners 0..3
 R_S0 = 24  # 6 rows: deviatoric stress at n (xx, yy, zz, xy, yz, zx)
 R_VOLD = 30  # volume at n
-R_VEOSOLD = 31  # EOS volume at n (the ANP tet's averaged volume)
+# row 31 unused (the EOS volume at n was copied here and never read)
 R_MASS = 32
 R_EN = 33  # specific internal energy at n
 R_POLD = 34  # pressure at n
@@ -441,7 +441,6 @@ def _load_block(x, v, conn, sdev, pressure, energy, vol, vol_eos, vol0, elem_mas
         for c in range(6):
             buf[(R_S0 + c) * B + i] = sd[i, c]
     _copy_in(vol[e0:e0 + B], buf, R_VOLD)
-    _copy_in(vol_eos[e0:e0 + B], buf, R_VEOSOLD)
     _copy_in(elem_mass[e0:e0 + B], buf, R_MASS)
     _copy_in(energy[e0:e0 + B], buf, R_EN)
     _copy_in(pressure[e0:e0 + B], buf, R_POLD)
@@ -454,16 +453,27 @@ def _load_block(x, v, conn, sdev, pressure, energy, vol, vol_eos, vol0, elem_mas
 
 @numba.njit(cache=True, inline="always")
 def _copy_in(src, buf, row):
-    """buf row `row` = src (a view of B lanes)."""
-    for i in range(B):
-        buf[row * B + i] = src[i]
+    """buf row `row` = src (a view of B lanes). Four lanes are loaded before they are stored:
+    LLVM cannot tell that src and buf do not overlap, and would not move a load above the
+    previous lane's store, so a plain loop compiled to one scalar load and store per lane."""
+    for i in range(0, B, 4):
+        a, b, c, d = src[i], src[i + 1], src[i + 2], src[i + 3]
+        buf[row * B + i] = a
+        buf[row * B + i + 1] = b
+        buf[row * B + i + 2] = c
+        buf[row * B + i + 3] = d
 
 
 @numba.njit(cache=True, inline="always")
 def _copy_out(buf, row, dst):
-    """dst (a view of B lanes) = buf row `row`."""
-    for i in range(B):
-        dst[i] = buf[row * B + i]
+    """dst (a view of B lanes) = buf row `row` (four lanes at a time, see `_copy_in`)."""
+    for i in range(0, B, 4):
+        a, b, c, d = (buf[row * B + i], buf[row * B + i + 1], buf[row * B + i + 2],
+                      buf[row * B + i + 3])
+        dst[i] = a
+        dst[i + 1] = b
+        dst[i + 2] = c
+        dst[i + 3] = d
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
