@@ -1052,63 +1052,67 @@ def _lanes2(a, e0, n):
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
-def _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
-           hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp,
-           half, dt, cq, cl, rows, fext, chunk_out, buf, plastic):
-    """The full blocks of intact elements of one material of chunk ch (the vector path, written
-    out in this function: called as a function of its own, it took the kernel 62 -> 66 ns per
-    element); any other block is left to `_deferred_chunk`, marked in the chunk's
-    OUT_DEFERRED. `buf` the block buffer (TET_ROWS * B) of the calling thread."""
+def _chunk(ch0, ch1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+           temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
+           use_anp, half, dt, cq, cl, rows, fext, chunk_out, buf, plastic):
+    """The full blocks of intact elements of one material of chunks ch0 .. ch1 - 1 (the vector
+    path, written out in this function: called as a function of its own, it took the kernel 62
+    -> 66 ns per element); any other block is left to `_deferred_chunk`, marked in its chunk's
+    OUT_DEFERRED. `buf` the block buffer (TET_ROWS * B) of the calling thread. A range of
+    chunks (a part, or all of them on one thread), not one: numba increfs and decrefs every
+    array argument at each call of a function that calls others (about 70 atomic counts)."""
     n_elem = conn.shape[0]
-    dt_min = math.inf
-    worst = -1
-    qwork = 0.0
-    inverted = 0
-    deferred = 0
-    e_end = min(n_elem, (ch + 1) * CHUNK)
-    for e0 in range(ch * CHUNK, e_end, B):
-        if e0 + B <= e_end:
-            mk = _vector_block(elem_mat, status, e0)
-            if mk >= 0:
-                _load_block(x, v, conn, sdev, pressure, energy, vol, vol_eos, vol0, elem_mass,
-                            jnode, use_anp, e0, buf)
-                shear = mat_params[mk, P.G]
-                _kinematics_block(buf, half, dt, shear)
-                for i in range(B):
-                    if not buf[R_DET * B + i] > 0.0:
-                        mk = -1
-            if mk >= 0:
-                if plastic is not None:  # `_return` written out (its inlining kept increfs)
-                    code = int(mat_params[mk, P.STRENGTH])
-                    if code == P.JOHNSON_COOK and mat_params[mk, P.JC_C] >= 0.0:
-                        if _jc_load(buf, eps_p, temperature, hard, thermal, e0):
-                            if _jc_lanes(buf, mat_params, mk, shear):
-                                _jc_store(buf, eps_p, temperature, hard, thermal, e0)
-                    elif code != P.ELASTIC:
-                        _return_block(buf, code, mat_params, mk, shear, eps_p, temperature, hard,
-                                      thermal, e0)
-                _pressure_block(buf, dt, use_anp, int(mat_params[mk, P.EOS]),
-                                mat_params[mk, P.RHO0], mat_params[mk, P.K], mat_params[mk, P.C0],
-                                mat_params[mk, P.S], mat_params[mk, P.GAMMA0], shear, cq, cl, None)
-                bdt, bworst, bq = _store_block(rows, sdev, pressure, q, eps_rate, energy, vol,
-                                               vol_eos, fext, use_anp, e0, buf)
-                binv = 0
+    for ch in range(ch0, ch1):
+        dt_min = math.inf
+        worst = -1
+        qwork = 0.0
+        inverted = 0
+        deferred = 0
+        e_end = min(n_elem, (ch + 1) * CHUNK)
+        for e0 in range(ch * CHUNK, e_end, B):
+            if e0 + B <= e_end:
+                mk = _vector_block(elem_mat, status, e0)
+                if mk >= 0:
+                    _load_block(x, v, conn, sdev, pressure, energy, vol, vol_eos, vol0, elem_mass,
+                                jnode, use_anp, e0, buf)
+                    shear = mat_params[mk, P.G]
+                    _kinematics_block(buf, half, dt, shear)
+                    for i in range(B):
+                        if not buf[R_DET * B + i] > 0.0:
+                            mk = -1
+                if mk >= 0:
+                    if plastic is not None:  # `_return` written out (its inlining kept increfs)
+                        code = int(mat_params[mk, P.STRENGTH])
+                        if code == P.JOHNSON_COOK and mat_params[mk, P.JC_C] >= 0.0:
+                            if _jc_load(buf, eps_p, temperature, hard, thermal, e0):
+                                if _jc_lanes(buf, mat_params, mk, shear):
+                                    _jc_store(buf, eps_p, temperature, hard, thermal, e0)
+                        elif code != P.ELASTIC:
+                            _return_block(buf, code, mat_params, mk, shear, eps_p, temperature,
+                                          hard, thermal, e0)
+                    _pressure_block(buf, dt, use_anp, int(mat_params[mk, P.EOS]),
+                                    mat_params[mk, P.RHO0], mat_params[mk, P.K],
+                                    mat_params[mk, P.C0], mat_params[mk, P.S],
+                                    mat_params[mk, P.GAMMA0], shear, cq, cl, None)
+                    bdt, bworst, bq = _store_block(rows, sdev, pressure, q, eps_rate, energy, vol,
+                                                   vol_eos, fext, use_anp, e0, buf)
+                    binv = 0
+                else:
+                    deferred |= 1 << ((e0 - ch * CHUNK) // B)
+                    continue
             else:
                 deferred |= 1 << ((e0 - ch * CHUNK) // B)
                 continue
-        else:
-            deferred |= 1 << ((e0 - ch * CHUNK) // B)
-            continue
-        qwork += bq
-        inverted += binv
-        if bdt < dt_min:
-            dt_min = bdt
-            worst = bworst
-    chunk_out[ch, OUT_DT] = dt_min
-    chunk_out[ch, OUT_QWORK] = qwork
-    chunk_out[ch, OUT_INVERTED] = inverted
-    chunk_out[ch, OUT_WORST] = worst
-    chunk_out[ch, OUT_DEFERRED] = deferred
+            qwork += bq
+            inverted += binv
+            if bdt < dt_min:
+                dt_min = bdt
+                worst = bworst
+        chunk_out[ch, OUT_DT] = dt_min
+        chunk_out[ch, OUT_QWORK] = qwork
+        chunk_out[ch, OUT_INVERTED] = inverted
+        chunk_out[ch, OUT_WORST] = worst
+        chunk_out[ch, OUT_DEFERRED] = deferred
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
@@ -1250,17 +1254,19 @@ def _update_parallel(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
     for t in numba.prange(threads):
         buf = aligned_empty(TET_ROWS * B)  # one block buffer per thread and step
         for part in range(t, n_parts, threads):
-            for ch in range(part * part_chunks, min(n_ch, (part + 1) * part_chunks)):
-                if deferred is None:
-                    _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
-                           eps_rate, temperature, hard, thermal, energy, vol, vol_eos, vol0,
-                           elem_mass, mat_params, jnode, use_anp, half, dt, cq, cl, rows, fext,
-                           chunk_out, buf, plastic)
-                elif chunk_out[ch, OUT_DEFERRED] != 0.0:
-                    _deferred_chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
-                                    eps_rate, temperature, hard, thermal, energy, vol, vol_eos,
-                                    vol0, elem_mass, mat_params, jnode, use_anp, half, dt, cq,
-                                    cl, rows, fext, chunk_out, buf, plastic)
+            c0, c1 = part * part_chunks, min(n_ch, (part + 1) * part_chunks)
+            if deferred is None:
+                _chunk(c0, c1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+                       temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass,
+                       mat_params, jnode, use_anp, half, dt, cq, cl, rows, fext, chunk_out, buf,
+                       plastic)
+            else:
+                for ch in range(c0, c1):
+                    if chunk_out[ch, OUT_DEFERRED] != 0.0:
+                        _deferred_chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q,
+                                        eps_p, eps_rate, temperature, hard, thermal, energy, vol,
+                                        vol_eos, vol0, elem_mass, mat_params, jnode, use_anp,
+                                        half, dt, cq, cl, rows, fext, chunk_out, buf, plastic)
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=FAST)
@@ -1272,12 +1278,14 @@ def _update_serial(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     from here directly (numba links a called kernel's code into its caller and optimises it
     again there, so every level of calls costs compile time: one more, 1.5 s)."""
     buf = aligned_empty(TET_ROWS * B)
-    for ch in range((conn.shape[0] + CHUNK - 1) // CHUNK):
-        if deferred is None:
-            _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
-                   temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
-                   jnode, use_anp, 0.5 * dt, dt, cq, cl, rows, fext, chunk_out, buf, plastic)
-        elif chunk_out[ch, OUT_DEFERRED] != 0.0:
+    n_ch = (conn.shape[0] + CHUNK - 1) // CHUNK
+    if deferred is None:
+        _chunk(0, n_ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+               temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
+               jnode, use_anp, 0.5 * dt, dt, cq, cl, rows, fext, chunk_out, buf, plastic)
+        return
+    for ch in range(n_ch):
+        if chunk_out[ch, OUT_DEFERRED] != 0.0:
             _deferred_chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
                             eps_rate, temperature, hard, thermal, energy, vol, vol_eos, vol0,
                             elem_mass, mat_params, jnode, use_anp, 0.5 * dt, dt, cq, cl, rows,
