@@ -218,3 +218,45 @@ def test_own_vtu_writer_reads_back_as_meshios_own_file(tmp_path, compression):
         n_blocks = 9 * e * 8 // 32768 + 1
         header_chars = 4 * -(-4 * (3 + n_blocks) // 3)
         assert base64.b64decode(data[header_chars:header_chars + 4])[:2] == b"\x78\x01"
+
+
+def test_frames_from_a_snapshot_hold_the_state_at_write_time(tmp_path):
+    """solver/run.py writes frames with ``write_later`` from copies of the state
+    (``frame_snapshot``), their fields derived in the writer's thread: the file holds the
+    fields of ``frame_fields`` at the time of the call, bit for bit, though the run changes its
+    arrays right after; a live-cell mask drops the eroded cell."""
+    from types import SimpleNamespace
+
+    from impactsim.model import ERODED
+    from impactsim.solver.run import frame_args, frame_snapshot
+
+    rng = np.random.default_rng(7)
+    model = SimpleNamespace(
+        x=POINTS + 0.01 * rng.random(POINTS.shape), x0=POINTS.copy(), v=rng.normal(size=(5, 3)),
+        conn=TETS.copy(), sdev=rng.normal(size=(3, 6)), pressure=rng.normal(size=3),
+        eps_p=rng.random(3), temperature=293.0 + rng.random(3),
+        status=np.array([0, ERODED, 1], dtype=np.int8), elem_body=np.array([0, 0, 1], np.int32),
+        elem_mass=rng.random(3), vol=rng.random(3), energy=rng.random(3),
+        damage=rng.random(3), blocks=[])
+    pressure0 = model.pressure.copy()
+    expected = frame_args(frame_snapshot(model), None)
+    expected = tuple(a.copy() if isinstance(a, np.ndarray) else a for a in expected)
+    writer = SeriesWriter(tmp_path, background=True)
+    snap = frame_snapshot(model)
+    writer.write_later(1e-6, lambda: frame_args(snap, None))
+    for a in (model.x, model.v, model.sdev, model.pressure, model.eps_p, model.temperature,
+              model.energy, model.damage, model.vol):
+        a += 1.0
+    model.status[:] = ERODED
+    writer.close()
+    ref = SeriesWriter(tmp_path / "ref").write(1e-6, *expected[:4], keep=expected[4])
+    got, want = meshio.read(tmp_path / "frame_00000.vtu"), meshio.read(ref)
+    np.testing.assert_array_equal(got.points, want.points)
+    np.testing.assert_array_equal(got.cells[0].data, TETS[[0, 2]])
+    np.testing.assert_array_equal(got.cells[0].data, want.cells[0].data)
+    for k, v in want.point_data.items():
+        np.testing.assert_array_equal(got.point_data[k], v)
+    assert sorted(want.cell_data) == sorted(got.cell_data)
+    for k, v in want.cell_data.items():
+        np.testing.assert_array_equal(got.cell_data[k][0], v[0])
+    np.testing.assert_array_equal(got.cell_data["pressure"][0], pressure0[[0, 2]])
