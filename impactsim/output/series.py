@@ -66,7 +66,7 @@ class SeriesWriter:
         self.prefix = prefix
         self.pvd_path = self.directory / pvd_name
         self.frames: list[tuple[float, str]] = []
-        self._count = 0  # frames handed to write()
+        self._count = 0  # frames handed to write() and write_later()
         self._pool = (ThreadPoolExecutor(1, thread_name_prefix=f"impactsim-{prefix}")
                       if background else None)
         self._pending: deque[Future] = deque()
