@@ -319,7 +319,7 @@ def run_sphere_plate(ductile: bool) -> dict:
 # on the ladder" list names what was searched for), so the rung reports the simulated curve, a
 # Recht-Ipson fit of it (V_r = a (V_s^p - V_bl^p)^(1/p), p = 2) and its mesh dependence: the
 # place where a measured series, once found, goes into PERFORATION_REFERENCE.
-PERFORATION_SPEEDS = (400.0, 600.0, 1000.0)  # m/s
+PERFORATION_SPEEDS = (300.0, 400.0, 600.0, 1000.0)  # m/s
 PERFORATION_MESHES = ((1.8, 1.4), (1.2, 1.0))  # (sphere, plate) mesh sizes [mm]
 PERFORATION_REFERENCE: dict = {}  # striking speed [m/s] -> measured residual speed [m/s]
 
@@ -338,6 +338,12 @@ size = ["40 mm", "40 mm", "4.9 mm"]
 position = ["0 mm", "0 mm", "-2.45 mm"]
 mesh_size = "{hp} mm"
 mesher = "structured"
+
+# clamped outside a 38 mm circle (the 40 mm square's edges and corners), as a test fixture
+# holds a target: below the ballistic limit the sphere stops instead of pushing a free plate
+[[body.constraint]]
+nodes = {{ outside_radius = "19 mm" }}
+fixed = true
 
 [[body]]
 name = "sphere"
@@ -403,12 +409,13 @@ def perforation_sweep_report(results: list[dict]) -> list[str]:
         return []
     lines = ["## Perforation: residual velocity against striking velocity", "",
              "The [R20] sphere and plate (52100 sphere 12.7 mm, 8.4 g; 2024-T3 plate 4.9 mm, "
-             "40 x 40 mm, free edges) hit square on at "
+             "40 x 40 mm, clamped outside a 38 mm circle) hit square on at "
              + ", ".join(f"{v:.0f}" for v in PERFORATION_SPEEDS)
              + " m/s, tet4 (contact scene), the default spall criterion and the ductile "
              "criterion on (`ductile_criterion = \"johnson-cook\"`, the library's 2024 "
              "D1..D5), at two meshes. `residual` is the sphere's velocity along the normal at "
-             "the end (it has cleared the plate's rear face); the Recht-Ipson fit V_r = a "
+             "the end (it has cleared the plate's rear face, or stopped in it); the Recht-Ipson "
+             "fit V_r = a "
              "sqrt(V_s^2 - V_bl^2) through each mesh's perforating points gives the simulated "
              "ballistic limit V_bl. No measured series for this pairing is on record here "
              "(below), so there is no error column: the rung gives the curve a measurement "
@@ -423,15 +430,43 @@ def perforation_sweep_report(results: list[dict]) -> list[str]:
                      f" | {r['hole_diameter_mm']:.1f} | {r['damaged']:,} ({r['ductile']:,}) | "
                      f"{r['particles']:,} | {r['energy_balance_error']:+.1e} |")
     lines.append("")
+    fits = []
     for hp in sorted({r["h_mm"] for r in rows}, reverse=True):
         rs = sorted((r for r in rows if r["h_mm"] == hp), key=lambda r: r["striking_speed"])
         vs = np.array([r["striking_speed"] for r in rs])
         vr = np.array([r["residual_speed"] for r in rs])
         if np.count_nonzero(vr > 0) >= 2:
             a, vbl = recht_ipson(vs, vr)
+            fits.append((a, vbl))
             lines.append(f"- plate h = {hp} mm: Recht-Ipson fit a = {a:.3f}, "
                          f"V_bl = {vbl:.0f} m/s ({np.count_nonzero(vr > 0)} perforating points).")
-    lines.append("")
+    from impactsim.case.material import library_material
+
+    r_s, t = 6.35e-3, 4.9e-3
+    m_s = library_material("steel-52100").density * 4.0 / 3.0 * math.pi * r_s ** 3
+    m_plug = library_material("al-2024-t3").density * math.pi * r_s ** 2 * t
+    a_plug = m_s / (m_s + m_plug)
+    by_speed: dict = {}
+    for r in rows:
+        by_speed.setdefault(r["striking_speed"], []).append(r["residual_speed"])
+    spread = [100 * abs(v[1] - v[0]) / v[0] for _s, v in sorted(by_speed.items()) if len(v) == 2]
+    if len(fits) < 2 or not spread:
+        return lines
+    dvbl = 100 * abs(fits[1][1] - fits[0][1]) / fits[0][1]
+    da = [100 * (a / a_plug - 1) for a, _v in fits]
+    lines += ["", "**Reading.** The refinement (2.4 times the elements) moves the residual "
+              "speed by " + " / ".join(f"{d:.1f}" for d in spread) + " % at the three speeds "
+              f"and the fitted ballistic limit by {dvbl:.1f} %, while the number of cells the "
+              "ductile criterion damages doubles: the local damage law localises (docs/"
+              "fracture.md), but the sphere's exit speed is carried by the momentum and work "
+              "of the plug and the plate, and is nearly mesh-independent here. One check needs "
+              f"no measurement: Recht and Ipson's plugging model gives a = m_s / (m_s + m_plug) "
+              f"= {a_plug:.3f} (sphere {1e3 * m_s:.2f} g, a plug of the sphere's diameter "
+              f"through the plate {1e3 * m_plug:.2f} g); the fitted a is "
+              f"{min(da):.0f}-{max(da):.0f} % above it: less mass than a full plug of the "
+              "sphere's cross-section rides with the sphere (not analysed further). Against "
+              "an experiment, this rung has nothing yet: that is the missing piece of issue "
+              "17's perforation item.", ""]
     return lines
 
 
