@@ -1044,8 +1044,11 @@ def report(results: list[dict]) -> str:
               "against strain rate for 6061-T6, 2024 or the steels, with values we could "
               "cite: not found in our sources. The aluminium spall time is calibrated to the "
               "plate's pull-back (above), the steels' is still the choice of docs/fracture.md.",
-              "- Plate-impact free-surface velocity (VISAR) records of aluminium with their "
-              "pull-back velocities: not found.",
+              "- Plate-impact free-surface velocity (VISAR) records of 6061-T6, 2024 or OFHC "
+              "copper with their pull-back velocities and spall signal timing, to lay the "
+              "plate rung's free-surface history against: searched for again in session 9 "
+              "(stored pages, documentation, public code): only abstracts and reviews without "
+              "the records were found.",
               "- A perforation test with measured residual velocities (Piekutowski, Forrestal, "
               "Poormon & Warren 1996, ogive 4340 rods into 26.3 mm 6061-T651; Borvik et al. "
               "2002, Weldox 460E by blunt, hemispherical and conical projectiles; Jung, Lee & "
