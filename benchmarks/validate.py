@@ -394,12 +394,18 @@ def run_perforation_sweep(speed: float, hs: float, hp: float) -> dict:
 
 def recht_ipson(vs: np.ndarray, vr: np.ndarray) -> tuple[float, float]:
     """Least-squares fit of V_r = a sqrt(V_s^2 - V_bl^2) (Recht & Ipson 1963, p = 2) to the
-    perforating points (V_r > 0): returns (a, V_bl) [m/s]. Linear in (a^2, a^2 V_bl^2):
-    V_r^2 = a^2 V_s^2 - a^2 V_bl^2."""
+    perforating points (V_r > 0), in V_r itself: for each trial V_bl below the slowest of them
+    the best a is linear, so V_bl is found on a fine grid. Returns (a, V_bl) [m/s]."""
     ok = vr > 0
-    A = np.column_stack([vs[ok] ** 2, -np.ones(int(ok.sum()))])
-    (a2, c), *_ = np.linalg.lstsq(A, vr[ok] ** 2, rcond=None)
-    return float(math.sqrt(max(a2, 0.0))), float(math.sqrt(max(c / a2, 0.0))) if a2 > 0 else 0.0
+    vs, vr = vs[ok], vr[ok]
+    best = (np.inf, 0.0, 0.0)
+    for vbl in np.linspace(0.0, vs.min(), 4001)[:-1]:
+        f = np.sqrt(vs ** 2 - vbl ** 2)
+        a = float(f @ vr / (f @ f))
+        sse = float(np.sum((a * f - vr) ** 2))
+        if sse < best[0]:
+            best = (sse, a, float(vbl))
+    return best[1], best[2]
 
 
 def perforation_sweep_report(results: list[dict]) -> list[str]:
@@ -449,22 +455,32 @@ def perforation_sweep_report(results: list[dict]) -> list[str]:
     by_speed: dict = {}
     for r in rows:
         by_speed.setdefault(r["striking_speed"], []).append(r["residual_speed"])
-    spread = [100 * abs(v[1] - v[0]) / v[0] for _s, v in sorted(by_speed.items()) if len(v) == 2]
+    spread = [(sp, v) for sp, v in sorted(by_speed.items()) if len(v) == 2]
     if len(fits) < 2 or not spread:
         return lines
     dvbl = 100 * abs(fits[1][1] - fits[0][1]) / fits[0][1]
     da = [100 * (a / a_plug - 1) for a, _v in fits]
     lines += ["", "**Reading.** The refinement (2.4 times the elements) moves the residual "
-              "speed by " + " / ".join(f"{d:.1f}" for d in spread) + " % at the three speeds "
-              f"and the fitted ballistic limit by {dvbl:.1f} %, while the number of cells the "
+              "speed by " + ", ".join(
+                  f"{100 * abs(v[1] - v[0]) / v[0]:.1f} % at {sp:.0f}" if v[0] > 0.2 * sp
+                  else f"{v[0]:.0f} -> {v[1]:.0f} m/s at {sp:.0f}" for sp, v in spread)
+              + f" m/s and the fitted ballistic limit by {dvbl:.1f} %, while the number of "
+              "cells the "
               "ductile criterion damages doubles: the local damage law localises (docs/"
-              "fracture.md), but the sphere's exit speed is carried by the momentum and work "
-              "of the plug and the plate, and is nearly mesh-independent here. One check needs "
+              "fracture.md), but where the sphere clearly perforates its exit speed is carried by "
+              "the momentum and work of the plug and the plate and moves by a few per cent; "
+              "near the ballistic limit (the lowest speed) V_r is steep in V_s and differs by "
+              "tens of m/s. One check needs "
               f"no measurement: Recht and Ipson's plugging model gives a = m_s / (m_s + m_plug) "
               f"= {a_plug:.3f} (sphere {1e3 * m_s:.2f} g, a plug of the sphere's diameter "
               f"through the plate {1e3 * m_plug:.2f} g); the fitted a is "
-              f"{min(da):.0f}-{max(da):.0f} % above it: less mass than a full plug of the "
-              "sphere's cross-section rides with the sphere (not analysed further). Against "
+              f"{min(da):.0f}-{max(da):.0f} % above it, close to the plugging picture (above "
+              "it, a little less than a full plug of the sphere's cross-section rides with "
+              "the sphere). The "
+              "support matters as much as the mesh: with the plate's edges free (session 9's "
+              "first sweep, coarse mesh) the residual speeds at 400 / 600 / 1000 m/s read 210 "
+              "/ 431 / 824 m/s, 6 / 5 / 0.6 % above the clamped plate's, and below the "
+              "ballistic limit a free plate carries the stuck sphere away. Against "
               "an experiment, this rung has nothing yet: that is the missing piece of issue "
               "17's perforation item.", ""]
     return lines
@@ -536,6 +552,47 @@ def run_flow_curves(name: str = "al-6061-t6") -> list[dict]:
     return rows
 
 
+
+TAYLOR_RATE_C = (0.002, 0.012)  # the library's C, and the C the measured rate rise asks for
+
+
+def run_taylor_rate_study(C: float) -> dict:
+    """The 6061-T6 Taylor bar (373 m/s, anp, h = 1 mm) with the library's Johnson-Cook set but
+    the strain-rate constant C: how far the constants move the length and the foot."""
+    from impactsim.case import load_case_text
+    from impactsim.solver.run import run_case
+
+    text = TAYLOR.format(name="taylor-6061-rate", end=60.0, element="anp",
+                         material="al6061-rate", h=1.0, speed=373.0, length=23.47,
+                         centre=0.5 * 23.47 + 1e-4)
+    text += f"""
+[[material]]
+name = "al6061-rate"
+library = "al-6061-t6"
+strength = {{ model = "johnson-cook", A = "324 MPa", B = "114 MPa", n = 0.42, C = {C}, m = 1.34, melt_temperature = "925 K", room_temperature = "293 K", strain_rate_ref = "1 /s" }}
+"""
+    out = OUT / f"taylor-6061-rate-C{C}"
+    t0 = time.perf_counter()
+    s = run_case(load_case_text(text), out, progress=False)
+    res = {"rung": "taylor-6061-373-rate", "element": "anp", "h_mm": C, "C": C,
+           "wall_s": time.perf_counter() - t0, "steps": s["steps"],
+           "energy_balance_error": s["energy_balance_error"], "stopped": s["stopped"]}
+    res.update(taylor_measures(out))
+    f = s.get("fracture")
+    res["damaged"] = f["damaged_total"] if f else 0
+    return res
+
+
+def fit_rate_constant() -> float:
+    """The Johnson-Cook C that gives Fish et al.'s measured rise of the flow stress from 0.001
+    to 2500 1/s at a plastic strain of 0.17 (FLOW_REFERENCES), the strain-hardening and thermal
+    factors being equal at the two rates to first order."""
+    lo = FLOW_REFERENCES["Fish 0.001/s"][2][1][1]
+    hi = FLOW_REFERENCES["Fish 2500/s"][2][1][1]
+    r, l1, l2 = hi / lo, math.log(2500.0), math.log(1e-3)
+    return (r - 1.0) / (l1 - r * l2)
+
+
 def flow_report(results: list[dict]) -> list[str]:
     rows = [r for r in results if r["rung"] == "flow-6061"]
     if not rows:
@@ -562,8 +619,35 @@ def flow_report(results: list[dict]) -> list[str]:
               "material-constants part of that error (the element and the mesh move the "
               "length by about half a per cent). The entry is left as it is: a set fitted to "
               "these rates would be the fix, to be checked against the Taylor bar and the "
-              "plate again.", "",
-              "Sources:", ""]
+              "plate again.", ""]
+    study = sorted((r for r in results if r["rung"] == "taylor-6061-373-rate"),
+                   key=lambda r: r["C"])
+    ref = REFERENCES["taylor-6061-373"]
+    if study:
+        lines += [f"**How far the rate constant moves the Taylor bar.** Fish et al.'s rise of "
+                  f"the flow stress from 0.001 to 2500 1/s at a plastic strain of 0.17 asks for "
+                  f"C = {fit_rate_constant():.4f}. The 6061-T6 bar at 373 m/s (anp, h = 1 mm, "
+                  "the library's set with only C changed):", "",
+                  "| C | steps | wall s | length [mm] | error | foot [mm] | error | damaged | "
+                  "energy balance |", "|---|---|---|---|---|---|---|---|---|"]
+        for r in study:
+            el = 100 * (r["length_mm"] - ref["length_mm"]) / ref["length_mm"]
+            ef = 100 * (r["foot_diameter_mm"] - ref["foot_mm"]) / ref["foot_mm"]
+            lines.append(f"| {r['C']:g} | {r['steps']:,} | {r['wall_s']:.0f} | "
+                         f"{r['length_mm']:.2f} | {el:+.1f} % | {r['foot_diameter_mm']:.2f} | "
+                         f"{ef:+.1f} % | {r['damaged']} | {r['energy_balance_error']:+.1e} |")
+        if len(study) == 2:
+            a, b = study
+            dl = 100 * (b["length_mm"] - a["length_mm"]) / ref["length_mm"]
+            df = 100 * (b["foot_diameter_mm"] - a["foot_diameter_mm"]) / ref["foot_mm"]
+            lines += ["", f"The measured rate sensitivity moves the length by {dl:+.1f} % and "
+                      f"the foot by {df:+.1f} % of the measured values: the constants alone "
+                      "span the length's error on either side, so within this set's "
+                      "uncertainty the length is not a measure of the solver. The foot "
+                      "narrows as the length grows; a set fitted to all the curves (it would "
+                      "also lower A, 2-8 % high quasi-statically) is needed before either "
+                      "number can say more.", ""]
+    lines += ["Sources:", ""]
     for ref, (_r, _t, _p, src) in FLOW_REFERENCES.items():
         lines.append(f"- {ref}: {src}.")
     lines.append("")
@@ -600,6 +684,9 @@ def run_all(rungs=None) -> list[dict]:
     if wanted("flow-6061"):
         for r in run_flow_curves():
             add(r)
+    if wanted("taylor-6061-373-rate"):
+        for C in TAYLOR_RATE_C:
+            add(run_taylor_rate_study(C))
     for hs, hp in PERFORATION_MESHES:
         for speed in PERFORATION_SPEEDS:
             if wanted(f"perforation-{speed:.0f}"):
@@ -1028,8 +1115,11 @@ def report(results: list[dict]) -> str:
               "against strain rate for 6061-T6, 2024 or the steels, with values we could "
               "cite: not found in our sources. The aluminium spall time is calibrated to the "
               "plate's pull-back (above), the steels' is still the choice of docs/fracture.md.",
-              "- Plate-impact free-surface velocity (VISAR) records of aluminium with their "
-              "pull-back velocities: not found.",
+              "- Plate-impact free-surface velocity (VISAR) records of 6061-T6, 2024 or OFHC "
+              "copper with their pull-back velocities and spall signal timing, to lay the "
+              "plate rung's free-surface history against: searched for again in session 9 "
+              "(stored pages, documentation, public code): only abstracts and reviews without "
+              "the records were found.",
               "- A perforation test with measured residual velocities (Piekutowski, Forrestal, "
               "Poormon & Warren 1996, ogive 4340 rods into 26.3 mm 6061-T651; Borvik et al. "
               "2002, Weldox 460E by blunt, hemispherical and conical projectiles; Jung, Lee & "

@@ -1,10 +1,12 @@
-"""The cheap rung of the validation ladder (docs/validation.md, `make validate`): the bundled
+"""The cheap rungs of the validation ladder (docs/validation.md, `make validate`): the bundled
 OFHC copper Taylor bar (190 m/s) on a coarse mesh, with the default element (anp for this
 plastic material), against the ladder's stored result at its finer mesh
 (benchmarks/validation_reference.json). The coarse bar is within 0.2 % of the converged length
 and 2 % of the converged foot diameter (docs/accuracy.md, taylor-mesh); the tolerances leave
 room for the scatter of unstructured meshes but not for a change of the physics (the tet4 foot
-is 12-17 % narrow, a change of the rate or thermal law moves the length by per cents)."""
+is 12-17 % narrow, a change of the rate or thermal law moves the length by per cents). Also
+the 42CrMo4 bar against two other codes and the perforation sweep's coarse 1000 m/s point
+against its stored residual speed (each test says what it checks)."""
 
 import json
 from pathlib import Path
