@@ -453,27 +453,16 @@ def _load_block(x, v, conn, sdev, pressure, energy, vol, vol_eos, vol0, elem_mas
 
 @numba.njit(cache=True, inline="always")
 def _copy_in(src, buf, row):
-    """buf row `row` = src (a view of B lanes). Four lanes are loaded before they are stored:
-    LLVM cannot tell that src and buf do not overlap, and would not move a load above the
-    previous lane's store, so a plain loop compiled to one scalar load and store per lane."""
-    for i in range(0, B, 4):
-        a, b, c, d = src[i], src[i + 1], src[i + 2], src[i + 3]
-        buf[row * B + i] = a
-        buf[row * B + i + 1] = b
-        buf[row * B + i + 2] = c
-        buf[row * B + i + 3] = d
+    """buf row `row` = src (a view of B lanes)."""
+    for i in range(B):
+        buf[row * B + i] = src[i]
 
 
 @numba.njit(cache=True, inline="always")
 def _copy_out(buf, row, dst):
-    """dst (a view of B lanes) = buf row `row` (four lanes at a time, see `_copy_in`)."""
-    for i in range(0, B, 4):
-        a, b, c, d = (buf[row * B + i], buf[row * B + i + 1], buf[row * B + i + 2],
-                      buf[row * B + i + 3])
-        dst[i] = a
-        dst[i + 1] = b
-        dst[i + 2] = c
-        dst[i + 3] = d
+    """dst (a view of B lanes) = buf row `row`."""
+    for i in range(B):
+        dst[i] = buf[row * B + i]
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
