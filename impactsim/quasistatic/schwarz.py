@@ -23,6 +23,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg
 import scipy.sparse as sp
 
 from impactsim.quasistatic import friction
@@ -38,7 +39,7 @@ ENTER_FRACTION = 0.1  # penetrating nodes enter within this fraction of the pene
 RELEASE = 1e-3  # a node is released when its (smoothed) pressure is below -RELEASE p_max
 
 
-ROTATIONS = False  # bodies with no other closed kinematic contact could turn: tried, diverges
+ROTATIONS = True  # all six rigid modes on the anchor tree (session 9: 50 pellets converge)
 
 
 class NotConverged(Exception):
@@ -126,10 +127,66 @@ def _rigid_rows(points: np.ndarray, normals: np.ndarray, centre: np.ndarray) -> 
     return np.hstack([normals, np.cross(r, normals)])
 
 
-def _to_origin(motion: np.ndarray, centre: np.ndarray) -> np.ndarray:
-    """A small rigid motion (t, theta) about `centre` as one about the origin."""
-    t, th = motion[:3], motion[3:]
-    return np.concatenate([t - np.cross(th, centre), th])
+def _cached(itf: Interface, name: str, key, build):
+    """A per-interface operator that depends only on the active set (and a flag): computed
+    once per active set instead of at every iteration (the per-body least-squares fits were
+    a quarter of the coordinator's time per iteration)."""
+    cache = itf.__dict__.setdefault("_coarse_cache", {})
+    hit = cache.get(name)
+    if hit is None or hit[0] != key:
+        hit = (key, build())
+        cache[name] = hit
+    return hit[1]
+
+
+def _origin_rows(itf: Interface) -> np.ndarray:
+    """(n, 6): n_m . (t + theta x x_m) at the interface's points, (t, theta) about the origin."""
+    cache = itf.__dict__.setdefault("_coarse_cache", {})
+    if "origin" not in cache:
+        cache["origin"] = np.hstack([itf.normals, np.cross(itf.points, itf.normals)])
+    return cache["origin"]
+
+
+def _fit_motion(itf: Interface, act: np.ndarray, rotations: bool) -> np.ndarray:
+    """(6, n_active): the least-squares rigid motion (about the origin) whose normal
+    displacement at the active nodes fits a given one; translations only unless `rotations`."""
+    def build():
+        x, n = itf.points[act], itf.normals[act]
+        centre = x.mean(axis=0)
+        A = _rigid_rows(x, n, centre)
+        scale = np.sqrt((np.linalg.norm(x - centre, axis=1) ** 2).mean()) or 1.0
+        A[:, 3:] /= scale
+        if not rotations:
+            A[:, 3:] = 0.0
+        P = np.linalg.pinv(A, rcond=1e-8)  # (6, n): the minimum-norm least-squares fit
+        P[3:] /= scale
+        T = np.eye(6)  # about the centre -> about the origin: t - theta x centre
+        T[:3, 3:] = np.array([[0, -centre[2], centre[1]], [centre[2], 0, -centre[0]],
+                               [-centre[1], centre[0], 0]])
+        return T @ P
+    return _cached(itf, "motion", (act.tobytes(), rotations), build)
+
+
+def _fit_pressure(itf: Interface, act: np.ndarray, rotations: bool) -> np.ndarray:
+    """(n_active, 6): the pressure increment on the active nodes (uniform, or linear with
+    `rotations`) whose force and moment on B (about the origin) fit a given (6,) resultant
+    in least squares."""
+    def build():
+        x = itf.points[act]
+        centre = x.mean(axis=0)
+        scale = np.sqrt((np.linalg.norm(x - centre, axis=1) ** 2).mean()) or 1.0
+        phi = np.hstack([np.ones((len(x), 1)), (x - centre) / scale])
+        R = itf.resultant[:, act]
+        W = R @ phi
+        W[3:] = (W[3:] - np.cross(centre, W[:3].T).T) / scale
+        T = np.eye(6)  # t = T D: the moment about the centre, scaled
+        T[3:, :3] = -np.array([[0, -centre[2], centre[1]], [centre[2], 0, -centre[0]],
+                               [-centre[1], centre[0], 0]])
+        T[3:] /= scale
+        if not rotations:
+            W, T, phi = W[:3, :1], T[:3], phi[:, :1]
+        return phi @ np.linalg.pinv(W, rcond=1e-8) @ T
+    return _cached(itf, "pressure", (act.tobytes(), rotations), build)
 
 
 def _coarse_shifts(interfaces, residuals, active, omega, tree=None) -> dict:
@@ -152,23 +209,14 @@ def _coarse_shifts(interfaces, residuals, active, omega, tree=None) -> dict:
     for body in reversed(order):  # supports first
         c = parent[body]
         itf, act = interfaces[c], active[c]
-        x, n = itf.points[act], itf.normals[act]
-        centre = x.mean(axis=0)
-        A = _rigid_rows(x, n, centre)
-        scale = np.sqrt((np.linalg.norm(x - centre, axis=1) ** 2).mean()) or 1.0
-        A[:, 3:] /= scale
-        if not (ROTATIONS and body in alone):
-            A[:, 3:] = 0.0  # translations only (see the docstring)
         rhs = omega[c] * residuals[c][act]
         support = shift.get(itf.b)
         if support is not None:
             # the support's motion as the anchor passes it on: only what moves the contact
             # along its normal (a tilt, the normal translation); a frictionless face passes
             # no sideways translation, so the lever arm of a tilt is not passed up the column
-            rhs = rhs + n @ support[:3] + np.einsum("ij,ij->i", n, np.cross(support[3:], x))
-        m = np.linalg.lstsq(A, rhs, rcond=1e-8)[0]
-        m[3:] /= scale
-        shift[body] = _to_origin(m, centre)
+            rhs = rhs + _origin_rows(itf)[act] @ support
+        shift[body] = _fit_motion(itf, act, ROTATIONS and body in alone) @ rhs
     return shift
 
 
@@ -202,21 +250,8 @@ def _coarse_forces(interfaces, p_old, p_new, active, tree=None) -> dict:
             if c in dp:
                 D += R @ dp[c]
         c = parent[body]
-        itf, act = interfaces[c], active[c]
-        x = itf.points[act]
-        centre = x.mean(axis=0)
-        scale = np.sqrt((np.linalg.norm(x - centre, axis=1) ** 2).mean()) or 1.0
-        phi = np.hstack([np.ones((len(x), 1)), (x - centre) / scale])
-        R = itf.resultant[:, act]
-        W = R @ phi
-        W[3:] = (W[3:] - np.cross(centre, W[:3].T).T) / scale
-        t = D.copy()
-        t[3:] = (t[3:] - np.cross(centre, t[:3])) / scale
-        if not ROTATIONS:
-            W, t, phi = W[:3, :1], t[:3], phi[:, :1]
-        q = np.linalg.lstsq(W, t, rcond=1e-8)[0]
-        d = np.zeros(len(act))
-        d[act] = phi @ q
+        d = np.zeros(len(active[c]))
+        d[active[c]] = _fit_pressure(interfaces[c], active[c], ROTATIONS) @ D
         dp[c] = d
     return dp
 
@@ -231,8 +266,9 @@ class Anderson:
     alpha) converge in a few dozen iterations instead of thousands. Restarted when an active
     or stick/slip set changes (the map changes)."""
 
-    def __init__(self, depth: int):
+    def __init__(self, depth: int, robin: list | None = None):
         self.depth = depth
+        self.robin = robin or []
         self.reset()
 
     def reset(self):
@@ -240,16 +276,36 @@ class Anderson:
         self.f = self.gx = None
         self.dF, self.dG = [], []
 
+    def _parts(self, state):
+        """(arrays, index, mask, scale kind) of the packed values: every interface's g and p
+        on its active nodes, t_B and p_B on the active nodes of Robin interfaces (elsewhere
+        they are unused or inactive: packing them made the least-squares fit four times
+        longer for nothing; within one restart the active sets do not change)."""
+        parts = []
+        for c, act in enumerate(state.active):
+            if not act.any():
+                continue
+            parts += [(state.g, c, act, 0), (state.p, c, act, 1)]
+            if self.robin[c]:
+                parts += [(state.tb, c, act, 0), (state.pb, c, act, 1)]
+        return parts
+
     def _pack(self, state, us, ps):
-        return np.concatenate([v / us for v in state.g] + [v / ps for v in state.p] +
-                              [v / us for v in state.tb] + [v / ps for v in state.pb])
+        scale = (us, ps)
+        parts = self._parts(state)
+        if not parts:
+            return np.zeros(0)
+        return np.concatenate([arrays[c][act] / scale[k] for arrays, c, act, k in parts])
 
     def _unpack(self, state, x, us, ps):
-        k = 0
-        for arrays, s in ((state.g, us), (state.p, ps), (state.tb, us), (state.pb, ps)):
-            for i, v in enumerate(arrays):
-                arrays[i] = x[k:k + len(v)] * s
-                k += len(v)
+        scale = (us, ps)
+        i = 0
+        for arrays, c, act, k in self._parts(state):
+            n = int(act.sum())
+            v = arrays[c].copy()
+            v[act] = x[i:i + n] * scale[k]
+            arrays[c] = v
+            i += n
 
     def step(self, state, changed: bool, us: float, ps: float) -> None:
         if changed:
@@ -273,7 +329,10 @@ class Anderson:
         x = gx
         if self.dF:
             F = np.array(self.dF).T
-            gamma = np.linalg.lstsq(F, f, rcond=1e-10)[0]
+            # QR with pivoting (gelsy): numpy's SVD-based lstsq took 57 ms per iteration on
+            # the 50-pellet stack, a third of the coordinator's time
+            gamma = scipy.linalg.lstsq(F, f, cond=1e-10, lapack_driver="gelsy",
+                                       check_finite=False)[0]
             x = gx - np.array(self.dG).T @ gamma
         self.x = x
         self._unpack(state, x, self.us, self.ps)
@@ -283,7 +342,7 @@ def _predicted(itf: Interface, m) -> np.ndarray | float:
     """n . u at the interface's points of the rigid motion m (t, theta) of the coarse step."""
     if m is None:
         return 0.0
-    return itf.normals @ m[:3] + np.einsum("ij,ij->i", itf.normals, np.cross(m[3:], itf.points))
+    return _origin_rows(itf) @ m
 
 
 def initial_state(interfaces: list[Interface]) -> ContactState:
@@ -334,7 +393,7 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
     om = np.full(n_b, omega)  # per interface (one value today)
     r_old = None
     last_change = 0
-    accel = Anderson(settings.anderson)
+    accel = Anderson(settings.anderson, [itf.robin > 0 for itf in interfaces])
     result = {"iterations": 0, "gap_residual": np.inf, "pressure_residual": np.inf}
     for it in range(1, settings.max_iterations + 1):
         inputs: dict = {}
