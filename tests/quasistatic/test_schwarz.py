@@ -126,21 +126,18 @@ def test_one_two_and_four_workers_give_the_same_answer():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("bodies, tighter, most", [
-    (10, "", 60),
-    (20, "quasistatic.gap_tolerance=1e-5;quasistatic.pressure_tolerance=1e-4", 150)])
-def test_pellet_stack_schwarz_equals_the_monolithic_solve(bodies, tighter, most, monkeypatch):
+@pytest.mark.parametrize("bodies, most", [(10, 60), (20, 160)])
+def test_pellet_stack_schwarz_equals_the_monolithic_solve(bodies, most):
     # 9 and 19 pellets in their tube (cases/pellet-stack.toml cut to 10 and 20 bodies): the
     # monolithic solve's springs pulled the pellets to their previous iterate sideways where
     # the iteration's centering springs pull them to the axis: 2.9e-3 apart along the column.
     # Session 9 (the column's tilt passed up the anchor tree in one iteration, Anderson(30)):
-    # 20 bodies stop after 24 iterations at the case's tolerances but 5.0e-2 from the
-    # monolithic answer (the stopping rule sees residuals; a slow mode's error is the residual
-    # over 1 - its contraction): 1e-5 / 1e-4 give 8.4e-4 in 115 iterations, 1e-6 / 1e-5 5.3e-5
-    # in 152 (docs/quasistatic.md, Known limits)
+    # 20 bodies stopped after 24 iterations 5.0e-2 from the monolithic answer, the column
+    # still creeping up against its weak springs with compatible faces and steady pressures;
+    # the stopping rule now also waits for the bodies to stop (the motion residual): 123
+    # iterations, 1.9e-4. `most` fails if the coarse rotations are lost (271 without them)
     from benchmarks.bench_quasistatic import run as bench_run, prepare
 
-    monkeypatch.setenv("QS_SET", tighter)
     prob, setup, _, _ = prepare(bodies)
     row = bench_run(prob, setup, 0, monolithic=True)
     assert row["converged"]
