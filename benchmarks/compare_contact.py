@@ -64,6 +64,8 @@ def build(h: float, old=None, old_skin=False):
                 p.skin.skin_rel = 0.0
             p._sweep = (_old_sweep(p, old[0]) if p.name == "contact.edge-edge"
                         else _old_nf_sweep(p, old[1]))
+            if not hasattr(old[0], "far_apart"):  # sweeps that know no pairs skipped from the
+                p._far_apart = lambda *args: None  # start (edgeedge.far_apart): none
         p.run = _timed(p.run, cpu, p.name)
     return sim, model, contact, cpu
 

@@ -8,7 +8,11 @@ two kernels are then called alternately on fresh copies of their frozen states, 
 prints the minimum CPU ns per hex of each over `--rounds` calls and their ratio.
 
     python benchmarks/hex_ab.py REV [--hourglass viscous|stiffness] [--rounds 15] [--warm 30]
-        [--swap] [--scalar]
+        [--swap] [--scalar] [--cold]
+
+`--cold` evicts the caches before every call (writes a 256 MB array): the element state then
+comes from memory, as in a step of the time loop (where the kernel runs ~10-20 ns per hex
+slower than on the state just copied, which the caches still hold).
 
 The version built first comes out about 2-3 % slower: REV against an identical working tree
 gave ratios of 1.006-1.071 (median 1.022) over six runs. `--swap` builds the working tree
@@ -25,6 +29,7 @@ import time
 from pathlib import Path
 
 import numba
+import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import compare  # noqa: E402
@@ -65,6 +70,8 @@ def main(argv=None) -> dict:
     ap.add_argument("--swap", action="store_true", help="build the working tree's scene first")
     ap.add_argument("--scalar", action="store_true",
                     help="every hex marked damaged: the scalar path alone")
+    ap.add_argument("--cold", action="store_true",
+                    help="evict the caches before every call (the state from memory)")
     args = ap.parse_args(argv)
     sys.path.insert(0, compare.export(args.rev))
     sys.path.insert(0, str(compare.ROOT))
@@ -74,15 +81,19 @@ def main(argv=None) -> dict:
              for label, pkg in (order[::-1] if args.swap else order)}
     runs = {label: built[label] for label, _ in order}
     best = {label: math.inf for label in runs}
+    junk = np.zeros(32 << 20) if args.cold else None
     for _ in range(args.rounds):
         for label, (call, state, n) in runs.items():
             a = {k: v.copy() for k, v in state.items()}
+            if junk is not None:
+                junk += 1.0
             t0 = time.process_time()
             call(a)
             best[label] = min(best[label], 1e9 * (time.process_time() - t0) / n)
     print(f"hex kernel alone, {args.hourglass} hourglass, one thread, state after {args.warm} "
           f"steps: min CPU ns per hex of {args.rounds} calls"
-          + (" (working tree built first)" if args.swap else ""))
+          + (" (working tree built first)" if args.swap else "")
+          + (", caches evicted before each call" if args.cold else ""))
     for label, t in best.items():
         print(f"  {label:>14}: {t:7.1f}")
     a, b = best.values()

@@ -36,7 +36,7 @@ from impactsim.solver import hex8_block as HB  # noqa: E402
 
 # the digest of hex8_block.py (scripts/gen_hex8_block.py), so that numba recompiles `_parts`
 # when the block functions it compiles in change (its cache is keyed by this file alone)
-BLOCK_SOURCE = "453b35b10f543cb6"
+BLOCK_SOURCE = "e61240c045f29674"
 STATE = ["sdev", "pressure", "q", "eps_p", "eps_rate", "temperature", "energy", "vol", "hg"]
 
 
@@ -100,7 +100,7 @@ def _parts(level, x, v, conn, rows, sdev, pressure, q, eps_p, eps_rate, temperat
         if level >= 3:
             HB.forces_block(buf, dt, int(mat_params[mk, P.EOS]), mat_params[mk, P.RHO0],
                             bulk, mat_params[mk, P.C0], mat_params[mk, P.S],
-                            mat_params[mk, P.GAMMA0], shear, 1.2, 0.06)
+                            mat_params[mk, P.GAMMA0], shear, 1.2, 0.06, stiff)
         if level >= 4:
             r = HB.store_block(rows, sdev, pressure, q, eps_rate, energy, vol, hg, fext, e0,
                                buf, stiff)

@@ -310,6 +310,350 @@ def run_sphere_plate(ductile: bool) -> dict:
             "stopped": s["stopped"]}
 
 
+
+# A normal-incidence perforation swept over the striking speed (residual velocity against
+# striking velocity, the curve a ballistic test reports): the [R20] sphere and plate of
+# cases/oblique-sphere.toml (52100 sphere 12.7 mm, 2024-T3 plate 4.9 mm) hit square on, with the
+# ductile criterion on (a perforation scene asks for it: docs/fracture.md) and the default
+# spall. No measured residual velocities for this pairing are on record here (the ladder's "Not
+# on the ladder" list names what was searched for), so the rung reports the simulated curve, a
+# Recht-Ipson fit of it (V_r = a (V_s^p - V_bl^p)^(1/p), p = 2) and its mesh dependence: the
+# place where a measured series, once found, goes into PERFORATION_REFERENCE.
+PERFORATION_SPEEDS = (300.0, 400.0, 600.0, 1000.0)  # m/s
+PERFORATION_MESHES = ((1.8, 1.4), (1.2, 1.0))  # (sphere, plate) mesh sizes [mm]
+PERFORATION_REFERENCE: dict = {}  # striking speed [m/s] -> measured residual speed [m/s]
+
+PERFORATION = """
+[run]
+name = "perforation-{speed:.0f}"
+end_time = "{end} us"
+cfl = 0.6
+element = "tet4"
+
+[[body]]
+name = "plate"
+material = "al-2024-t3"
+shape = "plate"
+size = ["40 mm", "40 mm", "4.9 mm"]
+position = ["0 mm", "0 mm", "-2.45 mm"]
+mesh_size = "{hp} mm"
+mesher = "structured"
+
+# clamped outside a 38 mm circle (the 40 mm square's edges and corners), as a test fixture
+# holds a target: below the ballistic limit the sphere stops instead of pushing a free plate
+[[body.constraint]]
+nodes = {{ outside_radius = "19 mm" }}
+fixed = true
+
+[[body]]
+name = "sphere"
+material = "steel-52100"
+shape = "sphere"
+diameter = "12.7 mm"
+position = ["0 mm", "0 mm", "6.55 mm"]
+mesh_size = "{hs} mm"
+speed = "{speed} m/s"
+direction = [0, 0, -1]
+
+[contact]
+passes = ["node-face", "edge-edge"]
+
+[fracture]
+ductile_criterion = "johnson-cook"
+particles_per_element = 1
+
+[output]
+frames = 1
+"""
+
+
+def run_perforation_sweep(speed: float, hs: float, hp: float) -> dict:
+    """One striking speed of the normal-incidence perforation (PERFORATION): the sphere's
+    residual velocity along the normal after it has cleared the plate (negative: it rebounds;
+    near zero: it is stuck in the plate)."""
+    from impactsim.case import load_case_text
+    from impactsim.solver.run import run_case
+
+    # long enough for the sphere's trailing side to clear the plate's rear face with margin
+    end = round(1e6 * 3 * (12.7e-3 + 4.9e-3) / speed + 10.0)
+    case = load_case_text(PERFORATION.format(speed=speed, end=end, hs=hs, hp=hp))
+    out = OUT / f"perforation-{speed:.0f}-{hp}"
+    t0 = time.perf_counter()
+    s = run_case(case, out, progress=False)
+    wall = time.perf_counter() - t0
+    b, f = s["bodies"], s["fracture"] or {}
+    v = b["sphere"]["residual_velocity"]
+    return {"rung": f"perforation-{speed:.0f}", "element": "tet4", "h_mm": hp, "h_sphere_mm": hs,
+            "striking_speed": speed, "end_us": end, "elements": s["elements"],
+            "steps": s["steps"], "wall_s": wall, "residual_speed": float(-v[2]),
+            "hole_diameter_mm": 1e3 * b["plate"].get("hole", {}).get("diameter_equivalent", 0.0),
+            "damaged": f.get("damaged_total", 0), "ductile": f.get("damaged_ductile", 0),
+            "particles": s["particles"], "energy_balance_error": s["energy_balance_error"],
+            "stopped": s["stopped"]}
+
+
+def recht_ipson(vs: np.ndarray, vr: np.ndarray) -> tuple[float, float]:
+    """Least-squares fit of V_r = a sqrt(V_s^2 - V_bl^2) (Recht & Ipson 1963, p = 2) to the
+    perforating points (V_r > 0), in V_r itself: for each trial V_bl below the slowest of them
+    the best a is linear, so V_bl is found on a fine grid. Returns (a, V_bl) [m/s]."""
+    ok = vr > 0
+    vs, vr = vs[ok], vr[ok]
+    best = (np.inf, 0.0, 0.0)
+    for vbl in np.linspace(0.0, vs.min(), 4001)[:-1]:
+        f = np.sqrt(vs ** 2 - vbl ** 2)
+        a = float(f @ vr / (f @ f))
+        sse = float(np.sum((a * f - vr) ** 2))
+        if sse < best[0]:
+            best = (sse, a, float(vbl))
+    return best[1], best[2]
+
+
+def perforation_sweep_report(results: list[dict]) -> list[str]:
+    rows = [r for r in results if r["rung"].startswith("perforation-")
+            and "striking_speed" in r]
+    if not rows:
+        return []
+    lines = ["## Perforation: residual velocity against striking velocity", "",
+             "The [R20] sphere and plate (52100 sphere 12.7 mm, 8.4 g; 2024-T3 plate 4.9 mm, "
+             "40 x 40 mm, clamped outside a 38 mm circle) hit square on at "
+             + ", ".join(f"{v:.0f}" for v in PERFORATION_SPEEDS)
+             + " m/s, tet4 (contact scene), the default spall criterion and the ductile "
+             "criterion on (`ductile_criterion = \"johnson-cook\"`, the library's 2024 "
+             "D1..D5), at two meshes. `residual` is the sphere's velocity along the normal at "
+             "the end (it has cleared the plate's rear face, or stopped in it); the Recht-Ipson "
+             "fit V_r = a "
+             "sqrt(V_s^2 - V_bl^2) through each mesh's perforating points gives the simulated "
+             "ballistic limit V_bl. No measured series for this pairing is on record here "
+             "(below), so there is no error column: the rung gives the curve a measurement "
+             "would be laid against, and its mesh dependence.", "",
+             "| V_s [m/s] | sphere / plate h [mm] | elements | steps | wall s | residual "
+             "[m/s] | V_r / V_s | hole [mm] | damaged (ductile) | particles | energy balance |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in sorted(rows, key=lambda r: (-r["h_mm"], r["striking_speed"])):
+        lines.append(f"| {r['striking_speed']:.0f} | {r['h_sphere_mm']} / {r['h_mm']} | "
+                     f"{r['elements']:,} | {r['steps']:,} | {r['wall_s']:.0f} | "
+                     f"{r['residual_speed']:.0f} | {r['residual_speed'] / r['striking_speed']:.3f}"
+                     f" | {r['hole_diameter_mm']:.1f} | {r['damaged']:,} ({r['ductile']:,}) | "
+                     f"{r['particles']:,} | {r['energy_balance_error']:+.1e} |")
+    lines.append("")
+    fits = []
+    for hp in sorted({r["h_mm"] for r in rows}, reverse=True):
+        rs = sorted((r for r in rows if r["h_mm"] == hp), key=lambda r: r["striking_speed"])
+        vs = np.array([r["striking_speed"] for r in rs])
+        vr = np.array([r["residual_speed"] for r in rs])
+        if np.count_nonzero(vr > 0) >= 2:
+            a, vbl = recht_ipson(vs, vr)
+            fits.append((a, vbl))
+            lines.append(f"- plate h = {hp} mm: Recht-Ipson fit a = {a:.3f}, "
+                         f"V_bl = {vbl:.0f} m/s ({np.count_nonzero(vr > 0)} perforating points).")
+    from impactsim.case.material import library_material
+
+    r_s, t = 6.35e-3, 4.9e-3
+    m_s = library_material("steel-52100").density * 4.0 / 3.0 * math.pi * r_s ** 3
+    m_plug = library_material("al-2024-t3").density * math.pi * r_s ** 2 * t
+    a_plug = m_s / (m_s + m_plug)
+    by_speed: dict = {}
+    for r in rows:
+        by_speed.setdefault(r["striking_speed"], []).append(r["residual_speed"])
+    spread = [(sp, v) for sp, v in sorted(by_speed.items()) if len(v) == 2]
+    if len(fits) < 2 or not spread:
+        return lines
+    dvbl = 100 * abs(fits[1][1] - fits[0][1]) / fits[0][1]
+    da = [100 * (a / a_plug - 1) for a, _v in fits]
+    lines += ["", "**Reading.** The refinement (2.4 times the elements) moves the residual "
+              "speed by " + ", ".join(
+                  f"{100 * abs(v[1] - v[0]) / v[0]:.1f} % at {sp:.0f}" if v[0] > 0.2 * sp
+                  else f"{v[0]:.0f} -> {v[1]:.0f} m/s at {sp:.0f}" for sp, v in spread)
+              + f" m/s and the fitted ballistic limit by {dvbl:.1f} %, while the number of "
+              "cells the "
+              "ductile criterion damages doubles: the local damage law localises (docs/"
+              "fracture.md), but where the sphere clearly perforates its exit speed is carried by "
+              "the momentum and work of the plug and the plate and moves by a few per cent; "
+              "near the ballistic limit (the lowest speed) V_r is steep in V_s and differs by "
+              "tens of m/s. One check needs "
+              f"no measurement: Recht and Ipson's plugging model gives a = m_s / (m_s + m_plug) "
+              f"= {a_plug:.3f} (sphere {1e3 * m_s:.2f} g, a plug of the sphere's diameter "
+              f"through the plate {1e3 * m_plug:.2f} g); the fitted a is "
+              f"{min(da):.0f}-{max(da):.0f} % above it, close to the plugging picture (above "
+              "it, a little less than a full plug of the sphere's cross-section rides with "
+              "the sphere). The "
+              "support matters as much as the mesh: with the plate's edges free (session 9's "
+              "first sweep, coarse mesh) the residual speeds at 400 / 600 / 1000 m/s read 210 "
+              "/ 431 / 824 m/s, 6 / 5 / 0.6 % above the clamped plate's, and below the "
+              "ballistic limit a free plate carries the stuck sphere away. Against "
+              "an experiment, this rung has nothing yet: that is the missing piece of issue "
+              "17's perforation item.", ""]
+    return lines
+
+
+
+# The library's 6061-T6 Johnson-Cook strength against measured flow curves (no FE run): true
+# stress at given plastic strains, as processed from the papers' figures in B. Banerjee's
+# collection (github.com/bbanerjee/HighRateExptData, 6061T6AlData/SigEpsEp*.dat.raw: columns P,
+# T, strain rate, strain, plastic strain, stress [MPa]; the plastic strain is the strain less
+# stress / E). A few points of each curve, read from those files.
+FLOW_BANERJEE = ("as digitised and processed in B. Banerjee's collection "
+                 "(github.com/bbanerjee/HighRateExptData, 6061T6AlData/{f})")
+FLOW_REFERENCES = {
+    # name: (strain rate [1/s], test temperature [K], [(plastic strain, stress MPa)], source)
+    "Fish 0.001/s": (1e-3, 295.0, [(0.020, 316.0), (0.170, 366.1)],
+                     "Fish, Oskay, Fan & Barsoum (2005), Al 6061-T6-Elastomer Impact "
+                     "Simulations, RPI SCOREC report 2005-11 (quasi-static), " + FLOW_BANERJEE.format(
+                         f="SigEpsEp0001s295KFis.dat.raw")),
+    "Fish 2500/s": (2500.0, 295.0, [(0.020, 365.1), (0.169, 437.4)],
+                    "Fish et al. (2005) (Hopkinson bar), " + FLOW_BANERJEE.format(
+                        f="SigEpsEp2500s295KFis.dat.raw")),
+    "Lee 1000/s": (1000.0, 298.0, [(0.052, 376.9), (0.150, 398.9), (0.244, 408.5)],
+                   "Lee, Shyu & Chiou (2000), Scripta Mater. 42:51, " + FLOW_BANERJEE.format(
+                       f="SigEpsEp1000s298KLee.dat.raw")),
+    "Lee 4000/s": (4000.0, 298.0, [(0.058, 406.2), (0.145, 423.8), (0.229, 432.8)],
+                   "Lee, Shyu & Chiou (2000), " + FLOW_BANERJEE.format(
+                       f="SigEpsEp4000s298KLee.dat.raw")),
+    "Lesuer 4000/s": (4000.0, 298.0, [(0.049, 364.0), (0.112, 403.0), (0.262, 419.0),
+                                      (0.412, 432.1)],
+                      "Lesuer, Kay & LeBlanc (1999/2001), UCRL-JC-134118, "
+                      + FLOW_BANERJEE.format(f="SigEpsEp4000s298KLes.dat.raw")),
+}
+
+
+def jc_flow_curve(material, rate: float, t0: float, eps: np.ndarray) -> np.ndarray:
+    """The Johnson-Cook flow stress of a library Material at a constant plastic strain rate,
+    from the test temperature t0, along the plastic strains eps (increasing): adiabatic (the
+    Taylor-Quinney share of the plastic work heats the specimen) above 10 1/s, isothermal
+    below, as a Hopkinson-bar and a quasi-static test are. Stress in Pa."""
+    st = material.strength
+    n = 2000
+    grid = np.linspace(0.0, float(eps.max()), n)
+    t = t0
+    out = np.empty(n)
+    rf = 1.0 + st.C * math.log(max(rate / st.strain_rate_ref, 1e-30))
+    for i, e in enumerate(grid):
+        ts = min(max((t - st.room_temperature) / (st.melt_temperature - st.room_temperature),
+                     0.0), 1.0)
+        out[i] = (st.A + st.B * e ** st.n) * rf * (1.0 - ts ** st.m)
+        if rate > 10.0 and i + 1 < n:
+            t += material.taylor_quinney * out[i] * (grid[i + 1] - e) / (
+                material.density * material.specific_heat)
+    return np.interp(eps, grid, out)
+
+
+def run_flow_curves(name: str = "al-6061-t6") -> list[dict]:
+    from impactsim.case.material import library_material
+
+    mat = library_material(name)
+    rows = []
+    for ref, (rate, t0, pts, _src) in FLOW_REFERENCES.items():
+        eps = np.array([p[0] for p in pts])
+        sim = jc_flow_curve(mat, rate, t0, eps) / 1e6
+        for (e, meas), s in zip(pts, sim):
+            rows.append({"rung": "flow-6061", "element": ref, "h_mm": e, "material": name,
+                         "strain_rate": rate, "plastic_strain": e, "measured_mpa": meas,
+                         "jc_mpa": float(s), "error": float((s - meas) / meas)})
+    return rows
+
+
+
+TAYLOR_RATE_C = (0.002, 0.012)  # the library's C, and the C the measured rate rise asks for
+
+
+def run_taylor_rate_study(C: float) -> dict:
+    """The 6061-T6 Taylor bar (373 m/s, anp, h = 1 mm) with the library's Johnson-Cook set but
+    the strain-rate constant C: how far the constants move the length and the foot."""
+    from impactsim.case import load_case_text
+    from impactsim.solver.run import run_case
+
+    text = TAYLOR.format(name="taylor-6061-rate", end=60.0, element="anp",
+                         material="al6061-rate", h=1.0, speed=373.0, length=23.47,
+                         centre=0.5 * 23.47 + 1e-4)
+    text += f"""
+[[material]]
+name = "al6061-rate"
+library = "al-6061-t6"
+strength = {{ model = "johnson-cook", A = "324 MPa", B = "114 MPa", n = 0.42, C = {C}, m = 1.34, melt_temperature = "925 K", room_temperature = "293 K", strain_rate_ref = "1 /s" }}
+"""
+    out = OUT / f"taylor-6061-rate-C{C}"
+    t0 = time.perf_counter()
+    s = run_case(load_case_text(text), out, progress=False)
+    res = {"rung": "taylor-6061-373-rate", "element": "anp", "h_mm": C, "C": C,
+           "wall_s": time.perf_counter() - t0, "steps": s["steps"],
+           "energy_balance_error": s["energy_balance_error"], "stopped": s["stopped"]}
+    res.update(taylor_measures(out))
+    f = s.get("fracture")
+    res["damaged"] = f["damaged_total"] if f else 0
+    return res
+
+
+def fit_rate_constant() -> float:
+    """The Johnson-Cook C that gives Fish et al.'s measured rise of the flow stress from 0.001
+    to 2500 1/s at a plastic strain of 0.17 (FLOW_REFERENCES), the strain-hardening and thermal
+    factors being equal at the two rates to first order."""
+    lo = FLOW_REFERENCES["Fish 0.001/s"][2][1][1]
+    hi = FLOW_REFERENCES["Fish 2500/s"][2][1][1]
+    r, l1, l2 = hi / lo, math.log(2500.0), math.log(1e-3)
+    return (r - 1.0) / (l1 - r * l2)
+
+
+def flow_report(results: list[dict]) -> list[str]:
+    rows = [r for r in results if r["rung"] == "flow-6061"]
+    if not rows:
+        return []
+    lines = ["## The 6061-T6 strength law against measured flow curves", "",
+             "The library's Johnson-Cook set for `al-6061-t6` (A = 324 MPa, B = 114 MPa, "
+             "n = 0.42, C = 0.002, m = 1.34; the 'Lesuer/Corbett' set) evaluated at the tests' "
+             "strain rates and temperatures (adiabatic heating above 10 1/s, the Taylor-Quinney "
+             "0.9), against the true stress the tests measured at the same plastic strain. "
+             "No FE run: this checks the constants, not the solver.", "",
+             "| test | strain rate [1/s] | plastic strain | measured [MPa] | Johnson-Cook "
+             "[MPa] | error |", "|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['element']} | {r['strain_rate']:g} | {r['plastic_strain']:.3f} | "
+                     f"{r['measured_mpa']:.0f} | {r['jc_mpa']:.0f} | {100 * r['error']:+.1f} % |")
+    quasi = [r["error"] for r in rows if r["strain_rate"] < 1]
+    fast = [r["error"] for r in rows if r["strain_rate"] >= 1000]
+    lines += ["", f"**Reading.** The set is {100 * np.mean(quasi):+.0f} % off at 0.001 1/s and "
+              f"{100 * min(fast):+.0f} to {100 * max(fast):+.0f} % off at 1,000-4,000 1/s: the "
+              "measured flow stress rises by about 15-20 % from quasi-static to Hopkinson-bar "
+              "rates, the set's C = 0.002 gives 3 %. The Taylor bar (above) flows at "
+              "10^3-10^4 1/s, where the set is too soft; a softer rod ends shorter, which is "
+              "the sign of the 6061-T6 bar's length error (-1.7 to -2.9 %). This is the "
+              "material-constants part of that error (the element and the mesh move the "
+              "length by about half a per cent). The entry is left as it is: a set fitted to "
+              "these rates would be the fix, to be checked against the Taylor bar and the "
+              "plate again.", ""]
+    study = sorted((r for r in results if r["rung"] == "taylor-6061-373-rate"),
+                   key=lambda r: r["C"])
+    ref = REFERENCES["taylor-6061-373"]
+    if study:
+        lines += [f"**How far the rate constant moves the Taylor bar.** Fish et al.'s rise of "
+                  f"the flow stress from 0.001 to 2500 1/s at a plastic strain of 0.17 asks for "
+                  f"C = {fit_rate_constant():.4f}. The 6061-T6 bar at 373 m/s (anp, h = 1 mm, "
+                  "the library's set with only C changed):", "",
+                  "| C | steps | wall s | length [mm] | error | foot [mm] | error | damaged | "
+                  "energy balance |", "|---|---|---|---|---|---|---|---|---|"]
+        for r in study:
+            el = 100 * (r["length_mm"] - ref["length_mm"]) / ref["length_mm"]
+            ef = 100 * (r["foot_diameter_mm"] - ref["foot_mm"]) / ref["foot_mm"]
+            lines.append(f"| {r['C']:g} | {r['steps']:,} | {r['wall_s']:.0f} | "
+                         f"{r['length_mm']:.2f} | {el:+.1f} % | {r['foot_diameter_mm']:.2f} | "
+                         f"{ef:+.1f} % | {r['damaged']} | {r['energy_balance_error']:+.1e} |")
+        if len(study) == 2:
+            a, b = study
+            dl = 100 * (b["length_mm"] - a["length_mm"]) / ref["length_mm"]
+            df = 100 * (b["foot_diameter_mm"] - a["foot_diameter_mm"]) / ref["foot_mm"]
+            lines += ["", f"The measured rate sensitivity moves the length by {dl:+.1f} % and "
+                      f"the foot by {df:+.1f} % of the measured values: the constants alone "
+                      "span the length's error on either side, so within this set's "
+                      "uncertainty the length is not a measure of the solver. The foot "
+                      "narrows as the length grows; a set fitted to all the curves (it would "
+                      "also lower A, 2-8 % high quasi-statically) is needed before either "
+                      "number can say more.", ""]
+    lines += ["Sources:", ""]
+    for ref, (_r, _t, _p, src) in FLOW_REFERENCES.items():
+        lines.append(f"- {ref}: {src}.")
+    lines.append("")
+    return lines
+
+
 def run_all(rungs=None) -> list[dict]:
     """Run the ladder, or with rungs (name prefixes) only those rungs, their results replacing
     the same rung, element and mesh size in out/validation/results.json."""
@@ -337,6 +681,16 @@ def run_all(rungs=None) -> list[dict]:
     if wanted("sphere-plate-2000"):
         add(run_sphere_plate(True))
         add(run_sphere_plate(False))
+    if wanted("flow-6061"):
+        for r in run_flow_curves():
+            add(r)
+    if wanted("taylor-6061-373-rate"):
+        for C in TAYLOR_RATE_C:
+            add(run_taylor_rate_study(C))
+    for hs, hp in PERFORATION_MESHES:
+        for speed in PERFORATION_SPEEDS:
+            if wanted(f"perforation-{speed:.0f}"):
+                add(run_perforation_sweep(speed, hs, hp))
     for formulation in CRMO_FORMULATIONS:
         for h in CRMO_SIZES:
             if wanted("taylor-42crmo4-287"):
@@ -635,6 +989,7 @@ def report(results: list[dict]) -> str:
     for k, v in REFERENCES.items():
         lines.append(f"- {k}: {v['source']}.")
     lines += ["", "![Taylor foot diameters](validation/taylor-foot.png)", ""]
+    lines += flow_report(results)
     lines += ["## Symmetric plate impact: free-surface velocity", "",
               "6061-T6 onto 6061-T6 at 500 m/s in uniaxial strain (flyer 2 mm, target 4 mm, "
               "h = 0.1 mm, spall strength 1.6 GPa, spall time and loosening 0.03 from the "
@@ -753,28 +1108,57 @@ def report(results: list[dict]) -> str:
                   "larger than the 1 % [R20] claim against their experiment. anp ran this "
                   "contact scene to its end here, but collapsed the step in two others "
                   "(docs/physics.md), so contact scenes keep tet4 by default."]
+    lines += [""] + perforation_sweep_report(results)
     lines += [""] + crmo_report(results)
     lines += ["", "## Not on the ladder (searched for, not found)", "",
               "- Published Tuler-Butcher constants (sigma_0, lambda, K) or spall strengths "
               "against strain rate for 6061-T6, 2024 or the steels, with values we could "
               "cite: not found in our sources. The aluminium spall time is calibrated to the "
               "plate's pull-back (above), the steels' is still the choice of docs/fracture.md.",
-              "- Plate-impact free-surface velocity (VISAR) records of aluminium with their "
-              "pull-back velocities: not found.",
-              "- A perforation test with measured residual velocities (Borvik et al.'s Weldox "
-              "plates, Piekutowski's aluminium plates, [R20]'s D16T plate): not found with "
-              "values; the perforation rungs check the outcome and the formulations.",
+              "- Plate-impact free-surface velocity (VISAR) records of 6061-T6, 2024 or OFHC "
+              "copper with their pull-back velocities and spall signal timing, to lay the "
+              "plate rung's free-surface history against: searched for again in session 9 "
+              "(stored pages, documentation, public code): only abstracts and reviews without "
+              "the records were found.",
+              "- A perforation test with measured residual velocities (Piekutowski, Forrestal, "
+              "Poormon & Warren 1996, ogive 4340 rods into 26.3 mm 6061-T651; Borvik et al. "
+              "2002, Weldox 460E by blunt, hemispherical and conical projectiles; Jung, Lee & "
+              "Hong 2019, 7075-T651; [R20]'s D16T plate): searched for in session 9 (the "
+              "stored web pages, documentation and public code, by title, authors and table "
+              "content), found only as titles and abstracts, never with the tabulated striking "
+              "and residual velocities. The perforation sweep (above) gives the simulated curve "
+              "and its Recht-Ipson fit; a measured series goes into PERFORATION_REFERENCE "
+              "(benchmarks/validate.py) when one is on record.",
+              "- The single-wall ballistic limit equation of hypervelocity shielding "
+              "(Cour-Palais 1987, Int. J. Impact Eng. 5:221; Christiansen, NASA TP-2003-210788) "
+              "was found, as transcribed in public code, but resolving its millimetre "
+              "projectiles at 6-7 km/s takes about 10^6 tets, beyond this machine's budget.",
+              "- Johnson & Cook's 1985 damage constants D1..D5 (OFHC copper, 4340, the 2024 "
+              "set) and Lesuer's 6061-T6 D1..D5: the library's values agree with the values "
+              "other public input files use, but no copy of the papers' tables was found, so "
+              "the entries keep their '(check)'.",
               "- The Taylor values above come from one transcription (Banerjee's collection) "
               "of the papers' tables and figures, not from the papers.", ""]
     return "\n".join(lines) + "\n"
 
 
 def store(results: list[dict]) -> None:
-    """The cheap rung's reference: the copper bar's anp result at the ladder's resolution."""
-    ref = next(r for r in results if r["rung"] == "taylor-cu-190" and r["element"] == "anp")
-    STORED.write_text(json.dumps({"taylor-cu-190-anp": {
-        "h_mm": ref["h_mm"], "length_mm": ref["length_mm"],
-        "foot_diameter_mm": ref["foot_diameter_mm"]}}, indent=1) + "\n")
+    """The cheap rungs' references (tests/verification/test_validation_rung.py): the copper
+    bar's anp result at the ladder's resolution and the coarse perforation at 1000 m/s; an entry
+    whose rung did not run keeps its stored value."""
+    stored = json.loads(STORED.read_text()) if STORED.exists() else {}
+    ref = next((r for r in results if r["rung"] == "taylor-cu-190" and r["element"] == "anp"),
+               None)
+    if ref is not None:
+        stored["taylor-cu-190-anp"] = {"h_mm": ref["h_mm"], "length_mm": ref["length_mm"],
+                                       "foot_diameter_mm": ref["foot_diameter_mm"]}
+    hs, hp = PERFORATION_MESHES[0]
+    ref = next((r for r in results if r["rung"] == "perforation-1000" and r["h_mm"] == hp),
+               None)
+    if ref is not None:
+        stored["perforation-1000-tet4"] = {"h_mm": hp, "h_sphere_mm": hs,
+                                           "residual_speed": ref["residual_speed"]}
+    STORED.write_text(json.dumps(stored, indent=1) + "\n")
 
 
 def main(argv=None) -> int:
@@ -788,8 +1172,7 @@ def main(argv=None) -> int:
         results = json.loads((OUT / "results.json").read_text())
     else:
         results = run_all(args.rungs)
-        if any(r["rung"] == "taylor-cu-190" for r in results):
-            store(results)
+        store(results)
     plots(results)
     DOC.write_text(report(results))
     print(f"wrote {DOC}")

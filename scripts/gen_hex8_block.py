@@ -139,14 +139,16 @@ def kinematics_lines(ind):
 PRESSURE = """
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
-def forces_block(buf, dt, eos, rho0, bulk, c0, s, gamma0, shear, cq, cl):
+def forces_block(buf, dt, eos, rho0, bulk, c0, s, gamma0, shear, cq, cl, stiff):
     \"\"\"Deviatoric work, EOS pressure with the energy implicit, bulk viscosity, stable dt (as
     element._pressure_block, with the hex's volume), then the Flanagan-Belytschko hourglass
     resultants and their work, and the corner forces of stress and hourglass control together
     (hex8._hex_element's formulas, regrouped: see gen_hex8_block.hourglass_lines). In five
     lane loops, each keeping fewer values alive than the registers, through the HK rows:
     W_ij = sum_n v_in b_jn, b.b and Gamma_a . v; h_a and the rates; the pressure part; the
-    resultants Q, their work and T = sigma - M / 8; the corner forces.\"\"\"
+    resultants Q, their work and T = sigma - M / 8 (with the stiffness resultants of the HG
+    rows only when the block has the stiffness form, `stiff`: the viscous form, the default,
+    neither reads nor writes them); the corner forces.\"\"\"
 """
 
 PRESSURE_BODY = """        vold = buf[R_VOLD * B + i]
@@ -230,8 +232,8 @@ def hk(k):
 
 def hourglass_lines():
     """The loops of forces_block around the pressure part: (the two loops before it, the lines
-    ending the pressure loop, the two loops after it), each a list of lines inside its lane
-    loop.
+    ending the pressure loop, the resultant loop in its stiffness and its viscous form, the
+    corner-force loop), each a list of lines inside its lane loop.
 
     FB81's shape vectors g_an = (1/8) [Gamma_an - h_a . b_n] with h_a = (Gamma_a . x) / V are
     not formed. The rates are qdot_ia = sum_n v_in g_an = (1/8) [Gamma_a . v_i - h_a . W_i]
@@ -300,22 +302,54 @@ def hourglass_lines():
     A(f"{hk(K_KV)} = cv * rho * chg * VM.power(vnew, 2.0 / 3.0)")
     A(f"{hk(K_KS)} = cs * dt * (bulk + 4.0 * shear / 3.0) * {hk(K_BB)} / vnew * (1.0 / 3.0)")
     loops.append(L)
-    # loop 4: resultants, their work, T = sigma - M / 8 (M_ij = sum_a Q_ia h_aj), the pair sums
+    # loop 4: resultants, their work, T = sigma - M / 8 (M_ij = sum_a Q_ia h_aj), the pair sums;
+    # in two forms: with the stiffness resultants (HG rows, read and updated), and the viscous
+    # form alone (Q = kv qdot; the same values as the first with ks = 0 and zero resultants,
+    # bit for bit, without the 12 rows read and written and their zeroing in load_block)
+    loops.append(_resultant_loop(True))
+    loops.append(_resultant_loop(False))
+    # loop 5: f_in = -T_ij b_jn - (1/8) sum_a Q_ia Gamma_an
+    L = []
+    A = L.append
+    for i, di in enumerate(XYZ):
+        for j, dj in enumerate(XYZ):
+            A(f"T{di}{dj} = {hk(K_T + 3 * i + j)}")
+        q8 = K_Q8 + 4 * i
+        A(f"A{di}, C{di}, D{di}, E{di} = {hk(q8)}, {hk(q8 + 1)}, {hk(q8 + 2)}, {hk(q8 + 3)}")
+    for n in range(8):
+        for d in XYZ:
+            A(f"b{d} = {row('HB', 3 * n + XYZ.index(d))}")
+        for di in XYZ:
+            A(f"{row('HF', 3 * n + XYZ.index(di))} = -(T{di}x * bx + T{di}y * by + T{di}z * bz)"
+              f" - ({qgamma(n, di)})")
+    loops.append(L)
+    return loops
+
+
+def _resultant_loop(stiff):
+    """Loop 4 of forces_block: the hourglass resultants Q_ia (viscous part kv qdot plus, with
+    `stiff`, the accumulated stiffness part in the HG rows), their work, T = sigma - M / 8 and
+    the pair sums of Q for the corner forces."""
     L = []
     A = L.append
     A(f"kv = {hk(K_KV)}")
-    A(f"ks = {hk(K_KS)}")
+    if stiff:
+        A(f"ks = {hk(K_KS)}")
     A("work = 0.0")
     for a in range(4):
         for di in XYZ:
             k = 3 * a + XYZ.index(di)
             r = f"r{a}{di}"
             A(f"{r} = {hk(K_R + k)}")
-            A(f"s0 = {row('HG', k)}")
-            A(f"s1 = s0 + ks * {r}")
-            A(f"{row('HG', k)} = s1")
-            A(f"Q{a}{di} = s1 + kv * {r}")
-            A(f"work += dt * (0.5 * (s0 + s1) + kv * {r}) * {r}")
+            if stiff:
+                A(f"s0 = {row('HG', k)}")
+                A(f"s1 = s0 + ks * {r}")
+                A(f"{row('HG', k)} = s1")
+                A(f"Q{a}{di} = s1 + kv * {r}")
+                A(f"work += dt * (0.5 * (s0 + s1) + kv * {r}) * {r}")
+            else:
+                A(f"Q{a}{di} = kv * {r}")
+                A(f"work += dt * Q{a}{di} * {r}")
     A("buf[HGW * B + i] = work")
     A(f"ptot = {hk(K_PT)}")
     for k, nm in enumerate(["nxx", "nyy", "nzz", "nxy", "nyz", "nzx"]):
@@ -333,23 +367,7 @@ def hourglass_lines():
         q8 = K_Q8 + 4 * i
         A(f"{hk(q8)}, {hk(q8 + 1)} = 0.125 * (Q0{di} + Q1{di}), 0.125 * (Q2{di} + Q3{di})")
         A(f"{hk(q8 + 2)}, {hk(q8 + 3)} = 0.125 * (Q0{di} - Q1{di}), 0.125 * (Q2{di} - Q3{di})")
-    loops.append(L)
-    # loop 5: f_in = -T_ij b_jn - (1/8) sum_a Q_ia Gamma_an
-    L = []
-    A = L.append
-    for i, di in enumerate(XYZ):
-        for j, dj in enumerate(XYZ):
-            A(f"T{di}{dj} = {hk(K_T + 3 * i + j)}")
-        q8 = K_Q8 + 4 * i
-        A(f"A{di}, C{di}, D{di}, E{di} = {hk(q8)}, {hk(q8 + 1)}, {hk(q8 + 2)}, {hk(q8 + 3)}")
-    for n in range(8):
-        for d in XYZ:
-            A(f"b{d} = {row('HB', 3 * n + XYZ.index(d))}")
-        for di in XYZ:
-            A(f"{row('HF', 3 * n + XYZ.index(di))} = -(T{di}x * bx + T{di}y * by + T{di}z * bz)"
-              f" - ({qgamma(n, di)})")
-    loops.append(L)
-    return loops
+    return L
 
 
 def qgamma(n, d):
@@ -438,13 +456,16 @@ def _vol_der(x0, x1, x2, x3, x4, x5, y0, y1, y2, y3, y4, y5, z0, z1, z2, z3, z4,
     # ---- load
     P('''
 
-@numba.njit(cache=True, error_model="numpy")
+# inlined into the caller (hex8.hex_update): called, each call passed its dozen arrays as
+# about 100 scalar arguments, twice per block (3 ns per hex, session 9)
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def load_block(x, v, conn, sdev, pressure, energy, vol, elem_mass, hg, hg_visc, hg_stiff, e0,
                buf, stiff):
     """Copy the data of hexes e0 .. e0 + B - 1 into the block buffer (views of the block, as
     element._load_block); the stiffness resultants only when the block has the stiffness form
-    (`stiff`), else those rows are zero (the viscous form, the default, then reads and writes
-    192 bytes less per hex: the kernel is bound by memory traffic more than by arithmetic)."""
+    (`stiff`), else those rows are left as they are: forces_block's viscous form neither reads
+    nor writes them (the viscous form, the default, thus moves 192 bytes less per hex, and
+    does not zero 12 rows per block either: 2-4 ns per hex, session 9)."""
     cn = conn[e0:e0 + B]
     for i in range(B):
         for k in range(8):
@@ -461,9 +482,6 @@ def load_block(x, v, conn, sdev, pressure, energy, vol, elem_mass, hg, hg_visc, 
         for i in range(B):
             for c in range(12):
                 buf[(HG + c) * B + i] = hgb[i, c]
-    else:
-        for k in range(12 * B):
-            buf[HG * B + k] = 0.0
     vo = vol[e0:e0 + B]
     ms = elem_mass[e0:e0 + B]
     en = energy[e0:e0 + B]
@@ -507,18 +525,23 @@ def load_block(x, v, conn, sdev, pressure, energy, vol, elem_mass, hg, hg_visc, 
     A(ind + f"{row('R_SEQ', 0)} = math.sqrt(max(3.0 * j2, 0.0))")
     P("\n\n" + "\n".join(K) + "\n")
     # ---- pressure, stress and hourglass forces, in one loop
-    w_loop, rate_loop, coef, q_loop, f_loop = hourglass_lines()
+    w_loop, rate_loop, coef, q_stiff, q_visc, f_loop = hourglass_lines()
     P(PRESSURE)
     for lp in (w_loop, rate_loop):
         P("    for i in range(B):\n" + "\n".join(ind + ln for ln in lp) + "\n")
     P("    for i in range(B):\n" + ind + "vnew = buf[R_DET * B + i] * (1.0 / 6.0)\n")
     P(PRESSURE_BODY)
     P("\n".join(ind + ln for ln in coef) + "\n")
-    for lp in (q_loop, f_loop):
-        P("    for i in range(B):\n" + "\n".join(ind + ln for ln in lp) + "\n")
+    P("    if stiff:\n        for i in range(B):\n"
+      + "\n".join(ind + "    " + ln for ln in q_stiff) + "\n")
+    P("    else:\n        for i in range(B):\n"
+      + "\n".join(ind + "    " + ln for ln in q_visc) + "\n")
+    P("    for i in range(B):\n" + "\n".join(ind + ln for ln in f_loop) + "\n")
     P('''
 
-@numba.njit(cache=True, error_model="numpy")
+# inlined into the caller (hex8.hex_update): called, each call passed its dozen arrays as
+# about 100 scalar arguments, twice per block (3 ns per hex, session 9)
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def store_block(rows, sdev, pressure, q, eps_rate, energy, vol, hg, fext, e0, buf, stiff):
     """Copy the block's results back and add its forces to the corners' rows of fext (in lane
     order); returns (min dt, its element, viscous work, hourglass work) reduced in lane order."""

@@ -34,7 +34,8 @@ PLAUSIBLE_NS / PLAUSIBLE_STEP_SECONDS is noise and is discarded (never stored).
 
 Every pass is counted in units of t_element (the calibration keeps its quietest moment: the
 speed of a free core) times the contention (``contention``: 1 / the share of a core this process
-gets now, measured by a 0.3 s busy loop, ``cpu_share``; on a machine shared with other jobs a
+gets now, ``cpu_share``: from the Linux scheduler's run and run-queue times of the thread, or
+elsewhere a 0.3 s busy loop; on a machine shared with other jobs a
 run gets about that share on average): the element loop
 (ANP_COST for the averaged nodal pressure, HEX_COST for a hex, HEX_FAILING_COST for a hex of a
 material that can be damaged, SEPARABLE_COST for an element of a body that comes apart by node
@@ -541,10 +542,40 @@ def machine_speed(threads: int | None = None, calibrate: bool | None = None) -> 
 
 
 # --- the estimate -----------------------------------------------------------------------------
+_SCHEDSTAT = "/proc/thread-self/schedstat"
+_last_schedstat: tuple[int, int] | None = None
+
+
+def _schedstat() -> tuple[int, int] | None:
+    """(ns on a core, ns waiting in the run queue) of this thread since it started, from the
+    Linux scheduler's statistics; None where the kernel does not provide them."""
+    try:
+        with open(_SCHEDSTAT) as f:
+            ran, waited = f.read().split()[:2]
+        return int(ran), int(waited)
+    except (OSError, ValueError):
+        return None
+
+
 def cpu_share(seconds: float = 0.3) -> float:
-    """The share of a core this process gets now (0-1]: the thread's CPU time over the wall
-    time of a busy loop of `seconds`. On a machine shared with other jobs a one-thread run gets
-    about this share, so its wall time is its CPU time over it."""
+    """The share of a core this process gets now (0-1]: on a machine shared with other jobs a
+    one-thread run gets about this share, so its wall time is its CPU time over it.
+
+    On Linux the scheduler counts how long this thread ran and how long it waited in the run
+    queue for a core; the share is ran / (ran + waited) since the last call (or since the thread
+    started, when the thread has wanted a core for less than `seconds` since then), which costs
+    nothing. Elsewhere (or before the thread has wanted a core for `seconds`): the thread's CPU
+    time over the wall time of a busy loop of `seconds`."""
+    global _last_schedstat
+    now = _schedstat()
+    if now is not None:
+        since = _last_schedstat if _last_schedstat is not None else (0, 0)
+        if sum(now) - sum(since) < seconds * 1e9:
+            since = (0, 0)
+        if sum(now) - sum(since) >= seconds * 1e9:
+            _last_schedstat = now
+            ran, wanted = now[0] - since[0], sum(now) - sum(since)
+            return min(1.0, max(ran / wanted, 0.01))
     t0, c0 = wallclock.perf_counter(), wallclock.thread_time()
     x = 0
     while wallclock.perf_counter() - t0 < seconds:

@@ -112,6 +112,15 @@ def cubic_roots_in(a, b, c, d, tau):
             return 1, 0.0, 0.0, 0.0
         return 0, 0.0, 0.0, 0.0
     ztol = 1e-12 * scale
+    # no root when the Bernstein coefficients on [0, 1] all have one sign, clear of zero by
+    # more than ztol and round-off: the cubic is their weighted mean, so the walk below would
+    # find no sign change and no double root either (same answer, without the critical points)
+    b1 = D + C / 3.0
+    b2 = D + (2.0 * C + B) / 3.0
+    b3 = D + C + B + A
+    far = 4.0 * ztol
+    if (min(min(D, b1), min(b2, b3)) > far) or (max(max(D, b1), max(b2, b3)) < -far):
+        return 0, 0.0, 0.0, 0.0
     # critical points: 3A s^2 + 2B s + C = 0, inside (0, 1), increasing
     qa = 3.0 * A
     qb = 2.0 * B

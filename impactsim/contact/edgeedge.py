@@ -58,6 +58,8 @@ NU_RELIABLE = 0.2  # nu orients n only when |n . nu| >= this * |nu|
 GEO_COLS = 7  # a constraint row: lam, alpha, beta, nx, ny, nz, gap / tau
 APART_MARGIN = 1e-3  # stay_apart: the margin beyond band, a share of the segments' half-lengths
 HELD = -2.0  # edge_edge_test: touching edges that need no impulse (their row kept, no impulse)
+APART = 3  # edge_edge_sweep: a pair apart on a separating axis, kept in its row (still_apart)
+FAR = 4  # edge_edge_sweep: a pair apart for as long as the candidate list is kept (far_apart)
 
 
 @numba.njit(cache=True)
@@ -153,6 +155,15 @@ def _edge_edge_at(t, force_nu, band, restore, ia, ib, ie, jf, x, v, mass, tau, m
     d2y = fy - ey
     d2z = fz - ez
     al, be, den, ae = line_parameters(ax, ay, az, d1x, d1y, d1z, ex, ey, ez, d2x, d2y, d2z)
+    return _crossing(al, be, den, ae, d1x, d1y, d1z, d2x, d2y, d2z, force_nu, band, restore,
+                     ia, ib, ie, jf, x, v, mass, tau, mu, nu_x, nu_y, nu_z, geo, k, lock)
+
+
+@numba.njit(cache=True)
+def _crossing(al, be, den, ae, d1x, d1y, d1z, d2x, d2y, d2z, force_nu, band, restore, ia, ib,
+              ie, jf, x, v, mass, tau, mu, nu_x, nu_y, nu_z, geo, k, lock):
+    """``_edge_edge_at`` from the lines' parameters at its time t (``line_parameters`` of the
+    segments b - a = d1 and f - e = d2 there): the touching test at t = 0 has them already."""
     if not den > PARALLEL_SIN * PARALLEL_SIN * ae:
         return -1.0
     if al < -SEGMENT_EPS or al > 1.0 + SEGMENT_EPS or be < -SEGMENT_EPS or be > 1.0 + SEGMENT_EPS:
@@ -227,27 +238,30 @@ def _edge_edge_at(t, force_nu, band, restore, ia, ib, ie, jf, x, v, mass, tau, m
 
 
 @numba.njit(cache=True, inline="always")
-def _apart(p0, p1, p2, p3, q0, q1, q2, q3, tol):
-    """Intervals [min p, max p] and [min q, max q] more than tol apart."""
-    return (min(min(p0, p1), min(p2, p3)) > max(max(q0, q1), max(q2, q3)) + tol
-            or min(min(q0, q1), min(q2, q3)) > max(max(p0, p1), max(p2, p3)) + tol)
+def _side(p0, p1, p2, p3, q0, q1, q2, q3, tol):
+    """1 when the interval [min p, max p] lies more than tol above [min q, max q], -1 when
+    below, else 0."""
+    if min(min(p0, p1), min(p2, p3)) > max(max(q0, q1), max(q2, q3)) + tol:
+        return 1.0
+    if min(min(q0, q1), min(q2, q3)) > max(max(p0, p1), max(p2, p3)) + tol:
+        return -1.0
+    return 0.0
 
 
-@numba.njit(cache=True)
-def stay_apart(ia, ib, ie, jf, x, v, tau, band):
-    """True when segments [ia, ib] and [ie, jf], moving linearly over [0, tau], stay farther
-    apart than ``band`` (plus a margin) the whole step: then ``edge_edge_detect`` finds neither a
-    touching pair at t = 0 nor a crossing, and the cubic need not be solved.
+@numba.njit(cache=True, inline="always")
+def _kept_axis(s, mx, my, mz, pa, pb, qe, qf, tol):
+    """What a repeated sweep needs of a separating axis m found apart on side s (``_side``):
+    the axis turned so that segment 1 lies above, the projections of a, b at t = 0 on it and
+    those of e, f plus tol (``still_apart``)."""
+    return s * mx, s * my, s * mz, s * pa, s * pb, s * qe + tol, s * qf + tol
 
-    A separating axis: over the step each segment lies in the hull of its end points at 0 and
-    tau, so two intervals of projections that are apart by more than the tolerance on some unit
-    axis keep the segments apart. The axes tried: the segments' common normal at t = 0, which
-    separates the near-coplanar pairs of a flat contact that lie one above the other, then x,
-    y, z (tighter than the broad phase's boxes, padded by BOX_PAD of h), then the two
-    directions in the segments' plane across each segment (common normal x segment), which
-    separate coplanar segments of a flat contact that do not cross. The tolerance is band
-    plus APART_MARGIN of the longer segment: the segments extended by SEGMENT_EPS, and a root of
-    the cubic accepted within round-off, whose lines miss by far less."""
+
+@numba.njit(cache=True, inline="always")
+def apart_axis(ia, ib, ie, jf, x, v, tau, band):
+    """``stay_apart`` and the separating axis it found: (apart, mx, my, mz, pa, pb, qe, qf),
+    the axis turned so that segment [ia, ib] lies above, pa, pb the projections of a and b at
+    t = 0 on it and qe, qf those of e and f plus the tolerance (``still_apart``; zeros when not
+    apart)."""
     ax = x[ia, 0]
     ay = x[ia, 1]
     az = x[ia, 2]
@@ -273,29 +287,129 @@ def stay_apart(ia, ib, ie, jf, x, v, tau, band):
     d2z = fz - ez
     ll = max(d1x * d1x + d1y * d1y + d1z * d1z, d2x * d2x + d2y * d2y + d2z * d2z)
     tol = band + APART_MARGIN * math.sqrt(ll)
+    # x, y, z first: no square root
+    s = _side(ax, bx, Ax, Bx, ex, fx, Ex, Fx, tol)
+    if s != 0.0:
+        return (True,) + _kept_axis(s, 1.0, 0.0, 0.0, ax, bx, ex, fx, tol)
+    s = _side(ay, by, Ay, By, ey, fy, Ey, Fy, tol)
+    if s != 0.0:
+        return (True,) + _kept_axis(s, 0.0, 1.0, 0.0, ay, by, ey, fy, tol)
+    s = _side(az, bz, Az, Bz, ez, fz, Ez, Fz, tol)
+    if s != 0.0:
+        return (True,) + _kept_axis(s, 0.0, 0.0, 1.0, az, bz, ez, fz, tol)
     nx, ny, nz, normal = unit_cross(d1x, d1y, d1z, d2x, d2y, d2z)
-    if normal:
-        if _apart(ax * nx + ay * ny + az * nz, bx * nx + by * ny + bz * nz,
-                  Ax * nx + Ay * ny + Az * nz, Bx * nx + By * ny + Bz * nz,
-                  ex * nx + ey * ny + ez * nz, fx * nx + fy * ny + fz * nz,
-                  Ex * nx + Ey * ny + Ez * nz, Fx * nx + Fy * ny + Fz * nz, tol):
-            return True
-    if (_apart(ax, bx, Ax, Bx, ex, fx, Ex, Fx, tol)
-            or _apart(ay, by, Ay, By, ey, fy, Ey, Fy, tol)
-            or _apart(az, bz, Az, Bz, ez, fz, Ez, Fz, tol)):
-        return True
     if not normal:
-        return False
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    pa = ax * nx + ay * ny + az * nz
+    pb = bx * nx + by * ny + bz * nz
+    qe = ex * nx + ey * ny + ez * nz
+    qf = fx * nx + fy * ny + fz * nz
+    s = _side(pa, pb, Ax * nx + Ay * ny + Az * nz, Bx * nx + By * ny + Bz * nz,
+              qe, qf, Ex * nx + Ey * ny + Ez * nz, Fx * nx + Fy * ny + Fz * nz, tol)
+    if s != 0.0:
+        return (True,) + _kept_axis(s, nx, ny, nz, pa, pb, qe, qf, tol)
     # in the plane of the two segments (a flat contact: coplanar segments that do not cross)
     for j in range(2):
         mx, my, mz, ok = unit_cross(nx, ny, nz, d1x if j == 0 else d2x,
                                     d1y if j == 0 else d2y, d1z if j == 0 else d2z)
-        if ok and _apart(ax * mx + ay * my + az * mz, bx * mx + by * my + bz * mz,
-                         Ax * mx + Ay * my + Az * mz, Bx * mx + By * my + Bz * mz,
-                         ex * mx + ey * my + ez * mz, fx * mx + fy * my + fz * mz,
-                         Ex * mx + Ey * my + Ez * mz, Fx * mx + Fy * my + Fz * mz, tol):
-            return True
-    return False
+        if ok:
+            pa = ax * mx + ay * my + az * mz
+            pb = bx * mx + by * my + bz * mz
+            qe = ex * mx + ey * my + ez * mz
+            qf = fx * mx + fy * my + fz * mz
+            s = _side(pa, pb, Ax * mx + Ay * my + Az * mz, Bx * mx + By * my + Bz * mz,
+                      qe, qf, Ex * mx + Ey * my + Ez * mz, Fx * mx + Fy * my + Fz * mz, tol)
+            if s != 0.0:
+                return (True,) + _kept_axis(s, mx, my, mz, pa, pb, qe, qf, tol)
+    return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+
+
+@numba.njit(cache=True)
+def stay_apart(ia, ib, ie, jf, x, v, tau, band):
+    """True when segments [ia, ib] and [ie, jf], moving linearly over [0, tau], stay farther
+    apart than ``band`` (plus a margin) the whole step: then ``edge_edge_detect`` finds neither a
+    touching pair at t = 0 nor a crossing, and the cubic need not be solved.
+
+    A separating axis: over the step each segment lies in the hull of its end points at 0 and
+    tau, so two intervals of projections that are apart by more than the tolerance on some unit
+    axis keep the segments apart. The axes tried: x, y, z (tighter than the broad phase's
+    boxes, padded by BOX_PAD of h; no square root), the segments' common normal at t = 0, which
+    separates the near-coplanar pairs of a flat contact that lie one above the other, then the
+    two directions in the segments' plane across each segment (common normal x segment), which
+    separate coplanar segments of a flat contact that do not cross. The tolerance is band
+    plus APART_MARGIN of the longer segment: the segments extended by SEGMENT_EPS, and a root of
+    the cubic accepted within round-off, whose lines miss by far less."""
+    return apart_axis(ia, ib, ie, jf, x, v, tau, band)[0]
+
+
+@numba.njit(cache=True, inline="always")
+def still_apart(ia, ib, ie, jf, v, tau, geo, k):
+    """A repeated sweep's test of a pair that ``apart_axis`` found apart earlier in the step,
+    its axis in row k of ``geo`` (mx, my, mz, pa, pb, qe, qf): the velocities changed since,
+    the positions at t = 0 did not, so only the end points at tau are projected again (from
+    the velocities alone: neither x nor the other axes are read). True: still apart by more
+    than the tolerance on that axis, a separating axis of its own (``stay_apart``)."""
+    mx = geo[k, 0]
+    my = geo[k, 1]
+    mz = geo[k, 2]
+    pa = geo[k, 3]
+    pb = geo[k, 4]
+    qe = geo[k, 5]
+    qf = geo[k, 6]
+    ua = tau * (v[ia, 0] * mx + v[ia, 1] * my + v[ia, 2] * mz)
+    ub = tau * (v[ib, 0] * mx + v[ib, 1] * my + v[ib, 2] * mz)
+    ue = tau * (v[ie, 0] * mx + v[ie, 1] * my + v[ie, 2] * mz)
+    uf = tau * (v[jf, 0] * mx + v[jf, 1] * my + v[jf, 2] * mz)
+    return (min(min(pa, pb), min(pa + ua, pb + ub))
+            > max(max(qe, qf), max(qe + ue, qf + uf)))
+
+
+@numba.njit(cache=True)
+def far_apart(pairs, edges, x, band_max, reach, out):
+    """For the kept candidate list (``contact.skin``), built at positions x: out[k] = FAR for
+    each pair k (rows of ``edges``) that ``stay_apart`` would find apart at every step the list
+    is kept, else 0. While it is kept, every surface node's positions at 0 and tau lie within
+    the skin's reach of x along each axis, and the broad phase allows the corrections of a step
+    its BOX_PAD: together at most ``reach`` (pad_b) per axis, so at most reach |m|_1 along a unit
+    axis m. A pair whose segments are apart on m by more than the largest tolerance of those
+    steps (``band_max``, band of the largest h those moves allow; the segments' lengths grown
+    by as much) plus 2 reach |m|_1 therefore stays apart on m, and a test of it would find
+    nothing: the sweep skips it. The axes: the segments' common normal and the two directions
+    across the segments in their plane at x (x, y, z need no test: the per-step filter of the
+    kept list already drops the pairs apart on them)."""
+    grow = 2.0 * math.sqrt(3.0) * reach
+    for k in range(pairs.shape[0]):
+        out[k] = 0
+        ia = edges[pairs[k, 0], 0]
+        ib = edges[pairs[k, 0], 1]
+        ie = edges[pairs[k, 1], 0]
+        jf = edges[pairs[k, 1], 1]
+        d1x = x[ib, 0] - x[ia, 0]
+        d1y = x[ib, 1] - x[ia, 1]
+        d1z = x[ib, 2] - x[ia, 2]
+        d2x = x[jf, 0] - x[ie, 0]
+        d2y = x[jf, 1] - x[ie, 1]
+        d2z = x[jf, 2] - x[ie, 2]
+        ll = max(d1x * d1x + d1y * d1y + d1z * d1z, d2x * d2x + d2y * d2y + d2z * d2z)
+        tol = band_max + APART_MARGIN * (math.sqrt(ll) + grow)
+        nx, ny, nz, normal = unit_cross(d1x, d1y, d1z, d2x, d2y, d2z)
+        if not normal:
+            continue
+        for j in range(3):
+            mx, my, mz, ok = nx, ny, nz, True
+            if j > 0:
+                mx, my, mz, ok = unit_cross(nx, ny, nz, d1x if j == 1 else d2x,
+                                            d1y if j == 1 else d2y, d1z if j == 1 else d2z)
+            if not ok:
+                continue
+            pa = x[ia, 0] * mx + x[ia, 1] * my + x[ia, 2] * mz
+            pb = x[ib, 0] * mx + x[ib, 1] * my + x[ib, 2] * mz
+            qe = x[ie, 0] * mx + x[ie, 1] * my + x[ie, 2] * mz
+            qf = x[jf, 0] * mx + x[jf, 1] * my + x[jf, 2] * mz
+            gap = max(min(pa, pb) - max(qe, qf), min(qe, qf) - max(pa, pb))
+            if gap > tol + 2.0 * reach * (abs(mx) + abs(my) + abs(mz)):
+                out[k] = FAR
+                break
 
 
 @numba.njit(cache=True)
@@ -315,7 +429,7 @@ def edge_edge_detect(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, n
     return J if J > 0.0 else 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def edge_edge_test(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, nu_y, nu_z, geo,
                    k, lock):
     """One edge-edge pair (ALGORITHMS.md 3.2): the cubic, root selection in [0, tau], segment
@@ -347,8 +461,10 @@ def edge_edge_test(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, nu_
             gy = x[ie, 1] + be * d2y - ay - al * d1y
             gz = x[ie, 2] + be * d2z - az - al * d1z
             if gx * gx + gy * gy + gz * gz <= band * band:
-                J = _edge_edge_at(0.0, True, band, restore, ia, ib, ie, jf, x, v, mass, tau, mu,
-                                  nu_x, nu_y, nu_z, geo, k, lock)
+                # _edge_edge_at(0.0, True, ...), its line parameters being those just computed
+                J = _crossing(al, be, den, ae, d1x, d1y, d1z, d2x, d2y, d2z, True, band, restore,
+                              ia, ib, ie, jf, x, v, mass, tau, mu, nu_x, nu_y, nu_z, geo, k,
+                              lock)
                 if J > 0.0:
                     return J
                 held = J == HELD
@@ -369,7 +485,7 @@ def edge_edge_test(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore, nu_x, nu_
     return HELD if held else 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def edge_edge_held(ia, ib, ie, jf, v, mass, tau, mu, geo, k, lock):
     """A later visit of touching edges whose test found no impulse (``edge_edge_test``: HELD,
     their touching row in row k of ``geo``): the touching branch of that test again, from the
@@ -398,7 +514,7 @@ def edge_edge_held(ia, ib, ie, jf, v, mass, tau, mu, geo, k, lock):
     return J
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def edge_edge_relax(ia, ib, ie, jf, v, mass, mu, geo, k, slack, lock):
     """A later visit of an edge pair that got an impulse earlier in the step (row k of ``geo``):
     with its stored alpha, beta, n and gap term, the push tau N_c of [D19 eq. 11, 12] (with
@@ -456,6 +572,35 @@ def edge_normals(x, faces, face_edges, out):
 
 
 @numba.njit(cache=True)
+def edge_normals_of(x, faces, face_edges, fsel, out):
+    """``edge_normals`` for the edges of the faces ``fsel`` (increasing) alone: their rows of
+    out are those ``edge_normals`` gives (the same sums, in the same order) when ``fsel`` holds
+    every face of each of them; other rows are left as they are."""
+    for q in range(fsel.shape[0]):
+        for j in range(3):
+            g = face_edges[fsel[q], j]
+            if g >= 0:
+                out[g, 0] = 0.0
+                out[g, 1] = 0.0
+                out[g, 2] = 0.0
+    for q in range(fsel.shape[0]):
+        f = fsel[q]
+        a = faces[f, 0]
+        b = faces[f, 1]
+        c = faces[f, 2]
+        nx, ny, nz, nn = triangle_normal(x[a, 0], x[a, 1], x[a, 2], x[b, 0], x[b, 1], x[b, 2],
+                                         x[c, 0], x[c, 1], x[c, 2])[6:]
+        nn = math.sqrt(nn)
+        if nn > 0.0:
+            for j in range(3):
+                g = face_edges[f, j]
+                if g >= 0:
+                    out[g, 0] += nx / nn
+                    out[g, 1] += ny / nn
+                    out[g, 2] += nz / nn
+
+
+@numba.njit(cache=True)
 def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band, restore, active, stamp,
                     sweep, since, geo, slack, lock=NO_LOCK):
     """Gauss-Seidel sweep over candidate edge pairs (ALGORITHMS.md 3.2): sequentially, in the
@@ -472,6 +617,8 @@ def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band, restore, a
     total = 0.0
     jump = 0.0
     for k in range(pairs.shape[0]):
+        if active[k] == FAR:
+            continue  # apart while the candidate list is kept (far_apart)
         g1 = pairs[k, 0]
         g2 = pairs[k, 1]
         ia = edges[g1, 0]
@@ -480,15 +627,28 @@ def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band, restore, a
         jf = edges[g2, 1]
         if unchanged_since(stamp, since, ia, ib, ie, jf):
             continue
+        if active[k] == APART:
+            if still_apart(ia, ib, ie, jf, v, tau, geo, k):
+                continue  # what edge_edge_detect would find, without the cubic
+            active[k] = 0
         if active[k] == 1:
             J = edge_edge_relax(ia, ib, ie, jf, v, mass, mu, geo, k, slack, lock)
         elif active[k] == 2:
             J = edge_edge_held(ia, ib, ie, jf, v, mass, tau, mu, geo, k, lock)
             if J > 0.0:
                 active[k] = 1
-        elif stay_apart(ia, ib, ie, jf, x, v, tau, band):
-            J = 0.0  # what edge_edge_detect would find, without the cubic
         else:
+            apart, mx, my, mz, pa, pb, qe, qf = apart_axis(ia, ib, ie, jf, x, v, tau, band)
+            if apart:  # what edge_edge_detect would find, without the cubic
+                geo[k, 0] = mx
+                geo[k, 1] = my
+                geo[k, 2] = mz
+                geo[k, 3] = pa
+                geo[k, 4] = pb
+                geo[k, 5] = qe
+                geo[k, 6] = qf
+                active[k] = APART
+                continue
             J = edge_edge_test(ia, ib, ie, jf, x, v, mass, tau, mu, band, restore,
                                normals[g1, 0] - normals[g2, 0], normals[g1, 1] - normals[g2, 1],
                                normals[g1, 2] - normals[g2, 2], geo, k, lock)

@@ -57,6 +57,8 @@ from impactsim.contact.impulse import NO_LOCK, inverse_mass, lock_row, push
 from impactsim.contact.rows import first_visit, pushes_again, stamp_nodes, unchanged_since
 
 GEO_COLS = 8  # a constraint row: lam, wa, wb, wc, nx, ny, nz, vmin
+APART = 3  # node_face_sweep: a pair apart on a separating axis, kept in its row (still_apart)
+FAR = 4  # node_face_sweep: a pair apart for as long as the candidate list is kept (far_apart)
 APART_MARGIN = 1e-3  # node_face_apart: the margin beyond band, a share of the face's edges
 
 
@@ -179,26 +181,31 @@ def point_face_impulse(vp, p, mp, lpx, lpy, lpz, v, mass, lock, ia, ib, ic, wa, 
 
 
 @numba.njit(cache=True, inline="always")
-def _apart(p0, p1, q0, q1, q2, q3, q4, q5, tol):
-    """Intervals [min p, max p] and [min q, max q] more than tol apart."""
+def _side(p0, p1, q0, q1, q2, q3, q4, q5, tol):
+    """1 when the interval [min p, max p] lies more than tol above [min q, max q], -1 when
+    below, else 0."""
     qlo = min(min(min(q0, q1), min(q2, q3)), min(q4, q5))
     qhi = max(max(max(q0, q1), max(q2, q3)), max(q4, q5))
-    return min(p0, p1) > qhi + tol or qlo > max(p0, p1) + tol
+    if min(p0, p1) > qhi + tol:
+        return 1.0
+    if qlo > max(p0, p1) + tol:
+        return -1.0
+    return 0.0
 
 
-@numba.njit(cache=True)
-def node_face_apart(p, ia, ib, ic, x, v, tau, band):
-    """True when node p and face (ia, ib, ic), moving linearly over [0, tau], stay farther apart
-    than ``band`` (plus a margin) the whole step: then ``node_face_detect`` finds neither a
-    touching node at t = 0 nor a crossing inside the triangle, and the cubic need not be solved
-    (the edge-edge pass's ``stay_apart``). A separating axis: over the step the node lies on the
-    segment of its positions at 0 and tau and the face in the hull of its corners' positions at
-    0 and tau; the axes tried are x, y, z (tighter than the broad phase's padded boxes), the
-    face's normal at t = 0 (nodes in front of a face that they do not reach in the step) and
-    the three directions in the face's plane across its edges (nodes of a flat contact beside
-    the triangle). The
-    tolerance is band plus APART_MARGIN of the face's longer edge from a: the triangle test's
-    eps_bary, and a root of the cubic accepted within round-off."""
+@numba.njit(cache=True, inline="always")
+def _kept_axis(s, mx, my, mz, pp, qa, qb, qc, tol):
+    """A separating axis m found apart on side s (``_side``), as ``still_apart`` reads it: the
+    axis turned so that the node lies above, the node's projection at t = 0 on it and the
+    corners' plus tol."""
+    return s * mx, s * my, s * mz, s * pp, s * qa + tol, s * qb + tol, s * qc + tol
+
+
+@numba.njit(cache=True, inline="always")
+def apart_axis(p, ia, ib, ic, x, v, tau, band):
+    """``node_face_apart`` and the separating axis it found: (apart, mx, my, mz, pp, qa, qb,
+    qc), the axis turned so that the node lies above, pp its projection at t = 0 on it and qa,
+    qb, qc those of the corners plus the tolerance (``still_apart``; zeros when not apart)."""
     px = x[p, 0]
     py = x[p, 1]
     pz = x[p, 2]
@@ -219,32 +226,124 @@ def node_face_apart(p, ia, ib, ic, x, v, tau, band):
                                                                     cx, cy, cz)
     ll = max(e1x * e1x + e1y * e1y + e1z * e1z, e2x * e2x + e2y * e2y + e2z * e2z)
     tol = band + APART_MARGIN * math.sqrt(ll)
-    if (_apart(px, Px, ax, bx, cx, Ax, Bx, Cx, tol) or _apart(py, Py, ay, by, cy, Ay, By, Cy, tol)
-            or _apart(pz, Pz, az, bz, cz, Az, Bz, Cz, tol)):
-        return True
+    s = _side(px, Px, ax, bx, cx, Ax, Bx, Cx, tol)
+    if s != 0.0:
+        return (True,) + _kept_axis(s, 1.0, 0.0, 0.0, px, ax, bx, cx, tol)
+    s = _side(py, Py, ay, by, cy, Ay, By, Cy, tol)
+    if s != 0.0:
+        return (True,) + _kept_axis(s, 0.0, 1.0, 0.0, py, ay, by, cy, tol)
+    s = _side(pz, Pz, az, bz, cz, Az, Bz, Cz, tol)
+    if s != 0.0:
+        return (True,) + _kept_axis(s, 0.0, 0.0, 1.0, pz, az, bz, cz, tol)
     if not nn > 0.0:
-        return False
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     inv = 1.0 / math.sqrt(nn)
     nx *= inv
     ny *= inv
     nz *= inv
-    if _apart(px * nx + py * ny + pz * nz, Px * nx + Py * ny + Pz * nz,
-              ax * nx + ay * ny + az * nz, bx * nx + by * ny + bz * nz,
-              cx * nx + cy * ny + cz * nz, Ax * nx + Ay * ny + Az * nz,
-              Bx * nx + By * ny + Bz * nz, Cx * nx + Cy * ny + Cz * nz, tol):
-        return True
+    pp = px * nx + py * ny + pz * nz
+    qa = ax * nx + ay * ny + az * nz
+    qb = bx * nx + by * ny + bz * nz
+    qc = cx * nx + cy * ny + cz * nz
+    s = _side(pp, Px * nx + Py * ny + Pz * nz, qa, qb, qc, Ax * nx + Ay * ny + Az * nz,
+              Bx * nx + By * ny + Bz * nz, Cx * nx + Cy * ny + Cz * nz, tol)
+    if s != 0.0:
+        return (True,) + _kept_axis(s, nx, ny, nz, pp, qa, qb, qc, tol)
     # in the face's plane across each edge (a flat contact: a node beside the triangle)
     for j in range(3):
         mx, my, mz, ok = unit_cross(nx, ny, nz,
                                     e1x if j == 0 else (e2x if j == 1 else cx - bx),
                                     e1y if j == 0 else (e2y if j == 1 else cy - by),
                                     e1z if j == 0 else (e2z if j == 1 else cz - bz))
-        if ok and _apart(px * mx + py * my + pz * mz, Px * mx + Py * my + Pz * mz,
-                         ax * mx + ay * my + az * mz, bx * mx + by * my + bz * mz,
-                         cx * mx + cy * my + cz * mz, Ax * mx + Ay * my + Az * mz,
-                         Bx * mx + By * my + Bz * mz, Cx * mx + Cy * my + Cz * mz, tol):
-            return True
-    return False
+        if ok:
+            pp = px * mx + py * my + pz * mz
+            qa = ax * mx + ay * my + az * mz
+            qb = bx * mx + by * my + bz * mz
+            qc = cx * mx + cy * my + cz * mz
+            s = _side(pp, Px * mx + Py * my + Pz * mz, qa, qb, qc, Ax * mx + Ay * my + Az * mz,
+                      Bx * mx + By * my + Bz * mz, Cx * mx + Cy * my + Cz * mz, tol)
+            if s != 0.0:
+                return (True,) + _kept_axis(s, mx, my, mz, pp, qa, qb, qc, tol)
+    return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+
+
+@numba.njit(cache=True)
+def node_face_apart(p, ia, ib, ic, x, v, tau, band):
+    """True when node p and face (ia, ib, ic), moving linearly over [0, tau], stay farther apart
+    than ``band`` (plus a margin) the whole step: then ``node_face_detect`` finds neither a
+    touching node at t = 0 nor a crossing inside the triangle, and the cubic need not be solved
+    (the edge-edge pass's ``stay_apart``). A separating axis: over the step the node lies on the
+    segment of its positions at 0 and tau and the face in the hull of its corners' positions at
+    0 and tau; the axes tried are x, y, z (tighter than the broad phase's padded boxes), the
+    face's normal at t = 0 (nodes in front of a face that they do not reach in the step) and
+    the three directions in the face's plane across its edges (nodes of a flat contact beside
+    the triangle). The
+    tolerance is band plus APART_MARGIN of the face's longer edge from a: the triangle test's
+    eps_bary, and a root of the cubic accepted within round-off."""
+    return apart_axis(p, ia, ib, ic, x, v, tau, band)[0]
+
+
+@numba.njit(cache=True, inline="always")
+def still_apart(p, ia, ib, ic, v, tau, geo, k):
+    """A repeated sweep's test of a pair that ``apart_axis`` found apart earlier in the step,
+    its axis in row k of ``geo`` (mx, my, mz, pp, qa, qb, qc): the velocities changed since,
+    the positions at t = 0 did not, so only the end points at tau are projected again (from
+    the velocities alone). True: still apart by more than the tolerance on that axis, a
+    separating axis of its own (``node_face_apart``)."""
+    mx = geo[k, 0]
+    my = geo[k, 1]
+    mz = geo[k, 2]
+    pp = geo[k, 3]
+    qa = geo[k, 4]
+    qb = geo[k, 5]
+    qc = geo[k, 6]
+    up = tau * (v[p, 0] * mx + v[p, 1] * my + v[p, 2] * mz)
+    ua = tau * (v[ia, 0] * mx + v[ia, 1] * my + v[ia, 2] * mz)
+    ub = tau * (v[ib, 0] * mx + v[ib, 1] * my + v[ib, 2] * mz)
+    uc = tau * (v[ic, 0] * mx + v[ic, 1] * my + v[ic, 2] * mz)
+    return (min(pp, pp + up) > max(max(max(qa, qb), max(qc, qa + ua)),
+                                   max(qb + ub, qc + uc)))
+
+
+@numba.njit(cache=True)
+def far_apart(pairs, nodes, faces, x, band_max, reach, out):
+    """For the kept candidate list (``contact.skin``), built at positions x: out[k] = FAR for
+    each pair k (row of ``nodes``, row of ``faces``) that ``node_face_apart`` would find apart
+    at every step the list is kept, else 0: apart on the face's normal or on a direction across
+    one of its edges in its plane at x by more than the largest tolerance of those steps plus
+    2 reach |m|_1 (the edge-edge pass's ``far_apart``, which gives the reasons)."""
+    grow = 2.0 * math.sqrt(3.0) * reach
+    for k in range(pairs.shape[0]):
+        out[k] = 0
+        p = nodes[pairs[k, 0]]
+        ia = faces[pairs[k, 1], 0]
+        ib = faces[pairs[k, 1], 1]
+        ic = faces[pairs[k, 1], 2]
+        e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz, nn = triangle_normal(
+            x[ia, 0], x[ia, 1], x[ia, 2], x[ib, 0], x[ib, 1], x[ib, 2], x[ic, 0], x[ic, 1],
+            x[ic, 2])
+        if not nn > 0.0:
+            continue
+        ll = max(e1x * e1x + e1y * e1y + e1z * e1z, e2x * e2x + e2y * e2y + e2z * e2z)
+        tol = band_max + APART_MARGIN * (math.sqrt(ll) + grow)
+        nx, ny, nz = unit_normal(nx, ny, nz, nn)
+        for j in range(4):
+            mx, my, mz, ok = nx, ny, nz, True
+            if j > 0:
+                mx, my, mz, ok = unit_cross(
+                    nx, ny, nz, e1x if j == 1 else (e2x if j == 2 else x[ic, 0] - x[ib, 0]),
+                    e1y if j == 1 else (e2y if j == 2 else x[ic, 1] - x[ib, 1]),
+                    e1z if j == 1 else (e2z if j == 2 else x[ic, 2] - x[ib, 2]))
+            if not ok:
+                continue
+            pp = x[p, 0] * mx + x[p, 1] * my + x[p, 2] * mz
+            qa = x[ia, 0] * mx + x[ia, 1] * my + x[ia, 2] * mz
+            qb = x[ib, 0] * mx + x[ib, 1] * my + x[ib, 2] * mz
+            qc = x[ic, 0] * mx + x[ic, 1] * my + x[ic, 2] * mz
+            gap = max(pp - max(max(qa, qb), qc), min(min(qa, qb), qc) - pp)
+            if gap > tol + 2.0 * reach * (abs(mx) + abs(my) + abs(mz)):
+                out[k] = FAR
+                break
 
 
 @numba.njit(cache=True)
@@ -351,6 +450,8 @@ def node_face_sweep(pairs, nodes, faces, x, v, mass, tau, mu, band, eps_bary, re
     total = 0.0
     jump = 0.0
     for k in range(pairs.shape[0]):
+        if active[k] == FAR:
+            continue  # apart while the candidate list is kept (far_apart)
         p = nodes[pairs[k, 0]]
         f = pairs[k, 1]
         a = faces[f, 0]
@@ -358,11 +459,24 @@ def node_face_sweep(pairs, nodes, faces, x, v, mass, tau, mu, band, eps_bary, re
         c = faces[f, 2]
         if unchanged_since(stamp, since, p, a, b, c):
             continue
-        if active[k]:
+        if active[k] == APART:
+            if still_apart(p, a, b, c, v, tau, geo, k):
+                continue  # what node_face_detect would find, without the cubic
+            active[k] = 0
+        if active[k] == 1:
             J = node_face_relax(p, a, b, c, v, mass, mu, geo, k, slack, lock)
-        elif node_face_apart(p, a, b, c, x, v, tau, band):
-            J = 0.0  # what node_face_detect would find, without the cubic
         else:
+            apart, mx, my, mz, pp, qa, qb, qc = apart_axis(p, a, b, c, x, v, tau, band)
+            if apart:  # what node_face_detect would find, without the cubic
+                geo[k, 0] = mx
+                geo[k, 1] = my
+                geo[k, 2] = mz
+                geo[k, 3] = pp
+                geo[k, 4] = qa
+                geo[k, 5] = qb
+                geo[k, 6] = qc
+                active[k] = APART
+                continue
             J = first_visit(node_face_detect(p, a, b, c, x, v, mass, tau, mu, band, eps_bary,
                                              restore, geo, k, lock), active, k)
         if J != 0.0:

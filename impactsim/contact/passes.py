@@ -56,6 +56,7 @@ from __future__ import annotations
 
 import abc
 import difflib
+import math
 
 import numpy as np
 
@@ -63,10 +64,12 @@ from impactsim.contact.broadphase import (SpatialHash, body_bounds, grid_from_bo
                                           select_boxes)
 from impactsim.contact.diagnostics import PenetrationMeter
 from impactsim.contact.edgeedge import GEO_COLS as EE_GEO_COLS
-from impactsim.contact.edgeedge import edge_edge_sweep, edge_normals
+from impactsim.contact.edgeedge import edge_edge_sweep, edge_normals, edge_normals_of
+from impactsim.contact.edgeedge import far_apart as ee_far_apart
 from impactsim.contact.energy import impulse_work
 from impactsim.contact.impulse import NO_LOCK as _NO_LOCK
 from impactsim.contact.nodeface import GEO_COLS as NF_GEO_COLS
+from impactsim.contact.nodeface import far_apart as nf_far_apart
 from impactsim.contact.nodeface import node_face_sweep
 from impactsim.contact.skin import SkinList, overlapping_pairs
 from impactsim.contact.rows import (gather_edge_edge, gather_node_face, row_partners,
@@ -412,6 +415,14 @@ def _project(model, group, stamp, first) -> None:
         off += m
 
 
+def _band_max(ctx, h, pad_b) -> float:
+    """The largest touching band of the steps a candidate list built with mean edge length h
+    and padding pad_b is kept (``ContactPass._far_apart``): each surface node moves at most
+    pad_b per axis meanwhile, so an edge's length, and their mean h, by at most 2 sqrt(3)
+    pad_b."""
+    return ctx.band_rel * (h + 2.0 * math.sqrt(3.0) * pad_b)
+
+
 def _lift(pairs, qsel, esel):
     """Pairs of selected rows -> pairs of full rows (order is kept: the maps are increasing)."""
     if pairs.shape[0]:
@@ -427,6 +438,7 @@ class ContactPass(Pass):
         self.ctx = ctx
         self.hash = SpatialHash()
         self.skin = SkinList()
+        self._init = None  # the sweeps' start values of this step's pairs (_broad_phase)
         self.reports_history = False
         self.totals = {"pairs": 0, "impulse": 0.0, "candidates": 0, "sweeps": 0, "rounds": 0,
                        "steps_in_contact": 0}
@@ -439,10 +451,14 @@ class ContactPass(Pass):
         if self is group[0]:
             ctx.begin_step(model)
         self._h = h
+        self._init = None
         self._pairs = self._candidates(model, dt, h)
         k = self._pairs.shape[0]
         self._active = ctx.buffer(self.name + ".active", k, np.uint8)
-        self._active[:] = 0
+        if self._init is None or self._init.shape[0] != k:
+            self._active[:] = 0
+        else:  # pairs apart while the candidate list is kept (_far_apart) are skipped
+            self._active[:] = self._init
         self._geo = ctx.buffer(self.name + ".geo", (k, self.geo_cols))
         self._impulse = 0.0
         self._sweeps = 0
@@ -500,7 +516,8 @@ class ContactPass(Pass):
         if state == "build":
             pad_b = pad + 0.5 * self.skin.skin_rel * h
             kept = self._fresh_pairs(model, 0.0, h, pad_b, hashed, queries)
-            self.skin.keep(s, ctx.node_key, ents, model.x, kept, pad_b)
+            self.skin.keep(s, ctx.node_key, ents, model.x, kept, pad_b,
+                           self._far_apart(model, kept, h, pad_b))
         kept = self.skin.pairs
         if kept.shape[0] == 0:
             return _NO_PAIRS
@@ -511,8 +528,15 @@ class ContactPass(Pass):
         if queries is not None:
             qlo, qhi = ctx.all_boxes(queries[0], model, dt, sk.q_ent, queries[2], pad)
         out = ctx.buffer(self.name + ".pairs", (kept.shape[0], 2), np.int64)
-        n = overlapping_pairs(sk.local, qlo, qhi, elo, ehi, sk.q_map, sk.e_map, out)
+        far = ctx.buffer(self.name + ".far", kept.shape[0], np.uint8)
+        n = overlapping_pairs(sk.local, qlo, qhi, elo, ehi, sk.q_map, sk.e_map, sk.far, out, far)
+        self._init = far[:n]
         return out[:n]
+
+    def _far_apart(self, model, kept, h, pad_b):
+        """Per kept pair, the sweep's start value: its pass's FAR for the pairs apart for as
+        long as the list is kept (the pass's ``far_apart``), else 0; None: all 0."""
+        return None
 
     def _fresh_pairs(self, model, dt, h, pad, hashed, queries) -> np.ndarray:
         """The broad phase of ``_broad_phase`` run afresh with boxes swept over dt (0: static
@@ -595,6 +619,12 @@ class NodeFacePass(ContactPass):
         return self._broad_phase(model, dt, h, ("nf.face", s.faces, s.face_body, s.face_key),
                                  ("nf.node", s.nodes.reshape(-1, 1), s.node_body))
 
+    def _far_apart(self, model, kept, h, pad_b):
+        s = self.ctx.surface
+        out = np.empty(kept.shape[0], np.uint8)
+        nf_far_apart(kept, s.nodes, s.faces, model.x, _band_max(self.ctx, h, pad_b), pad_b, out)
+        return out
+
     def _sweep(self, model, dt, h, pairs, active, stamp, sweep, since, geo, slack):
         ctx = self.ctx
         s = ctx.surface
@@ -624,8 +654,30 @@ class EdgeEdgePass(ContactPass):
         if pairs.shape[0]:
             # outward normals at the edges, for touching pairs (edgeedge module docstring)
             self.normals = ctx.buffer("ee.normals", (s.n_edges, 3))
-            edge_normals(model.x, s.faces, s.face_edges, self.normals)
+            if self._init is None:
+                edge_normals(model.x, s.faces, s.face_edges, self.normals)
+            else:  # pairs of the kept list: the faces at its edges are enough
+                edge_normals_of(model.x, s.faces, s.face_edges, self._normal_faces(),
+                                self.normals)
         return pairs
+
+    def _normal_faces(self) -> np.ndarray:
+        """The faces at the edges of the kept candidate list (``edge_normals_of``), found again
+        at each of its builds."""
+        sk = self.skin
+        if getattr(self, "_faces_build", None) != sk.builds:
+            fe = self.ctx.surface.face_edges
+            used = np.zeros(self.ctx.surface.n_edges + 1, bool)
+            used[sk.e_map] = True
+            self._faces = np.flatnonzero(used[fe].any(axis=1))  # (-1, no edge: the last row)
+            self._faces_build = sk.builds
+        return self._faces
+
+    def _far_apart(self, model, kept, h, pad_b):
+        s = self.ctx.surface
+        out = np.empty(kept.shape[0], np.uint8)
+        ee_far_apart(kept, s.edges, model.x, _band_max(self.ctx, h, pad_b), pad_b, out)
+        return out
 
     def _sweep(self, model, dt, h, pairs, active, stamp, sweep, since, geo, slack):
         ctx = self.ctx

@@ -145,6 +145,27 @@ def _coupling(r, s, idx, coef, nrm, mass, lock):
 
 
 @numba.njit(cache=True)
+def _stable_order(flat):
+    """np.argsort(flat, kind="mergesort") for node indices >= 0, by a counting sort: the
+    entries of one node in their order in ``flat`` (a few thousand rows a step: the merge sort
+    cost more than the rest of ``row_partners``)."""
+    m = flat.shape[0]
+    order = np.empty(m, np.int64)
+    if m == 0:
+        return order
+    start = np.zeros(flat.max() + 2, np.int64)
+    for q in range(m):
+        start[flat[q] + 1] += 1
+    for i in range(1, start.shape[0]):
+        start[i] += start[i - 1]
+    for q in range(m):
+        i = flat[q]
+        order[start[i]] = q
+        start[i] += 1
+    return order
+
+
+@numba.njit(cache=True)
 def row_partners(idx, coef, nrm, mass, diag, partner, lock=NO_LOCK):
     """diag[r] = sum c_i^2 / m_i (with ``lock``: sum c_i^2 s_i / m_i, s_i = sum_d lock_i,d
     n_d^2); partner[r] = the row s solved together with r (mutual
@@ -165,7 +186,7 @@ def row_partners(idx, coef, nrm, mass, diag, partner, lock=NO_LOCK):
                                                 + lock[i, 2] * nrm[r, 2] * nrm[r, 2]) / mass[i]
         diag[r] = d
     flat = idx.ravel()
-    order = np.argsort(flat, kind="mergesort")
+    order = _stable_order(flat)
     i = 0
     while i < flat.shape[0]:
         j = i + 1

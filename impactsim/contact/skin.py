@@ -45,11 +45,11 @@ def within_reach(x, v, tau, nodes, xb, limit):
 
 
 @numba.njit(cache=True)
-def overlapping_pairs(pairs, qlo, qhi, elo, ehi, qmap, emap, out):
+def overlapping_pairs(pairs, qlo, qhi, elo, ehi, qmap, emap, far, out, out_far):
     """The rows of ``pairs (k, 2)`` (query row, hashed row: rows of the boxes) whose boxes
     (qlo, qhi)[query] and (elo, ehi)[hashed] overlap (closed boxes, the comparisons of the hash
-    query), in order, into ``out`` as entity rows (qmap[query], emap[hashed]); returns their
-    number."""
+    query), in order, into ``out`` as entity rows (qmap[query], emap[hashed]), and their flags
+    ``far[k]`` (``SkinList.keep``) into ``out_far``; returns their number."""
     n = 0
     for k in range(pairs.shape[0]):
         i = pairs[k, 0]
@@ -59,6 +59,7 @@ def overlapping_pairs(pairs, qlo, qhi, elo, ehi, qmap, emap, out):
                 and qlo[i, 2] <= ehi[j, 2] and elo[j, 2] <= qhi[i, 2]):
             out[n, 0] = qmap[i]
             out[n, 1] = emap[j]
+            out_far[n] = far[k]
             n += 1
     return n
 
@@ -107,12 +108,16 @@ class SkinList:
         ok = limit > 0.0 and within_reach(x, v, tau, surface.nodes, self._xb, limit)
         return "kept" if ok else "build"
 
-    def keep(self, surface, node_key, ents, x, pairs, pad_b) -> None:
+    def keep(self, surface, node_key, ents, x, pairs, pad_b, far=None) -> None:
         """Keep ``pairs`` (the broad phase of static boxes at x padded by pad_b). Only the
         entities in kept pairs have their boxes made each step: ``hashed`` (rows ``ents[0]``)
         and ``queries`` (``ents[1]``, or the same as hashed), with ``pairs`` in their positions
-        (``local``) and the maps back to entity rows (increasing: the order is kept)."""
+        (``local``) and the maps back to entity rows (increasing: the order is kept). ``far``
+        (uint8 per pair, or None: zeros): what the pass's sweep starts each step with for the
+        pair (its ``far_apart``: the pairs apart for as long as the list is kept)."""
         self.pairs = np.array(pairs, dtype=np.int64, copy=True)
+        self.far = (np.zeros(self.pairs.shape[0], np.uint8) if far is None
+                    else np.ascontiguousarray(far, dtype=np.uint8))
         if len(ents) == 1:
             used = np.unique(self.pairs)
             self.e_map = self.q_map = used

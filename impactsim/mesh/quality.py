@@ -69,9 +69,23 @@ def _sq(v: np.ndarray) -> np.ndarray:
 
 
 def altitudes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
-    """Smallest altitude 3 V / max face area of each tet: (e,) float64 [m] (L_e of the step)."""
-    _, areas, volume = _geometry(points, tets)
-    return _altitudes(areas, volume)
+    """Smallest altitude 3 V / max face area of each tet: (e,) float64 [m] (L_e of the step).
+
+    Face by face on (e,) arrays of each coordinate: the arithmetic of ``face_area_vectors``
+    and ``np.linalg.norm`` (the same numbers bit for bit), without their (e, 4, 3) gathers and
+    temporaries; a run computes it for the estimate and the initial overlap check (sphere-plate,
+    154k tets: 0.05 against 0.40 CPU s)."""
+    xs = [points[:, d][tets] for d in range(3)]  # (e, 4) per axis
+    amax = None
+    for a, b, c in FACES:
+        ux, uy, uz = (xs[d][:, b] - xs[d][:, a] for d in range(3))
+        wx, wy, wz = (xs[d][:, c] - xs[d][:, a] for d in range(3))
+        cx = 0.5 * (uy * wz - uz * wy)
+        cy = 0.5 * (uz * wx - ux * wz)
+        cz = 0.5 * (ux * wy - uy * wx)
+        area = np.sqrt(cx * cx + cy * cy + cz * cz)
+        amax = area if amax is None else np.maximum(amax, area)
+    return _altitudes(amax[:, None], np.abs(signed_volumes(points, tets)))
 
 
 def aspect_ratios(points: np.ndarray, tets: np.ndarray) -> np.ndarray:

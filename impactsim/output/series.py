@@ -1,7 +1,8 @@
 """A time series of VTU files indexed by a ParaView collection file (.pvd).
 
-`SeriesWriter.write` writes one frame, `<prefix>_00000.vtu` (meshio, binary, zlib-compressed
-unless `compression="none"`: about 5x faster to write, 1.8x larger),
+`SeriesWriter.write` writes one frame, `<prefix>_00000.vtu` (output/vtu.py: meshio's file
+layout, binary, zlib-compressed at level 1 unless `compression="none"`: about 3x faster to
+write, 1.7x larger),
 then rewrites the collection `<pvd_name>` listing every frame written so far; both through
 `atomic.replacing`, so a killed run leaves a readable series of the finished frames. Two writers
 can share a directory: the solver writes the mesh as ``frame_*.vtu`` / ``series.pvd`` and the
@@ -10,7 +11,9 @@ particles as ``particles_*.vtu`` / ``particles.pvd``.
 With `background=True` a frame is copied when `write` is called and written by a thread of the
 writer's own, frame after frame in order, while the caller goes on (the run's kernels release
 the GIL, and zlib does while it compresses): the compression of a frame then costs the run
-little on a second core. `close()` waits for the frames still being written and raises the
+little on a second core. `write_later` hands the thread a function that makes the frame's
+arrays (the run passes copies of its state, solver/run.py `frame_snapshot`, and the fields are
+derived in the writer's thread). `close()` waits for the frames still being written and raises the
 first error of any; the collection lists a frame only once its file is complete.
 
 Array conventions of a frame (k = number of points or of cells):
@@ -29,10 +32,10 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
-import meshio
 import numpy as np
 
 from impactsim.output.atomic import replacing, write_text
+from impactsim.output.vtu import write_vtu
 
 # full row-major 3x3 tensor from Voigt xx, yy, zz, xy, yz, zx
 _VOIGT_TO_FULL = np.array([0, 3, 5, 3, 1, 4, 5, 4, 2])
@@ -63,7 +66,7 @@ class SeriesWriter:
         self.prefix = prefix
         self.pvd_path = self.directory / pvd_name
         self.frames: list[tuple[float, str]] = []
-        self._count = 0  # frames handed to write()
+        self._count = 0  # frames handed to write() and write_later()
         self._pool = (ThreadPoolExecutor(1, thread_name_prefix=f"impactsim-{prefix}")
                       if background else None)
         self._pending: deque[Future] = deque()
@@ -85,6 +88,36 @@ class SeriesWriter:
         (e, ...) array. keep: (e,) bool, False for cells left out of the file (eroded elements);
         their cell data is dropped with them, the points stay.
         """
+        mesh = self._mesh(time, points, cells, point_data, cell_data, keep,
+                          copy=self._pool is not None)
+        return self._submit(float(time), lambda: mesh)
+
+    def write_later(self, time: float, make) -> Path:
+        """``write(time, *make())``, with ``make()`` (returning points, cells, point data, cell
+        data, keep) called in the writer's thread when in background mode: the caller hands
+        over arrays of its own (copies) and the frame's fields are derived there while it goes
+        on. An error of ``make`` or of the arrays surfaces as a failed frame does (at the next
+        write beyond MAX_PENDING, position or close)."""
+        time = float(time)
+        return self._submit(time, lambda: self._mesh(time, *make(), copy=False))
+
+    def _submit(self, time: float, mesh) -> Path:
+        """Write the frame ``mesh()`` (a callable) now, or queue it in background mode."""
+        if not np.isfinite(time):
+            raise ValueError(f"frame time must be finite, got {time}")
+        name = f"{self.prefix}_{self._count:05d}.vtu"
+        self._count += 1
+        if self._pool is None:
+            self._write(time, name, mesh)
+        else:
+            while len(self._pending) >= self.MAX_PENDING:
+                self._pending.popleft().result()  # raises the error of a failed frame
+            self._pending.append(self._pool.submit(self._write, time, name, mesh))
+        return self.directory / name
+
+    @staticmethod
+    def _mesh(time, points, cells, point_data, cell_data, keep, copy: bool) -> tuple:
+        """The checked arrays of a frame for ``write_vtu`` (copies of the caller's with copy)."""
         time = float(time)
         if not np.isfinite(time):
             raise ValueError(f"frame time must be finite, got {time}")
@@ -108,25 +141,14 @@ class SeriesWriter:
             typed = [(t, conn[keep[bounds[i]:bounds[i + 1]]]) for i, (t, conn) in enumerate(typed)]
             sizes = [conn.shape[0] for _, conn in typed]
         typed = [(t, np.ascontiguousarray(conn)) for t, conn in typed]
-        if self._pool is not None:  # the caller goes on changing its arrays: a frame of copies
+        if copy:  # the caller goes on changing its arrays: a frame of copies
             pts = pts.copy()
             typed = [(t, conn.copy()) for t, conn in typed]
             pdata = {name: value.copy() for name, value in pdata.items()}
             cdata = {name: value.copy() for name, value in cdata.items()}
-        bounds = np.cumsum([0] + sizes)
         live = [i for i, size in enumerate(sizes) if size] or [len(sizes) - 1]  # one, if empty
-        mesh = meshio.Mesh(pts, [typed[i] for i in live], point_data=pdata,
-                           cell_data={name: [value[bounds[i]:bounds[i + 1]] for i in live]
-                                      for name, value in cdata.items()})
-        name = f"{self.prefix}_{self._count:05d}.vtu"
-        self._count += 1
-        if self._pool is None:
-            self._write(time, name, mesh)
-        else:
-            while len(self._pending) >= self.MAX_PENDING:
-                self._pending.popleft().result()  # raises the error of a failed frame
-            self._pending.append(self._pool.submit(self._write, time, name, mesh))
-        return self.directory / name
+        # the cell data of the blocks left out is empty: its rows are those of the live blocks
+        return pts, [typed[i] for i in live], pdata, cdata
 
     def position(self) -> dict:
         """Wait for the frames being written; then what a resumed writer needs to go on:
@@ -154,10 +176,12 @@ class SeriesWriter:
             self._pool.shutdown(wait=True)
             self._pool = None
 
-    def _write(self, time: float, name: str, mesh: meshio.Mesh) -> None:
-        """Write one frame file, then the collection with it (in order: one thread at most)."""
+    def _write(self, time: float, name: str, mesh) -> None:
+        """Write the frame ``mesh()`` to its file, then the collection with it (in order: one
+        thread at most)."""
+        arrays = mesh()
         with replacing(self.directory / name) as tmp:
-            meshio.write(tmp, mesh, file_format="vtu", binary=True, compression=self.compression)
+            write_vtu(tmp, *arrays, compression=self.compression)
         self.frames.append((time, name))
         write_text(self.pvd_path, collection_xml(self.frames))
 

@@ -70,7 +70,7 @@ R_X = 0  # 12 rows: x^{n+1} of corners 0..3 (x, y, z each)
 R_V = 12  # 12 rows: U^{n+1} of corners 0..3
 R_S0 = 24  # 6 rows: deviatoric stress at n (xx, yy, zz, xy, yz, zx)
 R_VOLD = 30  # volume at n
-R_VEOSOLD = 31  # EOS volume at n (the ANP tet's averaged volume)
+# row 31 unused (the EOS volume at n was copied here and never read)
 R_MASS = 32
 R_EN = 33  # specific internal energy at n
 R_POLD = 34  # pressure at n
@@ -114,6 +114,9 @@ ITERATING, FINISHED, STALLED, FIRST = 0.0, 1.0, 2.0, 3.0
 # yielding elements) is redone by the scalar return, so that one slow lane does not make the
 # whole block iterate
 VECTOR_ITERATIONS = 5
+# lanes of a group in the vector return's loops (`_jc_start`, `_jc_newton`, `_jc_finish`): a
+# group with no lane to work on is skipped (two 4-wide vectors with AVX2, one with AVX-512)
+JG = 8
 
 
 def n_chunks(n_elem: int) -> int:
@@ -438,7 +441,6 @@ def _load_block(x, v, conn, sdev, pressure, energy, vol, vol_eos, vol0, elem_mas
         for c in range(6):
             buf[(R_S0 + c) * B + i] = sd[i, c]
     _copy_in(vol[e0:e0 + B], buf, R_VOLD)
-    _copy_in(vol_eos[e0:e0 + B], buf, R_VEOSOLD)
     _copy_in(elem_mass[e0:e0 + B], buf, R_MASS)
     _copy_in(energy[e0:e0 + B], buf, R_EN)
     _copy_in(pressure[e0:e0 + B], buf, R_POLD)
@@ -559,26 +561,40 @@ def _jc_start(buf, a0, n, c, g3, inv_rate0):
     (`laws.first_yield_return`: iterating such lanes in vector form made whole blocks iterate
     up to eight times, which cost more than it saved). Returns the number of yielding lanes
     (ITERATING or FIRST): a block above its yield floor may still be elastic at the step's
-    rate, and then needs no Newton iteration and no update."""
+    rate, and then needs no Newton iteration and no update.
+
+    The lanes go in groups of JG: a group with no lane above its yield floor (hard x thermal,
+    below the yield stress at any rate when C >= 0) is elastic at any rate and only gets the
+    rows the later steps read (not yielding, FINISHED, no increment), without the logarithm."""
     active = 0
-    for i in range(B):
-        seq = buf[R_SEQ * B + i]
-        ep = buf[R_EP * B + i]
-        hard = buf[R_HARD * B + i]
-        rt = (1.0 + c * VM.ln(max(buf[R_RATE * B + i] * inv_rate0, 1.0))) * buf[R_THERM * B + i]
-        sy = hard * rt
-        act = seq > sy
-        hi = (seq - sy) / g3
-        d = newton_start(seq, sy, hard, a0, rt, n, g3, ep) if ep > 0.0 else hi
-        buf[R_RT * B + i] = rt
-        buf[R_ACT * B + i] = 1.0 if act else 0.0
-        buf[R_DONE * B + i] = (ITERATING if ep > 0.0 else FIRST) if act else FINISHED
-        buf[R_DEPS * B + i] = d if act else 0.0
-        buf[R_LO * B + i] = 0.0
-        buf[R_HI * B + i] = hi if act else 0.0
-        buf[R_SY * B + i] = sy
-        buf[R_HN * B + i] = hard
-        active += 1 if act else 0
+    for g in range(0, B, JG):
+        above = False
+        for i in range(g, g + JG):
+            above |= buf[R_SEQ * B + i] > buf[R_HARD * B + i] * buf[R_THERM * B + i]
+        if not above:
+            for i in range(g, g + JG):
+                buf[R_ACT * B + i] = 0.0
+                buf[R_DONE * B + i] = FINISHED
+                buf[R_DEPS * B + i] = 0.0
+            continue
+        for i in range(g, g + JG):
+            seq = buf[R_SEQ * B + i]
+            ep = buf[R_EP * B + i]
+            hard = buf[R_HARD * B + i]
+            rt = (1.0 + c * VM.ln(max(buf[R_RATE * B + i] * inv_rate0, 1.0))) * buf[R_THERM * B + i]
+            sy = hard * rt
+            act = seq > sy
+            hi = (seq - sy) / g3
+            d = newton_start(seq, sy, hard, a0, rt, n, g3, ep) if ep > 0.0 else hi
+            buf[R_RT * B + i] = rt
+            buf[R_ACT * B + i] = 1.0 if act else 0.0
+            buf[R_DONE * B + i] = (ITERATING if ep > 0.0 else FIRST) if act else FINISHED
+            buf[R_DEPS * B + i] = d if act else 0.0
+            buf[R_LO * B + i] = 0.0
+            buf[R_HI * B + i] = hi if act else 0.0
+            buf[R_SY * B + i] = sy
+            buf[R_HN * B + i] = hard
+            active += 1 if act else 0
     return active
 
 
@@ -589,70 +605,85 @@ def _jc_newton(buf, a0, b0, n, g3):
     tolerance (`laws.newton_step_converged`) takes it and finishes; a lane whose bracket has
     shrunk to round-off finishes at the next call with the yield stress at its last iterate, as
     the scalar return does. FIRST lanes are left to the scalar return. Returns the number of
-    lanes still iterating here."""
+    lanes still iterating here. A group of JG lanes none of which is iterating (or STALLED) is
+    skipped: it would change nothing."""
     curv = b0 * n * abs(1.0 - n)
     left = 0
-    for i in range(B):
-        done = buf[R_DONE * B + i]
-        seq = buf[R_SEQ * B + i]
-        ep0 = buf[R_EP * B + i]
-        rt = buf[R_RT * B + i]
-        d = buf[R_DEPS * B + i]
-        lo = buf[R_LO * B + i]
-        hi = buf[R_HI * B + i]
-        iterating = done == ITERATING
-        final = done == STALLED
-        ep = ep0 + d if iterating or final else 1.0
-        pw = VM.power(ep, n)
-        a = a0 * rt
-        b = b0 * rt
-        sy = a + b * pw
-        f = seq - g3 * d - sy
-        tol = 1e-12 * seq
-        conv = abs(f) <= tol
-        lo2 = d if f > 0.0 else lo
-        hi2 = hi if f > 0.0 else d
-        step = f / (g3 + b * n * pw / ep)
-        dn = d + step
-        accept = (newton_step_converged(step, ep, rt * curv * pw / (ep * ep), tol)
-                  and dn > lo2 and dn < hi2 and not conv)
-        pw = power_near(pw, step / ep, n) if accept else pw
-        dn = 0.5 * (lo2 + hi2) if (dn <= lo2 or dn >= hi2) else dn
-        stall = hi2 - lo2 <= 1e-15 * (1.0 + ep0)
-        finish = final or (iterating and (conv or accept))
-        going = iterating and not (conv or accept)
-        new = FINISHED if finish else (STALLED if going and stall else done)
-        buf[R_DONE * B + i] = new
-        buf[R_SY * B + i] = a + b * pw if finish else buf[R_SY * B + i]
-        buf[R_HN * B + i] = a0 + b0 * pw if finish else buf[R_HN * B + i]
-        buf[R_LO * B + i] = lo2 if going else lo
-        buf[R_HI * B + i] = hi2 if going else hi
-        buf[R_DEPS * B + i] = dn if going or (iterating and accept) else d
-        left += 1 if new == ITERATING or new == STALLED else 0
+    for g in range(0, B, JG):
+        busy = False
+        for i in range(g, g + JG):
+            dn = buf[R_DONE * B + i]
+            busy |= dn == ITERATING or dn == STALLED
+        if not busy:
+            continue
+        for i in range(g, g + JG):
+            done = buf[R_DONE * B + i]
+            seq = buf[R_SEQ * B + i]
+            ep0 = buf[R_EP * B + i]
+            rt = buf[R_RT * B + i]
+            d = buf[R_DEPS * B + i]
+            lo = buf[R_LO * B + i]
+            hi = buf[R_HI * B + i]
+            iterating = done == ITERATING
+            final = done == STALLED
+            ep = ep0 + d if iterating or final else 1.0
+            pw = VM.power(ep, n)
+            a = a0 * rt
+            b = b0 * rt
+            sy = a + b * pw
+            f = seq - g3 * d - sy
+            tol = 1e-12 * seq
+            conv = abs(f) <= tol
+            lo2 = d if f > 0.0 else lo
+            hi2 = hi if f > 0.0 else d
+            step = f / (g3 + b * n * pw / ep)
+            dn = d + step
+            accept = (newton_step_converged(step, ep, rt * curv * pw / (ep * ep), tol)
+                      and dn > lo2 and dn < hi2 and not conv)
+            pw = power_near(pw, step / ep, n) if accept else pw
+            dn = 0.5 * (lo2 + hi2) if (dn <= lo2 or dn >= hi2) else dn
+            stall = hi2 - lo2 <= 1e-15 * (1.0 + ep0)
+            finish = final or (iterating and (conv or accept))
+            going = iterating and not (conv or accept)
+            new = FINISHED if finish else (STALLED if going and stall else done)
+            buf[R_DONE * B + i] = new
+            buf[R_SY * B + i] = a + b * pw if finish else buf[R_SY * B + i]
+            buf[R_HN * B + i] = a0 + b0 * pw if finish else buf[R_HN * B + i]
+            buf[R_LO * B + i] = lo2 if going else lo
+            buf[R_HI * B + i] = hi2 if going else hi
+            buf[R_DEPS * B + i] = dn if going or (iterating and accept) else d
+            left += 1 if new == ITERATING or new == STALLED else 0
     return left
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
 def _jc_finish(buf, tq_cv, t_room, inv_t_range, m):
     """Plastic strain, adiabatic heating, the thermal factor 1 - T*^m (`laws.thermal_factor`)
-    and the returned deviator of the yielded lanes."""
-    for i in range(B):
-        upd = buf[R_ACT * B + i] > 0.0 and buf[R_DEPS * B + i] > 0.0
-        deps = buf[R_DEPS * B + i]
-        sy = buf[R_SY * B + i]
-        seq = buf[R_SEQ * B + i]
-        rho = buf[R_MASS * B + i] / (buf[R_DET * B + i] * (1.0 / 6.0))
-        temp = buf[R_TEMP * B + i] + tq_cv * sy * deps / rho
-        scale = sy / seq if upd else 1.0
-        for c in range(6):
-            buf[(R_SN + c) * B + i] *= scale
-        t_star = (temp - t_room) * inv_t_range
-        tm = VM.power(t_star if (t_star > 0.0 and t_star < 1.0) else 0.5, m)
-        th = 0.0 if t_star >= 1.0 else (1.0 - tm if t_star > 0.0 else 1.0)
-        buf[R_EP * B + i] = buf[R_EP * B + i] + deps if upd else buf[R_EP * B + i]
-        buf[R_TEMP * B + i] = temp if upd else buf[R_TEMP * B + i]
-        buf[R_HARD * B + i] = buf[R_HN * B + i] if upd else buf[R_HARD * B + i]
-        buf[R_THERM * B + i] = th if upd else buf[R_THERM * B + i]
+    and the returned deviator of the yielded lanes (in groups of JG lanes: a group with none
+    is left as it is)."""
+    for g in range(0, B, JG):
+        any_upd = False
+        for i in range(g, g + JG):
+            any_upd |= buf[R_ACT * B + i] > 0.0 and buf[R_DEPS * B + i] > 0.0
+        if not any_upd:
+            continue
+        for i in range(g, g + JG):
+            upd = buf[R_ACT * B + i] > 0.0 and buf[R_DEPS * B + i] > 0.0
+            deps = buf[R_DEPS * B + i]
+            sy = buf[R_SY * B + i]
+            seq = buf[R_SEQ * B + i]
+            rho = buf[R_MASS * B + i] / (buf[R_DET * B + i] * (1.0 / 6.0))
+            temp = buf[R_TEMP * B + i] + tq_cv * sy * deps / rho
+            scale = sy / seq if upd else 1.0
+            for c in range(6):
+                buf[(R_SN + c) * B + i] *= scale
+            t_star = (temp - t_room) * inv_t_range
+            tm = VM.power(t_star if (t_star > 0.0 and t_star < 1.0) else 0.5, m)
+            th = 0.0 if t_star >= 1.0 else (1.0 - tm if t_star > 0.0 else 1.0)
+            buf[R_EP * B + i] = buf[R_EP * B + i] + deps if upd else buf[R_EP * B + i]
+            buf[R_TEMP * B + i] = temp if upd else buf[R_TEMP * B + i]
+            buf[R_HARD * B + i] = buf[R_HN * B + i] if upd else buf[R_HARD * B + i]
+            buf[R_THERM * B + i] = th if upd else buf[R_THERM * B + i]
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -661,26 +692,57 @@ def _jc_return_block(buf, mat_params, mk, shear, eps_p, temperature, hard, therm
     caches' update of `_return_map`, lane by lane the same iteration (ln and exp from
     `vecmath`); a lane not finished after VECTOR_ITERATIONS is redone by the scalar return.
     Requires C >= 0 (hard x thermal is then a lower bound: lanes below it skip, and a block
-    with no lane above it costs one comparison per lane)."""
-    hd = hard[e0:e0 + B]  # views of the block (see `_load_block`)
-    th = thermal[e0:e0 + B]
+    with no lane above it costs one comparison per lane).
+
+    `_chunk` does the same with the three parts written out: numba keeps an NRT incref and
+    decref of every array argument of a function that calls another (12 atomic counts per
+    block for this one; docs/performance.md, "The tet kernel, session 9")."""
+    if _jc_load(buf, eps_p, temperature, hard, thermal, e0):
+        if _jc_lanes(buf, mat_params, mk, shear):
+            _jc_store(buf, eps_p, temperature, hard, thermal, e0)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _jc_load(buf, eps_p, temperature, hard, thermal, e0):
+    """False if no lane of the block is above its yield floor (hard x thermal); else copies
+    the lanes' plastic strain, temperature and caches into rows R_EP .. R_THERM and returns
+    True. The arrays are indexed by unsigned integers (no wraparound test), not through views
+    of the block as in `_load_block`: a view is an array of its own, with its reference count."""
     any_active = False
     for i in range(B):
-        if buf[R_SEQ * B + i] > hd[i] * th[i]:
+        j = np.uint64(e0 + i)
+        if buf[R_SEQ * B + i] > hard[j] * thermal[j]:
             any_active = True
             break
-    if not any_active:
-        return
-    ep = eps_p[e0:e0 + B]
-    tp = temperature[e0:e0 + B]
-    _copy_in(ep, buf, R_EP)
-    _copy_in(tp, buf, R_TEMP)
-    _copy_in(hd, buf, R_HARD)
-    _copy_in(th, buf, R_THERM)
+    if any_active:
+        for i in range(B):
+            j = np.uint64(e0 + i)
+            buf[R_EP * B + i] = eps_p[j]
+            buf[R_TEMP * B + i] = temperature[j]
+            buf[R_HARD * B + i] = hard[j]
+            buf[R_THERM * B + i] = thermal[j]
+    return any_active
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _jc_store(buf, eps_p, temperature, hard, thermal, e0):
+    """Rows R_EP .. R_THERM back to the element arrays (see `_jc_load`)."""
+    for i in range(B):
+        j = np.uint64(e0 + i)
+        eps_p[j] = buf[R_EP * B + i]
+        temperature[j] = buf[R_TEMP * B + i]
+        hard[j] = buf[R_HARD * B + i]
+        thermal[j] = buf[R_THERM * B + i]
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _jc_lanes(buf, mat_params, mk, shear):
+    """`_jc_return_block`'s iteration on the block's rows R_EP .. R_THERM; False when no lane
+    yields at the step's rate (nothing changes)."""
     a0, b0, n = mat_params[mk, P.JC_A], mat_params[mk, P.JC_B], mat_params[mk, P.JC_N]
     g3 = 3.0 * shear
     if _jc_start(buf, a0, n, mat_params[mk, P.JC_C], g3, 1.0 / mat_params[mk, P.EPSDOT0]) == 0:
-        return  # elastic at the step's rate: nothing changes
+        return False  # elastic at the step's rate: nothing changes
     for _ in range(VECTOR_ITERATIONS):
         if _jc_newton(buf, a0, b0, n, g3) == 0:
             break
@@ -696,10 +758,7 @@ def _jc_return_block(buf, mat_params, mk, shear, eps_p, temperature, hard, therm
     t_room = mat_params[mk, P.T_ROOM]
     _jc_finish(buf, mat_params[mk, P.TQ] / mat_params[mk, P.CV], t_room,
                1.0 / (mat_params[mk, P.T_MELT] - t_room), mat_params[mk, P.JC_M])
-    _copy_out(buf, R_EP, ep)
-    _copy_out(buf, R_TEMP, tp)
-    _copy_out(buf, R_HARD, hd)
-    _copy_out(buf, R_THERM, th)
+    return True
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
@@ -982,56 +1041,67 @@ def _lanes2(a, e0, n):
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
-def _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
-           hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp,
-           half, dt, cq, cl, rows, fext, chunk_out, buf, plastic):
-    """The full blocks of intact elements of one material of chunk ch (the vector path, written
-    out in this function: called as a function of its own, it took the kernel 62 -> 66 ns per
-    element); any other block is left to `_deferred_chunk`, marked in the chunk's
-    OUT_DEFERRED. `buf` the block buffer (TET_ROWS * B) of the calling thread."""
+def _chunk(ch0, ch1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+           temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
+           use_anp, half, dt, cq, cl, rows, fext, chunk_out, buf, plastic):
+    """The full blocks of intact elements of one material of chunks ch0 .. ch1 - 1 (the vector
+    path, written out in this function: called as a function of its own, it took the kernel 62
+    -> 66 ns per element); any other block is left to `_deferred_chunk`, marked in its chunk's
+    OUT_DEFERRED. `buf` the block buffer (TET_ROWS * B) of the calling thread. A range of
+    chunks (a part, or all of them on one thread), not one: numba increfs and decrefs every
+    array argument at each call of a function that calls others (about 70 atomic counts)."""
     n_elem = conn.shape[0]
-    dt_min = math.inf
-    worst = -1
-    qwork = 0.0
-    inverted = 0
-    deferred = 0
-    e_end = min(n_elem, (ch + 1) * CHUNK)
-    for e0 in range(ch * CHUNK, e_end, B):
-        if e0 + B <= e_end:
-            mk = _vector_block(elem_mat, status, e0)
-            if mk >= 0:
-                _load_block(x, v, conn, sdev, pressure, energy, vol, vol_eos, vol0, elem_mass,
-                            jnode, use_anp, e0, buf)
-                shear = mat_params[mk, P.G]
-                _kinematics_block(buf, half, dt, shear)
-                for i in range(B):
-                    if not buf[R_DET * B + i] > 0.0:
-                        mk = -1
-            if mk >= 0:
-                if plastic is not None:
-                    _return(buf, mat_params, mk, shear, eps_p, temperature, hard, thermal, e0)
-                _pressure_block(buf, dt, use_anp, int(mat_params[mk, P.EOS]),
-                                mat_params[mk, P.RHO0], mat_params[mk, P.K], mat_params[mk, P.C0],
-                                mat_params[mk, P.S], mat_params[mk, P.GAMMA0], shear, cq, cl, None)
-                bdt, bworst, bq = _store_block(rows, sdev, pressure, q, eps_rate, energy, vol,
-                                               vol_eos, fext, use_anp, e0, buf)
-                binv = 0
+    for ch in range(ch0, ch1):
+        dt_min = math.inf
+        worst = -1
+        qwork = 0.0
+        inverted = 0
+        deferred = 0
+        e_end = min(n_elem, (ch + 1) * CHUNK)
+        for e0 in range(ch * CHUNK, e_end, B):
+            if e0 + B <= e_end:
+                mk = _vector_block(elem_mat, status, e0)
+                if mk >= 0:
+                    _load_block(x, v, conn, sdev, pressure, energy, vol, vol_eos, vol0, elem_mass,
+                                jnode, use_anp, e0, buf)
+                    shear = mat_params[mk, P.G]
+                    _kinematics_block(buf, half, dt, shear)
+                    for i in range(B):
+                        if not buf[R_DET * B + i] > 0.0:
+                            mk = -1
+                if mk >= 0:
+                    if plastic is not None:  # `_return` written out (its inlining kept increfs)
+                        code = int(mat_params[mk, P.STRENGTH])
+                        if code == P.JOHNSON_COOK and mat_params[mk, P.JC_C] >= 0.0:
+                            if _jc_load(buf, eps_p, temperature, hard, thermal, e0):
+                                if _jc_lanes(buf, mat_params, mk, shear):
+                                    _jc_store(buf, eps_p, temperature, hard, thermal, e0)
+                        elif code != P.ELASTIC:
+                            _return_block(buf, code, mat_params, mk, shear, eps_p, temperature,
+                                          hard, thermal, e0)
+                    _pressure_block(buf, dt, use_anp, int(mat_params[mk, P.EOS]),
+                                    mat_params[mk, P.RHO0], mat_params[mk, P.K],
+                                    mat_params[mk, P.C0], mat_params[mk, P.S],
+                                    mat_params[mk, P.GAMMA0], shear, cq, cl, None)
+                    bdt, bworst, bq = _store_block(rows, sdev, pressure, q, eps_rate, energy, vol,
+                                                   vol_eos, fext, use_anp, e0, buf)
+                    binv = 0
+                else:
+                    deferred |= 1 << ((e0 - ch * CHUNK) // B)
+                    continue
             else:
                 deferred |= 1 << ((e0 - ch * CHUNK) // B)
                 continue
-        else:
-            deferred |= 1 << ((e0 - ch * CHUNK) // B)
-            continue
-        qwork += bq
-        inverted += binv
-        if bdt < dt_min:
-            dt_min = bdt
-            worst = bworst
-    chunk_out[ch, OUT_DT] = dt_min
-    chunk_out[ch, OUT_QWORK] = qwork
-    chunk_out[ch, OUT_INVERTED] = inverted
-    chunk_out[ch, OUT_WORST] = worst
-    chunk_out[ch, OUT_DEFERRED] = deferred
+            qwork += bq
+            inverted += binv
+            if bdt < dt_min:
+                dt_min = bdt
+                worst = bworst
+        chunk_out[ch, OUT_DT] = dt_min
+        chunk_out[ch, OUT_QWORK] = qwork
+        chunk_out[ch, OUT_INVERTED] = inverted
+        chunk_out[ch, OUT_WORST] = worst
+        chunk_out[ch, OUT_DEFERRED] = deferred
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
@@ -1173,17 +1243,19 @@ def _update_parallel(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
     for t in numba.prange(threads):
         buf = aligned_empty(TET_ROWS * B)  # one block buffer per thread and step
         for part in range(t, n_parts, threads):
-            for ch in range(part * part_chunks, min(n_ch, (part + 1) * part_chunks)):
-                if deferred is None:
-                    _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
-                           eps_rate, temperature, hard, thermal, energy, vol, vol_eos, vol0,
-                           elem_mass, mat_params, jnode, use_anp, half, dt, cq, cl, rows, fext,
-                           chunk_out, buf, plastic)
-                elif chunk_out[ch, OUT_DEFERRED] != 0.0:
-                    _deferred_chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
-                                    eps_rate, temperature, hard, thermal, energy, vol, vol_eos,
-                                    vol0, elem_mass, mat_params, jnode, use_anp, half, dt, cq,
-                                    cl, rows, fext, chunk_out, buf, plastic)
+            c0, c1 = part * part_chunks, min(n_ch, (part + 1) * part_chunks)
+            if deferred is None:
+                _chunk(c0, c1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+                       temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass,
+                       mat_params, jnode, use_anp, half, dt, cq, cl, rows, fext, chunk_out, buf,
+                       plastic)
+            else:
+                for ch in range(c0, c1):
+                    if chunk_out[ch, OUT_DEFERRED] != 0.0:
+                        _deferred_chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q,
+                                        eps_p, eps_rate, temperature, hard, thermal, energy, vol,
+                                        vol_eos, vol0, elem_mass, mat_params, jnode, use_anp,
+                                        half, dt, cq, cl, rows, fext, chunk_out, buf, plastic)
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=FAST)
@@ -1195,12 +1267,14 @@ def _update_serial(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     from here directly (numba links a called kernel's code into its caller and optimises it
     again there, so every level of calls costs compile time: one more, 1.5 s)."""
     buf = aligned_empty(TET_ROWS * B)
-    for ch in range((conn.shape[0] + CHUNK - 1) // CHUNK):
-        if deferred is None:
-            _chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
-                   temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
-                   jnode, use_anp, 0.5 * dt, dt, cq, cl, rows, fext, chunk_out, buf, plastic)
-        elif chunk_out[ch, OUT_DEFERRED] != 0.0:
+    n_ch = (conn.shape[0] + CHUNK - 1) // CHUNK
+    if deferred is None:
+        _chunk(0, n_ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
+               temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
+               jnode, use_anp, 0.5 * dt, dt, cq, cl, rows, fext, chunk_out, buf, plastic)
+        return
+    for ch in range(n_ch):
+        if chunk_out[ch, OUT_DEFERRED] != 0.0:
             _deferred_chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
                             eps_rate, temperature, hard, thermal, energy, vol, vol_eos, vol0,
                             elem_mass, mat_params, jnode, use_anp, 0.5 * dt, dt, cq, cl, rows,

@@ -70,7 +70,7 @@ SCRATCH = 8 * 3 * 4 + 8  # per-thread work space of `_hex_element`
 # the digest of hex8_block.py, written by scripts/gen_hex8_block.py: numba keys the cache of a
 # function by its own file's contents, and hex_update compiles the block functions into itself,
 # so this line changes this file whenever they change (else a stale hex_update is loaded)
-BLOCK_SOURCE = "453b35b10f543cb6"
+BLOCK_SOURCE = "e61240c045f29674"
 
 #: the hourglass base vectors, rows alpha = 0..3, columns the 8 nodes
 GAMMA = np.array([[1.0, 1.0, -1.0, -1.0, -1.0, -1.0, 1.0, 1.0],
@@ -378,7 +378,8 @@ def hex_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                             HB.forces_block(buf, dt, int(mat_params[mk, P.EOS]),
                                             mat_params[mk, P.RHO0], mat_params[mk, P.K],
                                             mat_params[mk, P.C0], mat_params[mk, P.S],
-                                            mat_params[mk, P.GAMMA0], shear, cq, cl)
+                                            mat_params[mk, P.GAMMA0], shear, cq, cl,
+                                            stiff)
                             bdt, bworst, bq, bhg = HB.store_block(
                                 rows, sdev, pressure, q, eps_rate, energy, vol, hg, fext, e0,
                                 buf, stiff)

@@ -50,13 +50,16 @@ def _vol_der(x0, x1, x2, x3, x4, x5, y0, y1, y2, y3, y4, y5, z0, z1, z2, z3, z4,
     return dx * t, dy * t, dz * t
 
 
-@numba.njit(cache=True, error_model="numpy")
+# inlined into the caller (hex8.hex_update): called, each call passed its dozen arrays as
+# about 100 scalar arguments, twice per block (3 ns per hex, session 9)
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def load_block(x, v, conn, sdev, pressure, energy, vol, elem_mass, hg, hg_visc, hg_stiff, e0,
                buf, stiff):
     """Copy the data of hexes e0 .. e0 + B - 1 into the block buffer (views of the block, as
     element._load_block); the stiffness resultants only when the block has the stiffness form
-    (`stiff`), else those rows are zero (the viscous form, the default, then reads and writes
-    192 bytes less per hex: the kernel is bound by memory traffic more than by arithmetic)."""
+    (`stiff`), else those rows are left as they are: forces_block's viscous form neither reads
+    nor writes them (the viscous form, the default, thus moves 192 bytes less per hex, and
+    does not zero 12 rows per block either: 2-4 ns per hex, session 9)."""
     cn = conn[e0:e0 + B]
     for i in range(B):
         for k in range(8):
@@ -73,9 +76,6 @@ def load_block(x, v, conn, sdev, pressure, energy, vol, elem_mass, hg, hg_visc, 
         for i in range(B):
             for c in range(12):
                 buf[(HG + c) * B + i] = hgb[i, c]
-    else:
-        for k in range(12 * B):
-            buf[HG * B + k] = 0.0
     vo = vol[e0:e0 + B]
     ms = elem_mass[e0:e0 + B]
     en = energy[e0:e0 + B]
@@ -558,14 +558,16 @@ def kinematics_block(buf, half, dt, shear):
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
-def forces_block(buf, dt, eos, rho0, bulk, c0, s, gamma0, shear, cq, cl):
+def forces_block(buf, dt, eos, rho0, bulk, c0, s, gamma0, shear, cq, cl, stiff):
     """Deviatoric work, EOS pressure with the energy implicit, bulk viscosity, stable dt (as
     element._pressure_block, with the hex's volume), then the Flanagan-Belytschko hourglass
     resultants and their work, and the corner forces of stress and hourglass control together
     (hex8._hex_element's formulas, regrouped: see gen_hex8_block.hourglass_lines). In five
     lane loops, each keeping fewer values alive than the registers, through the HK rows:
     W_ij = sum_n v_in b_jn, b.b and Gamma_a . v; h_a and the rates; the pressure part; the
-    resultants Q, their work and T = sigma - M / 8; the corner forces."""
+    resultants Q, their work and T = sigma - M / 8 (with the stiffness resultants of the HG
+    rows only when the block has the stiffness form, `stiff`: the viscous form, the default,
+    neither reads nor writes them); the corner forces."""
     for i in range(B):
         bx0 = buf[(HB + 0) * B + i]
         ux0 = buf[(HV + 0) * B + i]
@@ -943,117 +945,193 @@ def forces_block(buf, dt, eos, rho0, bulk, c0, s, gamma0, shear, cq, cl):
         chg = math.sqrt(max(c2, 0.0))
         buf[(HK + 47) * B + i] = cv * rho * chg * VM.power(vnew, 2.0 / 3.0)
         buf[(HK + 48) * B + i] = cs * dt * (bulk + 4.0 * shear / 3.0) * buf[(HK + 21) * B + i] / vnew * (1.0 / 3.0)
-    for i in range(B):
-        kv = buf[(HK + 47) * B + i]
-        ks = buf[(HK + 48) * B + i]
-        work = 0.0
-        r0x = buf[(HK + 34) * B + i]
-        s0 = buf[(HG + 0) * B + i]
-        s1 = s0 + ks * r0x
-        buf[(HG + 0) * B + i] = s1
-        Q0x = s1 + kv * r0x
-        work += dt * (0.5 * (s0 + s1) + kv * r0x) * r0x
-        r0y = buf[(HK + 35) * B + i]
-        s0 = buf[(HG + 1) * B + i]
-        s1 = s0 + ks * r0y
-        buf[(HG + 1) * B + i] = s1
-        Q0y = s1 + kv * r0y
-        work += dt * (0.5 * (s0 + s1) + kv * r0y) * r0y
-        r0z = buf[(HK + 36) * B + i]
-        s0 = buf[(HG + 2) * B + i]
-        s1 = s0 + ks * r0z
-        buf[(HG + 2) * B + i] = s1
-        Q0z = s1 + kv * r0z
-        work += dt * (0.5 * (s0 + s1) + kv * r0z) * r0z
-        r1x = buf[(HK + 37) * B + i]
-        s0 = buf[(HG + 3) * B + i]
-        s1 = s0 + ks * r1x
-        buf[(HG + 3) * B + i] = s1
-        Q1x = s1 + kv * r1x
-        work += dt * (0.5 * (s0 + s1) + kv * r1x) * r1x
-        r1y = buf[(HK + 38) * B + i]
-        s0 = buf[(HG + 4) * B + i]
-        s1 = s0 + ks * r1y
-        buf[(HG + 4) * B + i] = s1
-        Q1y = s1 + kv * r1y
-        work += dt * (0.5 * (s0 + s1) + kv * r1y) * r1y
-        r1z = buf[(HK + 39) * B + i]
-        s0 = buf[(HG + 5) * B + i]
-        s1 = s0 + ks * r1z
-        buf[(HG + 5) * B + i] = s1
-        Q1z = s1 + kv * r1z
-        work += dt * (0.5 * (s0 + s1) + kv * r1z) * r1z
-        r2x = buf[(HK + 40) * B + i]
-        s0 = buf[(HG + 6) * B + i]
-        s1 = s0 + ks * r2x
-        buf[(HG + 6) * B + i] = s1
-        Q2x = s1 + kv * r2x
-        work += dt * (0.5 * (s0 + s1) + kv * r2x) * r2x
-        r2y = buf[(HK + 41) * B + i]
-        s0 = buf[(HG + 7) * B + i]
-        s1 = s0 + ks * r2y
-        buf[(HG + 7) * B + i] = s1
-        Q2y = s1 + kv * r2y
-        work += dt * (0.5 * (s0 + s1) + kv * r2y) * r2y
-        r2z = buf[(HK + 42) * B + i]
-        s0 = buf[(HG + 8) * B + i]
-        s1 = s0 + ks * r2z
-        buf[(HG + 8) * B + i] = s1
-        Q2z = s1 + kv * r2z
-        work += dt * (0.5 * (s0 + s1) + kv * r2z) * r2z
-        r3x = buf[(HK + 43) * B + i]
-        s0 = buf[(HG + 9) * B + i]
-        s1 = s0 + ks * r3x
-        buf[(HG + 9) * B + i] = s1
-        Q3x = s1 + kv * r3x
-        work += dt * (0.5 * (s0 + s1) + kv * r3x) * r3x
-        r3y = buf[(HK + 44) * B + i]
-        s0 = buf[(HG + 10) * B + i]
-        s1 = s0 + ks * r3y
-        buf[(HG + 10) * B + i] = s1
-        Q3y = s1 + kv * r3y
-        work += dt * (0.5 * (s0 + s1) + kv * r3y) * r3y
-        r3z = buf[(HK + 45) * B + i]
-        s0 = buf[(HG + 11) * B + i]
-        s1 = s0 + ks * r3z
-        buf[(HG + 11) * B + i] = s1
-        Q3z = s1 + kv * r3z
-        work += dt * (0.5 * (s0 + s1) + kv * r3z) * r3z
-        buf[HGW * B + i] = work
-        ptot = buf[(HK + 46) * B + i]
-        nxx = buf[(R_SN + 0) * B + i]
-        nyy = buf[(R_SN + 1) * B + i]
-        nzz = buf[(R_SN + 2) * B + i]
-        nxy = buf[(R_SN + 3) * B + i]
-        nyz = buf[(R_SN + 4) * B + i]
-        nzx = buf[(R_SN + 5) * B + i]
-        h0x = buf[(HK + 22) * B + i]
-        h0y = buf[(HK + 23) * B + i]
-        h0z = buf[(HK + 24) * B + i]
-        h1x = buf[(HK + 25) * B + i]
-        h1y = buf[(HK + 26) * B + i]
-        h1z = buf[(HK + 27) * B + i]
-        h2x = buf[(HK + 28) * B + i]
-        h2y = buf[(HK + 29) * B + i]
-        h2z = buf[(HK + 30) * B + i]
-        h3x = buf[(HK + 31) * B + i]
-        h3y = buf[(HK + 32) * B + i]
-        h3z = buf[(HK + 33) * B + i]
-        buf[(HK + 0) * B + i] = nxx - ptot - 0.125 * (Q0x * h0x + Q1x * h1x + Q2x * h2x + Q3x * h3x)
-        buf[(HK + 1) * B + i] = nxy - 0.125 * (Q0x * h0y + Q1x * h1y + Q2x * h2y + Q3x * h3y)
-        buf[(HK + 2) * B + i] = nzx - 0.125 * (Q0x * h0z + Q1x * h1z + Q2x * h2z + Q3x * h3z)
-        buf[(HK + 3) * B + i] = nxy - 0.125 * (Q0y * h0x + Q1y * h1x + Q2y * h2x + Q3y * h3x)
-        buf[(HK + 4) * B + i] = nyy - ptot - 0.125 * (Q0y * h0y + Q1y * h1y + Q2y * h2y + Q3y * h3y)
-        buf[(HK + 5) * B + i] = nyz - 0.125 * (Q0y * h0z + Q1y * h1z + Q2y * h2z + Q3y * h3z)
-        buf[(HK + 6) * B + i] = nzx - 0.125 * (Q0z * h0x + Q1z * h1x + Q2z * h2x + Q3z * h3x)
-        buf[(HK + 7) * B + i] = nyz - 0.125 * (Q0z * h0y + Q1z * h1y + Q2z * h2y + Q3z * h3y)
-        buf[(HK + 8) * B + i] = nzz - ptot - 0.125 * (Q0z * h0z + Q1z * h1z + Q2z * h2z + Q3z * h3z)
-        buf[(HK + 9) * B + i], buf[(HK + 10) * B + i] = 0.125 * (Q0x + Q1x), 0.125 * (Q2x + Q3x)
-        buf[(HK + 11) * B + i], buf[(HK + 12) * B + i] = 0.125 * (Q0x - Q1x), 0.125 * (Q2x - Q3x)
-        buf[(HK + 13) * B + i], buf[(HK + 14) * B + i] = 0.125 * (Q0y + Q1y), 0.125 * (Q2y + Q3y)
-        buf[(HK + 15) * B + i], buf[(HK + 16) * B + i] = 0.125 * (Q0y - Q1y), 0.125 * (Q2y - Q3y)
-        buf[(HK + 17) * B + i], buf[(HK + 18) * B + i] = 0.125 * (Q0z + Q1z), 0.125 * (Q2z + Q3z)
-        buf[(HK + 19) * B + i], buf[(HK + 20) * B + i] = 0.125 * (Q0z - Q1z), 0.125 * (Q2z - Q3z)
+    if stiff:
+        for i in range(B):
+            kv = buf[(HK + 47) * B + i]
+            ks = buf[(HK + 48) * B + i]
+            work = 0.0
+            r0x = buf[(HK + 34) * B + i]
+            s0 = buf[(HG + 0) * B + i]
+            s1 = s0 + ks * r0x
+            buf[(HG + 0) * B + i] = s1
+            Q0x = s1 + kv * r0x
+            work += dt * (0.5 * (s0 + s1) + kv * r0x) * r0x
+            r0y = buf[(HK + 35) * B + i]
+            s0 = buf[(HG + 1) * B + i]
+            s1 = s0 + ks * r0y
+            buf[(HG + 1) * B + i] = s1
+            Q0y = s1 + kv * r0y
+            work += dt * (0.5 * (s0 + s1) + kv * r0y) * r0y
+            r0z = buf[(HK + 36) * B + i]
+            s0 = buf[(HG + 2) * B + i]
+            s1 = s0 + ks * r0z
+            buf[(HG + 2) * B + i] = s1
+            Q0z = s1 + kv * r0z
+            work += dt * (0.5 * (s0 + s1) + kv * r0z) * r0z
+            r1x = buf[(HK + 37) * B + i]
+            s0 = buf[(HG + 3) * B + i]
+            s1 = s0 + ks * r1x
+            buf[(HG + 3) * B + i] = s1
+            Q1x = s1 + kv * r1x
+            work += dt * (0.5 * (s0 + s1) + kv * r1x) * r1x
+            r1y = buf[(HK + 38) * B + i]
+            s0 = buf[(HG + 4) * B + i]
+            s1 = s0 + ks * r1y
+            buf[(HG + 4) * B + i] = s1
+            Q1y = s1 + kv * r1y
+            work += dt * (0.5 * (s0 + s1) + kv * r1y) * r1y
+            r1z = buf[(HK + 39) * B + i]
+            s0 = buf[(HG + 5) * B + i]
+            s1 = s0 + ks * r1z
+            buf[(HG + 5) * B + i] = s1
+            Q1z = s1 + kv * r1z
+            work += dt * (0.5 * (s0 + s1) + kv * r1z) * r1z
+            r2x = buf[(HK + 40) * B + i]
+            s0 = buf[(HG + 6) * B + i]
+            s1 = s0 + ks * r2x
+            buf[(HG + 6) * B + i] = s1
+            Q2x = s1 + kv * r2x
+            work += dt * (0.5 * (s0 + s1) + kv * r2x) * r2x
+            r2y = buf[(HK + 41) * B + i]
+            s0 = buf[(HG + 7) * B + i]
+            s1 = s0 + ks * r2y
+            buf[(HG + 7) * B + i] = s1
+            Q2y = s1 + kv * r2y
+            work += dt * (0.5 * (s0 + s1) + kv * r2y) * r2y
+            r2z = buf[(HK + 42) * B + i]
+            s0 = buf[(HG + 8) * B + i]
+            s1 = s0 + ks * r2z
+            buf[(HG + 8) * B + i] = s1
+            Q2z = s1 + kv * r2z
+            work += dt * (0.5 * (s0 + s1) + kv * r2z) * r2z
+            r3x = buf[(HK + 43) * B + i]
+            s0 = buf[(HG + 9) * B + i]
+            s1 = s0 + ks * r3x
+            buf[(HG + 9) * B + i] = s1
+            Q3x = s1 + kv * r3x
+            work += dt * (0.5 * (s0 + s1) + kv * r3x) * r3x
+            r3y = buf[(HK + 44) * B + i]
+            s0 = buf[(HG + 10) * B + i]
+            s1 = s0 + ks * r3y
+            buf[(HG + 10) * B + i] = s1
+            Q3y = s1 + kv * r3y
+            work += dt * (0.5 * (s0 + s1) + kv * r3y) * r3y
+            r3z = buf[(HK + 45) * B + i]
+            s0 = buf[(HG + 11) * B + i]
+            s1 = s0 + ks * r3z
+            buf[(HG + 11) * B + i] = s1
+            Q3z = s1 + kv * r3z
+            work += dt * (0.5 * (s0 + s1) + kv * r3z) * r3z
+            buf[HGW * B + i] = work
+            ptot = buf[(HK + 46) * B + i]
+            nxx = buf[(R_SN + 0) * B + i]
+            nyy = buf[(R_SN + 1) * B + i]
+            nzz = buf[(R_SN + 2) * B + i]
+            nxy = buf[(R_SN + 3) * B + i]
+            nyz = buf[(R_SN + 4) * B + i]
+            nzx = buf[(R_SN + 5) * B + i]
+            h0x = buf[(HK + 22) * B + i]
+            h0y = buf[(HK + 23) * B + i]
+            h0z = buf[(HK + 24) * B + i]
+            h1x = buf[(HK + 25) * B + i]
+            h1y = buf[(HK + 26) * B + i]
+            h1z = buf[(HK + 27) * B + i]
+            h2x = buf[(HK + 28) * B + i]
+            h2y = buf[(HK + 29) * B + i]
+            h2z = buf[(HK + 30) * B + i]
+            h3x = buf[(HK + 31) * B + i]
+            h3y = buf[(HK + 32) * B + i]
+            h3z = buf[(HK + 33) * B + i]
+            buf[(HK + 0) * B + i] = nxx - ptot - 0.125 * (Q0x * h0x + Q1x * h1x + Q2x * h2x + Q3x * h3x)
+            buf[(HK + 1) * B + i] = nxy - 0.125 * (Q0x * h0y + Q1x * h1y + Q2x * h2y + Q3x * h3y)
+            buf[(HK + 2) * B + i] = nzx - 0.125 * (Q0x * h0z + Q1x * h1z + Q2x * h2z + Q3x * h3z)
+            buf[(HK + 3) * B + i] = nxy - 0.125 * (Q0y * h0x + Q1y * h1x + Q2y * h2x + Q3y * h3x)
+            buf[(HK + 4) * B + i] = nyy - ptot - 0.125 * (Q0y * h0y + Q1y * h1y + Q2y * h2y + Q3y * h3y)
+            buf[(HK + 5) * B + i] = nyz - 0.125 * (Q0y * h0z + Q1y * h1z + Q2y * h2z + Q3y * h3z)
+            buf[(HK + 6) * B + i] = nzx - 0.125 * (Q0z * h0x + Q1z * h1x + Q2z * h2x + Q3z * h3x)
+            buf[(HK + 7) * B + i] = nyz - 0.125 * (Q0z * h0y + Q1z * h1y + Q2z * h2y + Q3z * h3y)
+            buf[(HK + 8) * B + i] = nzz - ptot - 0.125 * (Q0z * h0z + Q1z * h1z + Q2z * h2z + Q3z * h3z)
+            buf[(HK + 9) * B + i], buf[(HK + 10) * B + i] = 0.125 * (Q0x + Q1x), 0.125 * (Q2x + Q3x)
+            buf[(HK + 11) * B + i], buf[(HK + 12) * B + i] = 0.125 * (Q0x - Q1x), 0.125 * (Q2x - Q3x)
+            buf[(HK + 13) * B + i], buf[(HK + 14) * B + i] = 0.125 * (Q0y + Q1y), 0.125 * (Q2y + Q3y)
+            buf[(HK + 15) * B + i], buf[(HK + 16) * B + i] = 0.125 * (Q0y - Q1y), 0.125 * (Q2y - Q3y)
+            buf[(HK + 17) * B + i], buf[(HK + 18) * B + i] = 0.125 * (Q0z + Q1z), 0.125 * (Q2z + Q3z)
+            buf[(HK + 19) * B + i], buf[(HK + 20) * B + i] = 0.125 * (Q0z - Q1z), 0.125 * (Q2z - Q3z)
+    else:
+        for i in range(B):
+            kv = buf[(HK + 47) * B + i]
+            work = 0.0
+            r0x = buf[(HK + 34) * B + i]
+            Q0x = kv * r0x
+            work += dt * Q0x * r0x
+            r0y = buf[(HK + 35) * B + i]
+            Q0y = kv * r0y
+            work += dt * Q0y * r0y
+            r0z = buf[(HK + 36) * B + i]
+            Q0z = kv * r0z
+            work += dt * Q0z * r0z
+            r1x = buf[(HK + 37) * B + i]
+            Q1x = kv * r1x
+            work += dt * Q1x * r1x
+            r1y = buf[(HK + 38) * B + i]
+            Q1y = kv * r1y
+            work += dt * Q1y * r1y
+            r1z = buf[(HK + 39) * B + i]
+            Q1z = kv * r1z
+            work += dt * Q1z * r1z
+            r2x = buf[(HK + 40) * B + i]
+            Q2x = kv * r2x
+            work += dt * Q2x * r2x
+            r2y = buf[(HK + 41) * B + i]
+            Q2y = kv * r2y
+            work += dt * Q2y * r2y
+            r2z = buf[(HK + 42) * B + i]
+            Q2z = kv * r2z
+            work += dt * Q2z * r2z
+            r3x = buf[(HK + 43) * B + i]
+            Q3x = kv * r3x
+            work += dt * Q3x * r3x
+            r3y = buf[(HK + 44) * B + i]
+            Q3y = kv * r3y
+            work += dt * Q3y * r3y
+            r3z = buf[(HK + 45) * B + i]
+            Q3z = kv * r3z
+            work += dt * Q3z * r3z
+            buf[HGW * B + i] = work
+            ptot = buf[(HK + 46) * B + i]
+            nxx = buf[(R_SN + 0) * B + i]
+            nyy = buf[(R_SN + 1) * B + i]
+            nzz = buf[(R_SN + 2) * B + i]
+            nxy = buf[(R_SN + 3) * B + i]
+            nyz = buf[(R_SN + 4) * B + i]
+            nzx = buf[(R_SN + 5) * B + i]
+            h0x = buf[(HK + 22) * B + i]
+            h0y = buf[(HK + 23) * B + i]
+            h0z = buf[(HK + 24) * B + i]
+            h1x = buf[(HK + 25) * B + i]
+            h1y = buf[(HK + 26) * B + i]
+            h1z = buf[(HK + 27) * B + i]
+            h2x = buf[(HK + 28) * B + i]
+            h2y = buf[(HK + 29) * B + i]
+            h2z = buf[(HK + 30) * B + i]
+            h3x = buf[(HK + 31) * B + i]
+            h3y = buf[(HK + 32) * B + i]
+            h3z = buf[(HK + 33) * B + i]
+            buf[(HK + 0) * B + i] = nxx - ptot - 0.125 * (Q0x * h0x + Q1x * h1x + Q2x * h2x + Q3x * h3x)
+            buf[(HK + 1) * B + i] = nxy - 0.125 * (Q0x * h0y + Q1x * h1y + Q2x * h2y + Q3x * h3y)
+            buf[(HK + 2) * B + i] = nzx - 0.125 * (Q0x * h0z + Q1x * h1z + Q2x * h2z + Q3x * h3z)
+            buf[(HK + 3) * B + i] = nxy - 0.125 * (Q0y * h0x + Q1y * h1x + Q2y * h2x + Q3y * h3x)
+            buf[(HK + 4) * B + i] = nyy - ptot - 0.125 * (Q0y * h0y + Q1y * h1y + Q2y * h2y + Q3y * h3y)
+            buf[(HK + 5) * B + i] = nyz - 0.125 * (Q0y * h0z + Q1y * h1z + Q2y * h2z + Q3y * h3z)
+            buf[(HK + 6) * B + i] = nzx - 0.125 * (Q0z * h0x + Q1z * h1x + Q2z * h2x + Q3z * h3x)
+            buf[(HK + 7) * B + i] = nyz - 0.125 * (Q0z * h0y + Q1z * h1y + Q2z * h2y + Q3z * h3y)
+            buf[(HK + 8) * B + i] = nzz - ptot - 0.125 * (Q0z * h0z + Q1z * h1z + Q2z * h2z + Q3z * h3z)
+            buf[(HK + 9) * B + i], buf[(HK + 10) * B + i] = 0.125 * (Q0x + Q1x), 0.125 * (Q2x + Q3x)
+            buf[(HK + 11) * B + i], buf[(HK + 12) * B + i] = 0.125 * (Q0x - Q1x), 0.125 * (Q2x - Q3x)
+            buf[(HK + 13) * B + i], buf[(HK + 14) * B + i] = 0.125 * (Q0y + Q1y), 0.125 * (Q2y + Q3y)
+            buf[(HK + 15) * B + i], buf[(HK + 16) * B + i] = 0.125 * (Q0y - Q1y), 0.125 * (Q2y - Q3y)
+            buf[(HK + 17) * B + i], buf[(HK + 18) * B + i] = 0.125 * (Q0z + Q1z), 0.125 * (Q2z + Q3z)
+            buf[(HK + 19) * B + i], buf[(HK + 20) * B + i] = 0.125 * (Q0z - Q1z), 0.125 * (Q2z - Q3z)
     for i in range(B):
         Txx = buf[(HK + 0) * B + i]
         Txy = buf[(HK + 1) * B + i]
@@ -1117,7 +1195,9 @@ def forces_block(buf, dt, eos, rho0, bulk, c0, s, gamma0, shear, cq, cl):
         buf[(HF + 23) * B + i] = -(Tzx * bx + Tzy * by + Tzz * bz) - (Dz - Cz)
 
 
-@numba.njit(cache=True, error_model="numpy")
+# inlined into the caller (hex8.hex_update): called, each call passed its dozen arrays as
+# about 100 scalar arguments, twice per block (3 ns per hex, session 9)
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def store_block(rows, sdev, pressure, q, eps_rate, energy, vol, hg, fext, e0, buf, stiff):
     """Copy the block's results back and add its forces to the corners' rows of fext (in lane
     order); returns (min dt, its element, viscous work, hourglass work) reduced in lane order."""

@@ -242,3 +242,68 @@ def test_touching_edges_without_impulse_are_revisited_through_their_touching_row
                                         active, stamp, 3, 2, geo, 0.0)
     assert J > 0 and applied == 1 and total == J and active[0] == 1 and geo[0, 0] == J
     assert np.array_equal(v, fresh)
+
+
+def test_a_kept_separating_axis_only_skips_pairs_the_full_test_leaves_alone():
+    """A pair found apart (apart_axis, the sweep's first visit) keeps its axis; a later sweep
+    with changed velocities skips it while still_apart holds, and then edge_edge_detect gives
+    no impulse either; pairs that close in on the axis are tested again (still_apart False)."""
+    from impactsim.contact.edgeedge import GEO_COLS, apart_axis, edge_edge_detect, still_apart
+
+    rng = np.random.default_rng(11)
+    band = 1e-3
+    kept = closed = 0
+    for trial in range(3000):
+        x = rng.uniform(-1.0, 1.0, (4, 3))
+        if trial % 2:  # near-coplanar pairs, as in a flat contact
+            x[:, 2] *= rng.choice([1e-4, 1e-3, 1e-2])
+        v = rng.normal(0.0, 300.0, (4, 3))
+        out = apart_axis(0, 1, 2, 3, x, v, TAU, band)
+        if not out[0]:
+            continue
+        geo = np.array([out[1:]])
+        v2 = v + rng.normal(0.0, 600.0, (4, 3))  # the corrections of later sweeps
+        if still_apart(0, 1, 2, 3, v2, TAU, geo, 0):
+            kept += 1
+            v3 = v2.copy()
+            J = edge_edge_detect(0, 1, 2, 3, x, v3, np.ones(4), TAU, 0.0, band, 1.0,
+                                 *rng.normal(size=3), np.zeros((1, GEO_COLS)), 0,
+                                 np.zeros((0, 3)))
+            assert J == 0.0 and np.array_equal(v3, v2), trial
+        else:
+            closed += 1
+    assert kept > 300 and closed > 30
+
+
+def test_far_apart_pairs_stay_apart_while_the_list_is_kept():
+    """far_apart marks the pairs of a kept candidate list that no move within the reach (per
+    axis, at both ends of the step) brings within the touching band: for those the full test
+    gives nothing at any such step; and it marks some, not all."""
+    from impactsim.contact.edgeedge import FAR, GEO_COLS, edge_edge_detect, far_apart
+
+    rng = np.random.default_rng(3)
+    reach = 0.02
+    band = 1e-3
+    edges = np.arange(8, dtype=np.int32).reshape(4, 2)
+    pairs = np.array([[0, 1], [2, 3]], np.int64)
+    flagged = total = 0
+    for trial in range(1500):
+        x = rng.uniform(-0.3, 0.3, (8, 3))
+        x[:, 2] *= rng.choice([1e-3, 1.0])  # flat contacts and anything
+        out = np.zeros(2, np.uint8)
+        far_apart(pairs, edges, x, band, reach, out)
+        total += 2
+        for k in np.flatnonzero(out == FAR):
+            flagged += 1
+            ia, ib = edges[pairs[k, 0]]
+            ie, jf = edges[pairs[k, 1]]
+            for _ in range(5):  # a later step: positions at 0 and tau within the reach
+                x1 = x + rng.uniform(-0.999, 0.999, x.shape) * reach
+                end = x + rng.uniform(-0.999, 0.999, x.shape) * reach
+                v = (end - x1) / TAU
+                v1 = v.copy()
+                J = edge_edge_detect(ia, ib, ie, jf, x1, v1, np.ones(8), TAU, 0.0, band, 1.0,
+                                     0.0, 0.0, 1.0, np.zeros((1, GEO_COLS)), 0,
+                                     np.zeros((0, 3)))
+                assert J == 0.0 and np.array_equal(v1, v), trial
+    assert 0 < flagged < total

@@ -201,7 +201,7 @@ def symmetric_pair():
 
 def projected_round(pairs, nodes, faces, v, m, geo, active, stamp, sweep):
     """One round of impactsim.contact.rows over the node-face rows (written back to geo)."""
-    rows = np.flatnonzero(active)
+    rows = np.flatnonzero(active == 1)  # rows (3: apart, its axis kept)
     n = len(rows)
     idx, coef, nrm = np.zeros((n, 4), np.int64), np.zeros((n, 4)), np.zeros((n, 3))
     tgt, lam, diag, partner = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n, np.int64)
@@ -333,3 +333,48 @@ def test_node_face_apart_only_skips_pairs_the_full_test_leaves_alone():
             skipped += 1
             assert J == 0.0 and np.array_equal(v1, v), trial
     assert skipped > 400 and hits > 50  # both kinds of pairs occur
+
+
+def test_kept_and_far_separating_axes_only_skip_pairs_the_full_test_leaves_alone():
+    """A node-face pair found apart keeps its axis (apart_axis); a later sweep skips it while
+    still_apart holds with the changed velocities; far_apart marks the pairs of a kept list
+    that no move within the reach brings within the band. The full test gives nothing for
+    every pair skipped either way; both skip some pairs and test others."""
+    from impactsim.contact.nodeface import (FAR, GEO_COLS, apart_axis, far_apart,
+                                            node_face_detect, still_apart)
+
+    rng = np.random.default_rng(13)
+    tau = 1e-3
+    band = 1e-3
+    reach = 0.02
+    counts = np.zeros(4, int)  # kept, closed, far, not far
+
+    def nothing(x, v):
+        v1 = v.copy()
+        J = node_face_detect(0, 1, 2, 3, x, v1, np.ones(4), tau, 0.0, band, EPS, 1.0,
+                             np.zeros((1, GEO_COLS)), 0, np.zeros((0, 3)))
+        return J == 0.0 and np.array_equal(v1, v)
+
+    for trial in range(3000):
+        x = rng.uniform(-0.3, 0.3, (4, 3))
+        if trial % 2:
+            x[:, 2] *= 1e-3  # a flat contact
+        v = rng.normal(0.0, 100.0, (4, 3))
+        out = apart_axis(0, 1, 2, 3, x, v, tau, band)
+        if out[0]:
+            v2 = v + rng.normal(0.0, 200.0, (4, 3))
+            if still_apart(0, 1, 2, 3, v2, tau, np.array([out[1:] + (0.0,)]), 0):
+                counts[0] += 1
+                assert nothing(x, v2), trial
+            else:
+                counts[1] += 1
+        flag = np.zeros(1, np.uint8)
+        far_apart(np.array([[0, 0]], np.int64), np.array([0], np.int32),
+                  np.array([[1, 2, 3]], np.int32), x, band, reach, flag)
+        counts[2 + (flag[0] != FAR)] += 1
+        if flag[0] == FAR:
+            for _ in range(5):
+                x1 = x + rng.uniform(-0.999, 0.999, x.shape) * reach
+                end = x + rng.uniform(-0.999, 0.999, x.shape) * reach
+                assert nothing(x1, (end - x1) / tau), trial
+    assert np.all(counts > 30), counts

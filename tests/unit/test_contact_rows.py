@@ -95,3 +95,13 @@ def test_a_round_reports_the_decrease_of_its_objective():
         dphi = rows_round(idx, coef, nrm, tgt, lam, diag, partner, v, mass, stamp, k + 1)[3]
         assert dphi == pytest.approx(objective() - before, rel=1e-9, abs=1e-12)
         assert dphi <= 1e-12
+
+
+def test_rows_are_grouped_by_node_in_the_merge_sort_order():
+    """row_partners' counting sort gives the stable order np.argsort's merge sort gives."""
+    from impactsim.contact.rows import _stable_order
+
+    rng = np.random.default_rng(2)
+    for n in (0, 1, 4, 400, 12000):
+        flat = rng.integers(0, 900, n).astype(np.int64)
+        assert np.array_equal(_stable_order(flat), np.argsort(flat, kind="mergesort"))

@@ -165,3 +165,17 @@ def test_reconnect_gives_the_rebuilt_surface(element):
         runs.append((model.x.copy(), model.v.copy(), sp.sep.counts["new_nodes"], checked))
     assert runs[0][3] >= 5 and runs[0][2] > 0
     assert np.array_equal(runs[0][0], runs[1][0]) and np.array_equal(runs[0][1], runs[1][1])
+
+
+def test_alive_changed_sees_any_erosion_and_revival():
+    from impactsim.contact.surface import ERODED, alive_changed
+
+    status = np.zeros(1000, np.int8)
+    alive = np.ones(1000, bool)
+    assert not alive_changed(status, alive)
+    status[637] = ERODED
+    assert alive_changed(status, alive)
+    alive[637] = False
+    assert not alive_changed(status, alive)
+    status[637] = 0  # back to life
+    assert alive_changed(status, alive)

@@ -203,6 +203,21 @@ def test_estimated_steps_carry_the_crush_factor():
         rod())) * elastic.dt / plastic.dt, rel=0.01)
 
 
+def test_cpu_share_from_the_schedulers_times(monkeypatch):
+    """The share is the thread's time on a core over its time wanting one (on a core or in the
+    run queue), since the last reading, or since the thread started when too little time has
+    passed since then; without the scheduler's figures it is a busy loop's."""
+    from impactsim.case import estimate
+
+    readings = iter([(3e8, 1e8), (5e8, 5e8), (5.5e8, 5.5e8), None])
+    monkeypatch.setattr(estimate, "_schedstat", lambda: next(readings))
+    monkeypatch.setattr(estimate, "_last_schedstat", None)
+    assert cpu_share(0.3) == pytest.approx(0.75)        # since the thread started
+    assert cpu_share(0.3) == pytest.approx(2 / 6)       # since the last reading
+    assert cpu_share(0.3) == pytest.approx(0.5)         # 0.1 s since: since the start
+    assert 0.0 < cpu_share(0.05) <= 1.0                 # no figures: the busy loop
+
+
 def test_contention_and_frames_inside_the_run(monkeypatch):
     assert 0.0 < cpu_share(0.05) <= 1.0
     assert contention(1.0) == 1.0 and contention(0.25) == pytest.approx(4.0)

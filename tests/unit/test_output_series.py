@@ -6,7 +6,9 @@ import meshio
 import numpy as np
 import pytest
 
+from impactsim.output import series
 from impactsim.output.series import SeriesWriter, read_collection, voigt_to_tensor
+from impactsim.output.vtu import write_vtu
 
 POINTS = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]], dtype=np.float64)
 TETS = np.array([[0, 1, 2, 3], [1, 2, 4, 3], [0, 2, 1, 4]], dtype=np.int32)
@@ -164,10 +166,97 @@ def test_background_errors_surface_at_close(tmp_path, monkeypatch):
     writer = SeriesWriter(tmp_path, background=True)
     writer.write(0.0, POINTS, TETS)
     writer.close()
-    monkeypatch.setattr(meshio, "write", broken)
+    monkeypatch.setattr(series, "write_vtu", broken)
     failing = SeriesWriter(tmp_path / "b", background=True)
     failing.write(0.0, POINTS, TETS)
     with pytest.raises(OSError, match="disk full"):
         failing.close()
     assert failing.frames == [] and not (tmp_path / "b" / "series.pvd").exists()
     assert [p.name for _, p in read_collection(tmp_path / "series.pvd")] == ["frame_00000.vtu"]
+
+
+@pytest.mark.parametrize("compression", ["zlib", None])
+def test_own_vtu_writer_reads_back_as_meshios_own_file(tmp_path, compression):
+    """output/vtu.py writes meshio's file layout: meshio reads every array of a file with tets,
+    hexes and vertices (in blocks, cell data over their concatenation) back with the values,
+    dtypes and cell blocks of the same mesh written by meshio itself; more than one compressed
+    block per array (64k rows); zlib at level 1 (the stream header 78 01)."""
+    rng = np.random.default_rng(4)
+    pts = rng.normal(size=(20_000, 3))
+    blocks = [("tetra", rng.integers(0, 20_000, size=(16_000, 4))),
+              ("hexahedron", rng.integers(0, 20_000, size=(5, 8))),
+              ("vertex", np.arange(7).reshape(-1, 1))]
+    e = sum(c.shape[0] for _, c in blocks)
+    pdata = {"velocity": rng.normal(size=(20_000, 3)), "mass": rng.random(20_000)}
+    cdata = {"stress": rng.normal(size=(e, 9)), "status": rng.integers(0, 3, e).astype(np.int8),
+             "body": np.zeros(e, dtype=np.int32)}
+    write_vtu(tmp_path / "own.vtu", pts, blocks, pdata, cdata, compression=compression)
+    bounds = np.cumsum([0] + [c.shape[0] for _, c in blocks])
+    meshio.write(tmp_path / "ref.vtu", meshio.Mesh(
+        pts, blocks, point_data=pdata,
+        cell_data={k: [v[bounds[i]:bounds[i + 1]] for i in range(3)] for k, v in cdata.items()}),
+        file_format="vtu", binary=True, compression=compression)
+    own, ref = meshio.read(tmp_path / "own.vtu"), meshio.read(tmp_path / "ref.vtu")
+    np.testing.assert_array_equal(own.points, ref.points)
+    assert [(b.type, b.data.dtype) for b in own.cells] == [(b.type, b.data.dtype)
+                                                            for b in ref.cells]
+    for a, b in zip(own.cells, ref.cells):
+        np.testing.assert_array_equal(a.data, b.data)
+    for k, v in ref.point_data.items():
+        assert own.point_data[k].dtype == v.dtype
+        np.testing.assert_array_equal(own.point_data[k], v)
+    for k, v in ref.cell_data.items():
+        for a, b in zip(own.cell_data[k], v, strict=True):
+            assert a.dtype == b.dtype
+            np.testing.assert_array_equal(a, b)
+    text = (tmp_path / "own.vtu").read_text()
+    assert ('compressor="vtkZLibDataCompressor"' in text) == (compression is not None)
+    if compression:
+        import base64
+        start = text.index('Name="stress"')
+        data = text[text.index(">", start) + 1:].lstrip()
+        n_blocks = 9 * e * 8 // 32768 + 1
+        header_chars = 4 * -(-4 * (3 + n_blocks) // 3)
+        assert base64.b64decode(data[header_chars:header_chars + 4])[:2] == b"\x78\x01"
+
+
+def test_frames_from_a_snapshot_hold_the_state_at_write_time(tmp_path):
+    """solver/run.py writes frames with ``write_later`` from copies of the state
+    (``frame_snapshot``), their fields derived in the writer's thread: the file holds the
+    fields of ``frame_fields`` at the time of the call, bit for bit, though the run changes its
+    arrays right after; a live-cell mask drops the eroded cell."""
+    from types import SimpleNamespace
+
+    from impactsim.model import ERODED
+    from impactsim.solver.run import frame_args, frame_snapshot
+
+    rng = np.random.default_rng(7)
+    model = SimpleNamespace(
+        x=POINTS + 0.01 * rng.random(POINTS.shape), x0=POINTS.copy(), v=rng.normal(size=(5, 3)),
+        conn=TETS.copy(), sdev=rng.normal(size=(3, 6)), pressure=rng.normal(size=3),
+        eps_p=rng.random(3), temperature=293.0 + rng.random(3),
+        status=np.array([0, ERODED, 1], dtype=np.int8), elem_body=np.array([0, 0, 1], np.int32),
+        elem_mass=rng.random(3), vol=rng.random(3), energy=rng.random(3),
+        damage=rng.random(3), blocks=[])
+    pressure0 = model.pressure.copy()
+    expected = frame_args(frame_snapshot(model), None)
+    expected = tuple(a.copy() if isinstance(a, np.ndarray) else a for a in expected)
+    writer = SeriesWriter(tmp_path, background=True)
+    snap = frame_snapshot(model)
+    writer.write_later(1e-6, lambda: frame_args(snap, None))
+    for a in (model.x, model.v, model.sdev, model.pressure, model.eps_p, model.temperature,
+              model.energy, model.damage, model.vol):
+        a += 1.0
+    model.status[:] = ERODED
+    writer.close()
+    ref = SeriesWriter(tmp_path / "ref").write(1e-6, *expected[:4], keep=expected[4])
+    got, want = meshio.read(tmp_path / "frame_00000.vtu"), meshio.read(ref)
+    np.testing.assert_array_equal(got.points, want.points)
+    np.testing.assert_array_equal(got.cells[0].data, TETS[[0, 2]])
+    np.testing.assert_array_equal(got.cells[0].data, want.cells[0].data)
+    for k, v in want.point_data.items():
+        np.testing.assert_array_equal(got.point_data[k], v)
+    assert sorted(want.cell_data) == sorted(got.cell_data)
+    for k, v in want.cell_data.items():
+        np.testing.assert_array_equal(got.cell_data[k][0], v[0])
+    np.testing.assert_array_equal(got.cell_data["pressure"][0], pressure0[[0, 2]])
