@@ -16,7 +16,8 @@ from impactsim.output.atomic import replacing, write_text
 from impactsim.output.series import SeriesWriter
 from impactsim.output.summary import write_resolved_case, write_summary
 
-LOG_COLUMNS = ("phase", "step", "iteration", "gap_residual", "pressure_residual", "relaxation",
+LOG_COLUMNS = ("phase", "step", "iteration", "gap_residual", "pressure_residual",
+               "motion_residual", "relaxation",
                "active", "active_changed", "change")
 
 
