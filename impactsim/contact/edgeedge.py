@@ -551,24 +551,8 @@ def edge_normals(x, faces, face_edges, out):
     """Outward normal at each boundary edge: the sum of the unit normals of its boundary faces
     (used only to orient touching edge pairs, the departure from ALGORITHMS.md 3.2 described in
     the module docstring). out (g, 3)."""
-    for g in range(out.shape[0]):
-        out[g, 0] = 0.0
-        out[g, 1] = 0.0
-        out[g, 2] = 0.0
-    for f in range(faces.shape[0]):
-        a = faces[f, 0]
-        b = faces[f, 1]
-        c = faces[f, 2]
-        nx, ny, nz, nn = triangle_normal(x[a, 0], x[a, 1], x[a, 2], x[b, 0], x[b, 1], x[b, 2],
-                                         x[c, 0], x[c, 1], x[c, 2])[6:]
-        nn = math.sqrt(nn)
-        if nn > 0.0:
-            for j in range(3):
-                g = face_edges[f, j]
-                if g >= 0:
-                    out[g, 0] += nx / nn
-                    out[g, 1] += ny / nn
-                    out[g, 2] += nz / nn
+    out[:] = 0.0
+    edge_normals_of(x, faces, face_edges, np.arange(faces.shape[0]), out)
 
 
 @numba.njit(cache=True)
