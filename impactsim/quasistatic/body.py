@@ -15,7 +15,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.linalg
 
-from impactsim.quasistatic.elastic import ElasticBody, rigid_modes
+from impactsim.quasistatic.elastic import ElasticBody
 from impactsim.quasistatic.heat import HeatBody
 from impactsim.quasistatic.model import BodyModel
 from impactsim.quasistatic.space import Space
@@ -58,8 +58,7 @@ class BodyState:
         self.f = np.zeros(self.elastic.ndof)
         self.uD = self.elastic.prescribed(1.0)
         self.u = np.zeros(self.elastic.ndof)
-        self._mass_lu: dict = {}
-        self._rigid = None  # the rigid-body modes about the origin (3 N, 6), when needed  # interface: (active set, Cholesky factor of M_aa)
+        self._mass_lu: dict = {}  # interface: (active set, Cholesky factor of M_aa)
         self.seconds = {"factorization": time.perf_counter() - t0, "heat": 0.0, "solves": 0.0}
 
     # --- heat ---
@@ -110,18 +109,11 @@ class BodyState:
         return terms
 
     def mech_solve(self, g: dict, active: dict, pressure: dict, slip: dict | None = None,
-                   robin: dict | None = None, motion: np.ndarray | None = None) -> dict:
-        """One solve with the interface values of this iteration; `motion` (t, theta about
-        the origin) is the rigid motion the coarse step predicts for this body: its weak
-        springs' anchor (the previous iterate) moves with it, or the springs would hold the
-        body back where its targets have moved (a column creeping up by its thermal growth
-        with compatible faces and steady pressures: residuals small, the top 5 % short on 20
-        pellets, session 9)."""
+                   robin: dict | None = None) -> dict:
+        """One solve with the interface values of this iteration; the result also holds
+        "move", how far the body moved from the previous iterate its weak springs pull it to
+        (zero at a fixed point: the Schwarz iteration's motion residual)."""
         t0 = time.perf_counter()
-        if motion is not None and np.any(motion):
-            if self._rigid is None:
-                self._rigid = rigid_modes(self.space.doflocs, centred=False)
-            self.elastic.u_prev = self.elastic.u_prev + self._rigid @ motion
         before = self.elastic.u_prev
         f = self.f.copy()
         terms = self._robin(robin or {}, f) if self.spec.robin else []

@@ -38,7 +38,6 @@ ENTER_FRACTION = 0.1  # penetrating nodes enter within this fraction of the pene
 RELEASE = 1e-3  # a node is released when its (smoothed) pressure is below -RELEASE p_max
 
 
-SHIFT_SPRINGS = False  # move the weak springs with the coarse motions: stalls Anderson (session 9)
 ROTATIONS = True  # all six rigid modes on the anchor tree (session 9: 50 pellets converge)
 
 
@@ -392,7 +391,6 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
     r_old = None
     last_change = 0
     accel = Anderson(settings.anderson, [itf.robin > 0 for itf in interfaces])
-    motion: dict = {}  # body: rigid motion predicted by the coarse step for the next solve
     result = {"iterations": 0, "gap_residual": np.inf, "pressure_residual": np.inf}
     for it in range(1, settings.max_iterations + 1):
         inputs: dict = {}
@@ -408,9 +406,6 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
             inputs[itf.a][1][c] = state.active[c]
             inputs[itf.b][2][c] = state.p[c]
         friction.add_inputs(inputs, interfaces, state)
-        for body, m in motion.items():  # the coarse step's rigid motions (mech_solve)
-            inputs.setdefault(body, ({}, {}, {}, {}, {}))
-            inputs[body] = tuple(inputs[body]) + ({},) * (5 - len(inputs[body])) + (m,)
         out = pool.call("mech_solve", per_body=inputs)
         move = max((v["move"] for v in out.values()), default=0.0)
         u_scale = 1e-30
@@ -517,7 +512,6 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
             tree = _anchor_tree(interfaces, new_active)
             shift = _coarse_shifts(interfaces, residuals, new_active, om, tree)
             dp = _coarse_forces(interfaces, state.p, p_new, new_active, tree)
-        motion = shift if SHIFT_SPRINGS else {}
         for c in range(n_b):
             itf = interfaces[c]
             pred = _predicted(itf, shift.get(itf.b))
