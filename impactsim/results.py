@@ -36,10 +36,16 @@ def split_header(name: str) -> tuple[str, str]:
 
 def read_history(path: str | os.PathLike):
     """history.csv as a DataFrame with plain column names, and {name: unit}. Reads files with
-    and without units in their headers."""
+    and without units in their headers. A last line without its newline (a write torn by the
+    run's kill: output/history.py) is not a row and is left out."""
+    import io
+
     import pandas as pd
 
-    df = pd.read_csv(path)
+    data = Path(path).read_bytes()
+    if data and not data.endswith(b"\n"):
+        data = data[:data.rfind(b"\n") + 1]
+    df = pd.read_csv(io.BytesIO(data))
     names, units = [], {}
     for col in df.columns:
         name, unit = split_header(col)

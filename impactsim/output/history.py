@@ -1,9 +1,12 @@
 """history.csv: one line of scalars per recorded step, safe against a killed run.
 
 Rows are kept in memory as finished text lines and handed to the operating system in one write
-call every `flush_rows` rows, every `flush_seconds` of wall time, and at `close`, so the file only
-ever holds whole lines: a killed run loses at most the rows of the last interval. `close` also
-fsyncs. Floats are written with `repr`, the shortest text that reads back to the same double
+call every `flush_rows` rows, every `flush_seconds` of wall time, and at `close`, so the file
+holds whole lines: a killed run loses at most the rows of the last interval. One exception, which
+no writer can prevent: Linux stops copying a write at a page boundary when the process gets
+SIGKILL, so a write straddling a 4096-byte boundary at that moment leaves its first part, a torn
+last line without its newline (seen once in a test that kills a writer in a loop).
+`impactsim.results.read_history` drops such a line. `close` also fsyncs. Floats are written with `repr`, the shortest text that reads back to the same double
 (bit-exact through numpy or float()); integers as integers; a missing value as an empty field.
 """
 
