@@ -4,7 +4,14 @@ benchmarks/validation_reference.json (the stored results the cheap rung of `make
 tests/verification/test_validation_rung.py).
 
     python benchmarks/validate.py              # run the ladder, write the report
-    python benchmarks/validate.py --report-only  # rewrite the report from out/validation/
+    python benchmarks/validate.py --rungs perforation-400 plate  # rerun some rungs only
+    python benchmarks/validate.py --report-only  # rewrite the report from the stored results
+
+The results the report is written from are kept in git (benchmarks/validation_results.json,
+one record per rung, element and mesh size): a run of some rungs replaces their records and
+keeps every other one, so the report keeps every section on any machine, also on a fresh clone
+without the last full run's out/validation/. Records carried over from the report of an
+earlier run say so in their `source`.
 
 Rungs (each with tet4 and anp; modest resolutions, for a shared two-core machine):
 - Taylor bars: OFHC copper at 190 m/s (the bundled case), 6061-T6 at 373 m/s and 4340 at
@@ -41,6 +48,7 @@ OUT = ROOT / "out" / "validation"
 DOC = ROOT / "docs" / "validation.md"
 FIG = ROOT / "docs" / "validation"
 STORED = ROOT / "benchmarks" / "validation_reference.json"
+RESULTS = ROOT / "benchmarks" / "validation_results.json"  # every rung's last result, in git
 ELEMENTS = ("tet4", "anp")
 
 # measured values on record here, with how sure we are of them
@@ -656,7 +664,7 @@ def flow_report(results: list[dict]) -> list[str]:
 
 def run_all(rungs=None) -> list[dict]:
     """Run the ladder, or with rungs (name prefixes) only those rungs, their results replacing
-    the same rung, element and mesh size in out/validation/results.json."""
+    the same rung, element and mesh size in benchmarks/validation_results.json (RESULTS)."""
     OUT.mkdir(parents=True, exist_ok=True)
     results = []
 
@@ -695,12 +703,31 @@ def run_all(rungs=None) -> list[dict]:
         for h in CRMO_SIZES:
             if wanted("taylor-42crmo4-287"):
                 add(run_crmo(h, formulation))
-    if rungs is not None and (OUT / "results.json").exists():
-        new = {(r["rung"], r["element"], r["h_mm"]) for r in results}
-        old = json.loads((OUT / "results.json").read_text())
-        results = [r for r in old if (r["rung"], r["element"], r["h_mm"]) not in new] + results
+    if rungs is not None:
+        results = merge_results(load_results(), results)
+    RESULTS.write_text(json.dumps(results, indent=1) + "\n")
     (OUT / "results.json").write_text(json.dumps(results, indent=1))
     return results
+
+
+def _key(r: dict) -> tuple:
+    return r["rung"], r["element"], r["h_mm"]
+
+
+def load_results() -> list[dict]:
+    """The stored results of the last runs of every rung (RESULTS, in git), else those of this
+    machine's last run (out/validation/results.json), else none."""
+    for f in (RESULTS, OUT / "results.json"):
+        if f.exists():
+            return json.loads(f.read_text())
+    return []
+
+
+def merge_results(old: list[dict], new: list[dict]) -> list[dict]:
+    """The old records with those the new run replaces (same rung, element and mesh size)
+    taken out, in their order, then the new ones: a partial run never drops another rung."""
+    keys = {_key(r) for r in new}
+    return [r for r in old if _key(r) not in keys] + list(new)
 
 
 def _fmt(v, nd=3):
@@ -718,21 +745,10 @@ def plots(results: list[dict]) -> None:
     import matplotlib.pyplot as plt
 
     FIG.mkdir(parents=True, exist_ok=True)
-    fig, ax = plt.subplots(figsize=(6, 3.5))
-    for element in ELEMENTS:
-        for tag, label in (("", ""), ("-d19", ", [D19] spall")):
-            f = OUT / f"plate{tag}-{element}.npz"
-            if f.exists():
-                d = np.load(f)
-                ax.plot(1e6 * d["t"], d["u"], label=element + label, ls="--" if tag else "-")
-    ax.axhline(500.0, color="grey", lw=0.8, ls="--", label="impact speed = 2 u_p")
-    ax.set_xlabel("t [us]")
-    ax.set_ylabel("free-surface velocity [m/s]")
-    ax.set_title("6061-T6 symmetric plate impact, 500 m/s")
-    ax.legend()
-    fig.tight_layout()
-    fig.savefig(FIG / "plate-free-surface.png", dpi=110)
-    plt.close(fig)
+    histories = [(element, tag, label, OUT / f"plate{tag}-{element}.npz") for element in ELEMENTS
+                 for tag, label in (("", ""), ("-d19", ", [D19] spall"))]
+    if any(f.exists() for *_x, f in histories):  # else keep the figure of the last run
+        plate_plot(histories)
     crmo_plot(results)
     tay = [r for r in results if r["rung"] in TAYLOR_RUNGS]
     if tay:
@@ -749,6 +765,25 @@ def plots(results: list[dict]) -> None:
         fig.tight_layout()
         fig.savefig(FIG / "taylor-foot.png", dpi=110)
         plt.close(fig)
+
+
+def plate_plot(histories) -> None:
+    """The rear free-surface velocity histories of the plate rung (out/validation/*.npz)."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 3.5))
+    for element, tag, label, f in histories:
+        if f.exists():
+            d = np.load(f)
+            ax.plot(1e6 * d["t"], d["u"], label=element + label, ls="--" if tag else "-")
+    ax.axhline(500.0, color="grey", lw=0.8, ls="--", label="impact speed = 2 u_p")
+    ax.set_xlabel("t [us]")
+    ax.set_ylabel("free-surface velocity [m/s]")
+    ax.set_title("6061-T6 symmetric plate impact, 500 m/s")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(FIG / "plate-free-surface.png", dpi=110)
+    plt.close(fig)
 
 
 def crmo_plot(results: list[dict]) -> None:
@@ -852,7 +887,7 @@ def report(results: list[dict]) -> str:
     lines = ["# Validation ladder", "",
              "<!-- Generated by `make validate` (python benchmarks/validate.py); "
              "`python benchmarks/validate.py --report-only` rewrites it from "
-             "out/validation/results.json. Do not edit by hand. -->", "",
+             "benchmarks/validation_results.json. Do not edit by hand. -->", "",
              f"Generated on {time.strftime('%Y-%m-%d')} (Python {platform.python_version()}, "
              f"numpy {numpy.__version__}, numba {numba.__version__}); the two-core machine was "
              "shared with other work, so wall times carry its load. Each rung runs with both tet "
@@ -1166,10 +1201,11 @@ def main(argv=None) -> int:
     ap.add_argument("--report-only", action="store_true")
     ap.add_argument("--rungs", nargs="+", metavar="NAME",
                     help="run only the rungs whose names start with these (e.g. taylor-6061 "
-                         "plate); the others' results are kept from out/validation/results.json")
+                         "plate); the others' results are kept from "
+                         "benchmarks/validation_results.json")
     args = ap.parse_args(argv)
     if args.report_only:
-        results = json.loads((OUT / "results.json").read_text())
+        results = load_results()
     else:
         results = run_all(args.rungs)
         store(results)
