@@ -53,7 +53,8 @@ accuracy: setup
 	$(BIN)/python benchmarks/accuracy.py
 
 # the validation ladder: Taylor bars, a plate impact, a perforation, both tet formulations;
-# writes docs/validation.md, docs/validation/*.png, benchmarks/validation_reference.json
+# writes docs/validation.md, docs/validation/*.png, benchmarks/validation_results.json (every
+# rung's last result: `--rungs X` reruns some and keeps the rest) and benchmarks/validation_reference.json
 validate: setup
 	$(BIN)/python benchmarks/validate.py
 

@@ -948,7 +948,7 @@ def report(results: list[dict]) -> str:
              "element-to-element differences, not its last digits.", "",
              "**What is measured against what.** Measured values are used only where one is on "
              "record here with its source; the status of each is given. Where none is (the "
-             "4340 Taylor bar, the perforation), the rung records the two formulations' "
+             "perforation), the rung records the two formulations' "
              "results and the physics checks that need no measurement (no fracture in a Taylor "
              "bar; the free-surface plateau of a symmetric impact).", ""]
     lines += ["## Taylor bars", "",
