@@ -324,3 +324,44 @@ def test_tuler_butcher_spall_integrates_the_tension_over_time():
     model.pressure[:] = -1.01e9
     frac.run(model, dt)
     assert np.all(model.status == DAMAGED)
+
+
+def _stretched_damaged(element, stretch):
+    """A box of damaged cells (tet4 or hex8) drawn out along x by ``stretch`` at constant
+    volume (y and z by stretch^-1/2, so chi = 0), then one fracture step: the statuses."""
+    from impactsim.case.schema import Body, Case, Output, Run
+    from impactsim.mesh.hexes import box_hexes, fix_hex_orientation
+    from impactsim.solver.build import build_model
+
+    mat = material(name="m", failure=Failure(spall_strength=1e12, loosening=0.03))
+    if element == "tet4":
+        model, case = box_model(mat, h=0.5)
+        arrays = model
+    else:
+        pts, hexes = box_hexes((1.0, 1.0, 1.0), 0.5)
+        hexes, _ = fix_hex_orientation(pts, hexes)
+        body = Body(name="b", material=mat.name, shape="box", dimensions={"size": (1, 1, 1)},
+                    mesh_size=0.5, element="hex8")
+        case = Case(source=None, run=Run(name="t", end_time=1e-3), materials={mat.name: mat},
+                    bodies=[body], output=Output())
+        model = build_model(case, [(pts, hexes.astype(np.int32))])
+        arrays = model.blocks[0]
+    case.fracture = Fracture()
+    frac = make_fracture_passes(case, model)[-1]
+    arrays.status[:] = DAMAGED
+    model.x[:] = model.x0 @ np.diag([stretch, stretch ** -0.5, stretch ** -0.5])
+    arrays.vol[:] = arrays.vol0
+    frac.run(model, 1e-9)
+    return arrays.status
+
+
+@pytest.mark.parametrize("element", ["tet4", "hex8"])
+def test_damaged_cell_drawn_out_at_constant_volume_loosens(element):
+    """Loosening by stretch (criteria.py, 2c): a damaged cell drawn out past LOOSE_STRETCH at
+    constant volume (chi = 0, which the loosening of [D19] never sees) becomes fractured (on
+    the surface: particles); one short of it stays damaged."""
+    from impactsim.fracture.criteria import LOOSE_STRETCH
+
+    assert np.all(_stretched_damaged(element, 0.97 * LOOSE_STRETCH) == DAMAGED)
+    after = _stretched_damaged(element, 1.03 * LOOSE_STRETCH)
+    assert np.all((after == FRACTURED) | (after == ERODED))
