@@ -121,7 +121,8 @@ def blocks(**fns):
     return mod
 
 
-def run(variants: dict, warm: int = 30, rounds: int = 15, hourglass: str = "viscous") -> dict:
+def run(variants: dict, warm: int = 30, rounds: int = 15, hourglass: str = "viscous",
+        cold: bool = False) -> dict:
     """Minimum CPU ns per hex of each variant over `rounds` alternating calls on copies of the
     bench scene's state after `warm` steps, one thread; prints them with each variant's largest
     force and stress difference from the first variant's."""
@@ -150,9 +151,12 @@ def run(variants: dict, warm: int = 30, rounds: int = 15, hourglass: str = "visc
         print(f"compiled {k} in {time.perf_counter() - t0:.1f} s", flush=True)
     ref = next(iter(outs.values()))
     best = {k: math.inf for k in calls}
+    junk = np.zeros(32 << 20) if cold else None
     for _ in range(rounds):
         for k, call in calls.items():
             a = {s: v.copy() for s, v in state.items()}
+            if junk is not None:
+                junk += 1.0
             t0 = time.process_time()
             call(a)
             best[k] = min(best[k], 1e9 * (time.process_time() - t0) / n)
