@@ -79,6 +79,33 @@ def block_fn(name, edits):
 
 _FRESH: dict = {}
 
+#: element.py's Johnson-Cook return, leaves first (each compiled into the ones after it)
+JC_FUNCTIONS = ("_jc_start", "_jc_newton", "_jc_finish", "_jc_load", "_jc_store", "_jc_lanes",
+                "_jc_return_block")
+
+
+def elements(edits=None, **names):
+    """A stand-in for the element module (`E` in hex8.py) whose Johnson-Cook return functions
+    (JC_FUNCTIONS) are compiled afresh from their sources, with `edits` {function name: [(old,
+    new), ...]}; `names` are set in their globals first (e.g. a laws function of your own).
+    Pass it as variant(..., {"E": elements(...)}); compare against elements() unedited (the
+    inlining trap above applies to these functions as to the block functions)."""
+    from impactsim.solver import element as E
+    edits = edits or {}
+    mod = types.ModuleType(f"element_variant_{len(_FRESH)}")
+    for k in dir(E):
+        if not k.startswith("__"):
+            setattr(mod, k, getattr(E, k))
+    ns = dict(vars(E))
+    ns.update(names)
+    for name in JC_FUNCTIONS:
+        src, _ = _compile(getattr(E, name), E, edits.get(name, ()),
+                          [("@numba.njit(cache=True", "@numba.njit(cache=False")])
+        exec(src, ns)
+        setattr(mod, name, ns[name])
+    _FRESH[mod.__name__] = mod
+    return mod
+
 
 def blocks(**fns):
     """A stand-in for the hex8_block module: its block functions those given, the others
@@ -94,7 +121,8 @@ def blocks(**fns):
     return mod
 
 
-def run(variants: dict, warm: int = 30, rounds: int = 15, hourglass: str = "viscous") -> dict:
+def run(variants: dict, warm: int = 30, rounds: int = 15, hourglass: str = "viscous",
+        cold: bool = False) -> dict:
     """Minimum CPU ns per hex of each variant over `rounds` alternating calls on copies of the
     bench scene's state after `warm` steps, one thread; prints them with each variant's largest
     force and stress difference from the first variant's."""
@@ -123,9 +151,12 @@ def run(variants: dict, warm: int = 30, rounds: int = 15, hourglass: str = "visc
         print(f"compiled {k} in {time.perf_counter() - t0:.1f} s", flush=True)
     ref = next(iter(outs.values()))
     best = {k: math.inf for k in calls}
+    junk = np.zeros(32 << 20) if cold else None
     for _ in range(rounds):
         for k, call in calls.items():
             a = {s: v.copy() for s, v in state.items()}
+            if junk is not None:
+                junk += 1.0
             t0 = time.process_time()
             call(a)
             best[k] = min(best[k], 1e9 * (time.process_time() - t0) / n)

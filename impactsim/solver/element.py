@@ -117,6 +117,9 @@ VECTOR_ITERATIONS = 5
 # lanes of a group in the vector return's loops (`_jc_start`, `_jc_newton`, `_jc_finish`): a
 # group with no lane to work on is skipped (two 4-wide vectors with AVX2, one with AVX-512)
 JG = 8
+# blocks ahead whose yield-floor caches (hard, thermal, read after the kinematics) and
+# write-only arrays (q, eps_rate; vol_eos for tets) `_chunk` and hex8.hex_update prefetch (`vecmath.prefetch`)
+PF_AHEAD = 4
 
 
 def n_chunks(n_elem: int) -> int:
@@ -1062,6 +1065,14 @@ def _chunk(ch0, ch1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
             if e0 + B <= e_end:
                 mk = _vector_block(elem_mat, status, e0)
                 if mk >= 0:
+                    for o in range(0, B, 8):  # the block PF_AHEAD on: lines the hardware misses
+                        ahead = min(e0 + PF_AHEAD * B + o, n_elem - 1)
+                        VM.prefetch_write(q, ahead)
+                        VM.prefetch_write(eps_rate, ahead)
+                        VM.prefetch_write(vol_eos, ahead)
+                        if plastic is not None:
+                            VM.prefetch(hard, ahead)
+                            VM.prefetch(thermal, ahead)
                     _load_block(x, v, conn, sdev, pressure, energy, vol, vol_eos, vol0, elem_mass,
                                 jnode, use_anp, e0, buf)
                     shear = mat_params[mk, P.G]

@@ -355,6 +355,15 @@ def hex_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                     # block functions, each block paid an NRT incref and decref of about 20
                     # arrays (numba cannot prune them across the calls)
                     if mk >= 0:
+                        # arrays of the block E.PF_AHEAD blocks on that the hardware
+                        # prefetchers miss: the yield-floor caches, read after the kinematics,
+                        # and q, eps_rate, written without being read (4 ns per hex)
+                        for o in range(0, B, 8):  # a cache line each
+                            ahead = min(e0 + E.PF_AHEAD * B + o, n_elem - 1)
+                            VM.prefetch(hard, ahead)
+                            VM.prefetch(thermal, ahead)
+                            VM.prefetch_write(q, ahead)
+                            VM.prefetch_write(eps_rate, ahead)
                         stiff = False
                         for i in range(B):
                             if hg_stiff[e0 + i] > 0.0:
@@ -370,8 +379,12 @@ def hex_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                         if intact:  # else the scalar path redoes the block and counts it
                             code = int(mat_params[mk, P.STRENGTH])
                             if code == P.JOHNSON_COOK and mat_params[mk, P.JC_C] >= 0.0:
-                                E._jc_return_block(buf, mat_params, mk, shear, eps_p,
-                                                   temperature, hard, thermal, e0)
+                                # `element._jc_return_block`'s three parts called from here,
+                                # as the tets' `_chunk` does: through that function each
+                                # block paid an NRT incref and decref of its six arrays
+                                if E._jc_load(buf, eps_p, temperature, hard, thermal, e0):
+                                    if E._jc_lanes(buf, mat_params, mk, shear):
+                                        E._jc_store(buf, eps_p, temperature, hard, thermal, e0)
                             elif code != P.ELASTIC:
                                 E._return_block(buf, code, mat_params, mk, shear, eps_p,
                                                 temperature, hard, thermal, e0)

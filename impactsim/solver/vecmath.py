@@ -22,7 +22,7 @@ import math
 
 import numba
 from llvmlite import ir
-from numba.core import types
+from numba.core import cgutils, types
 from numba.extending import intrinsic
 
 FAST = {"nsz", "arcp", "contract"}  # no "afn", no "reassoc": the reductions must stay exact
@@ -107,3 +107,40 @@ def exp(y):
 def power(x, y):
     """x ** y for positive normal x, as exp(y ln x) (relative error about |y ln x| 1e-16)."""
     return exp(y * ln(x))
+
+
+
+def _prefetch_codegen(rw):
+    def codegen(context, builder, signature, args):
+        ary = context.make_array(signature.args[0])(context, builder, args[0])
+        ptr = builder.bitcast(builder.gep(ary.data, [args[1]]), ir.IntType(8).as_pointer())
+        i32 = ir.IntType(32)
+        fnty = ir.FunctionType(ir.VoidType(), [ptr.type, i32, i32, i32])
+        fn = cgutils.get_or_insert_function(builder.module, fnty, "llvm.prefetch.p0")
+        builder.call(fn, [ptr, ir.Constant(i32, rw), ir.Constant(i32, 3), ir.Constant(i32, 1)])
+        return context.get_dummy_value()
+
+    return codegen
+
+
+@intrinsic
+def prefetch(typingctx, arr, i):
+    """Hint the caches to fetch the line of arr[i] (`llvm.prefetch`, for reading, kept in all
+    levels): no load, no bounds check, no fault (i is an index into the flat data).
+
+    The element kernels fetch some element arrays a few blocks ahead (`element.PF_AHEAD`): the
+    yield-floor caches, read only after the kinematics, and the arrays the block writes without
+    reading (q, eps_rate); the hardware prefetchers lose those streams among the kernel's
+    twenty others, and each then cost a stall of its own per block (docs/performance.md, "The
+    hex step, session 10")."""
+    if not isinstance(arr, types.Array) or not isinstance(i, types.Integer):
+        return None
+    return types.void(arr, types.intp), _prefetch_codegen(0)
+
+
+@intrinsic
+def prefetch_write(typingctx, arr, i):
+    """`prefetch` of a line about to be written (PREFETCHW: fetched for ownership)."""
+    if not isinstance(arr, types.Array) or not isinstance(i, types.Integer):
+        return None
+    return types.void(arr, types.intp), _prefetch_codegen(1)
