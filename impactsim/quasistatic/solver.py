@@ -25,12 +25,27 @@ class Outcome:
     fields: dict = field(default_factory=dict)
 
 
+class _Log(list):
+    """The convergence log, passing each record to `on_log` as it is appended (progress)."""
+
+    def __init__(self, on_log):
+        super().__init__()
+        self.on_log = on_log
+
+    def append(self, rec) -> None:
+        super().append(rec)
+        self.on_log(rec)
+
+
 def solve(problem: Problem, workers: int = 0, address: str | None = None, on_step=None,
-          setup=None) -> Outcome:
-    """Solve all load steps; `on_step(record, fields, state, interfaces)` after each.
+          setup=None, on_log=None) -> Outcome:
+    """Solve all load steps; `on_step(record, fields, state, interfaces)` after each,
+    `on_log(record)` after each heat and Schwarz iteration (progress).
     A step that does not converge stops the run: Outcome.stopped says why, the finished steps
     and the unconverged state of the last one are kept (and passed to on_step)."""
     out = Outcome()
+    if on_log is not None:
+        out.log = _Log(on_log)
     t0 = time.perf_counter()
     spaces, itfs, specs, route, t_setup = setup or setup_mod.setup(problem)
     out.interfaces = itfs
