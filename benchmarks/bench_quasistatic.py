@@ -83,6 +83,10 @@ def _progress(every: int, label: str):
     t0, c0 = time.perf_counter(), time.process_time()
 
     def on_log(rec):
+        if rec.get("phase") == "heat" and rec["iteration"] % 10 == 0:
+            print(f"  [{label}] heat iteration {rec['iteration']}: change {rec['change']:.2e}; "
+                  f"{time.perf_counter() - t0:.0f} s wall, load {os.getloadavg()[0]:.1f}",
+                  flush=True)
         if rec.get("phase") != "mechanics" or rec["iteration"] % every:
             return
         print(f"  [{label}] iteration {rec['iteration']}: gap {rec['gap_residual']:.2e} "

@@ -82,8 +82,11 @@ def update_active(itf: Interface, act: np.ndarray, p: np.ndarray, penetration: n
         # tet4: the nodal reactions themselves (M_aa p) say which nodes pull
         idx = np.nonzero(act)[0]
         lam = np.zeros(len(p))
-        M = itf.M_a if not itf.robin else sp.diags(np.asarray(itf.M_a.sum(axis=1)).ravel())
-        lam[idx] = M.tocsr()[idx][:, idx] @ p[idx]
+
+        def restricted():
+            M = itf.M_a if not itf.robin else sp.diags(np.asarray(itf.M_a.sum(axis=1)).ravel())
+            return M.tocsr()[idx][:, idx]
+        lam[idx] = _cached(itf, "mass", act.tobytes(), restricted) @ p[idx]
         scale = max(np.max(np.abs(lam), initial=0), 1e-300)
         release = act & (lam < -RELEASE * scale)
     else:

@@ -8,6 +8,7 @@ import time
 from dataclasses import dataclass, field
 
 from impactsim.quasistatic import interfaces as setup_mod
+from impactsim.quasistatic.blas import single_threaded
 from impactsim.quasistatic.model import Problem
 from impactsim.quasistatic.pool import make_pool
 from impactsim.quasistatic.schwarz import NotConverged, heat_phase, initial_state, \
@@ -42,7 +43,13 @@ def solve(problem: Problem, workers: int = 0, address: str | None = None, on_ste
     """Solve all load steps; `on_step(record, fields, state, interfaces)` after each,
     `on_log(record)` after each heat and Schwarz iteration (progress).
     A step that does not converge stops the run: Outcome.stopped says why, the finished steps
-    and the unconverged state of the last one are kept (and passed to on_step)."""
+    and the unconverged state of the last one are kept (and passed to on_step).
+    This process (the coordinator) runs BLAS on one thread meanwhile (blas.py)."""
+    with single_threaded():
+        return _solve(problem, workers, address, on_step, setup, on_log)
+
+
+def _solve(problem, workers, address, on_step, setup, on_log) -> Outcome:
     out = Outcome()
     if on_log is not None:
         out.log = _Log(on_log)
