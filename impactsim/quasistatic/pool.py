@@ -14,15 +14,18 @@ import numpy as np
 from impactsim.quasistatic.body import BodyGroup, BodySpec
 
 
-BODY_OVERHEAD = 2000  # tet-equivalents per body: the fixed cost of a body's solve per iteration
+BODY_OVERHEAD = 125  # tet-equivalents per body: the fixed cost of a body's solve per iteration
 
 
 def partition(specs: list[BodySpec], groups: int) -> list[list[BodySpec]]:
     """Contiguous groups of about equal cost: elements plus a fixed cost per body. By elements
     alone the 50-pellet stack went [49 pellets, the tube] onto 2 workers, and the pellets'
-    side did nearly all the work: a pellet's solve (214 tets) costs 2.4 ms per iteration, the
-    tube's (10,942 tets) a few ms (profiled in process), the per-body Python and small
-    sparse solves, not the elements, set the cost."""
+    side did nearly all the work. The fixed cost, measured per body over a whole run of the
+    50-pellet stack in process (session 10: heat, factorisations and 145 Schwarz solves): a
+    pellet (214 tets) 0.55 s, the tube (10,942 tets, refactorised with its Robin springs)
+    17.9 s, i.e. 1.6 ms per tet and 0.2 s (125 tets) per body; the 2000 of session 9 (from
+    the pellets' mechanics solves alone) put the tube with 139 of 349 pellets and gave its
+    worker twice the other's CPU time."""
     cost = np.array([s.model.tets.shape[1] * (4 if s.model.order == 2 else 1) + BODY_OVERHEAD
                      for s in specs], dtype=float)
     groups = max(1, min(groups, len(specs)))
