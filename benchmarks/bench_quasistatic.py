@@ -6,6 +6,7 @@ bodies where it fits: Schwarz iterations, heat iterations and wall times.
     QS_SET="quasistatic.max_iterations=200" ...   # extra --set overrides, ';'-separated
     QS_PROGRESS=50 ...      # a progress line every 50 Schwarz iterations (0: none; default 50)
     QS_CACHE=/tmp/qs ...    # keep each size's meshes and contact set-up (pickled) for reuse
+    QS_LOG=/tmp/qs ...      # write each run's convergence log (convergence-<bodies>-<workers>.csv)
 
 (`make bench` runs it with 10 and 50 bodies only.) The wall time of a run is measured without
 the cluster start, the meshing and the contact set-up (done once per size and printed):
@@ -78,11 +79,14 @@ def prepare(bodies: int):
 
 
 def _progress(every: int, label: str):
-    """on_log for solve: a line every `every` Schwarz iterations and at each heat phase's end,
-    with the wall and CPU seconds (this process) since the run started and the load."""
+    """on_log for solve: a line every `every` Schwarz iterations and every 10 heat iterations,
+    with the active-set changes since the last line, the wall and CPU seconds (this process)
+    since the run started and the load."""
     t0, c0 = time.perf_counter(), time.process_time()
+    changes = [0]  # active-set changes since the last line (each restarts Anderson)
 
     def on_log(rec):
+        changes[0] += bool(rec.get("active_changed"))
         if rec.get("phase") == "heat" and rec["iteration"] % 10 == 0:
             print(f"  [{label}] heat iteration {rec['iteration']}: change {rec['change']:.2e}; "
                   f"{time.perf_counter() - t0:.0f} s wall, load {os.getloadavg()[0]:.1f}",
@@ -91,9 +95,11 @@ def _progress(every: int, label: str):
             return
         print(f"  [{label}] iteration {rec['iteration']}: gap {rec['gap_residual']:.2e} "
               f"pressure {rec['pressure_residual']:.2e} motion {rec['motion_residual']:.2e} "
-              f"active {rec['active']}; {time.perf_counter() - t0:.0f} s wall, "
+              f"active {rec['active']} ({changes[0]} changes); "
+              f"{time.perf_counter() - t0:.0f} s wall, "
               f"{time.process_time() - c0:.0f} s CPU here, load {os.getloadavg()[0]:.1f}",
               flush=True)
+        changes[0] = 0
     return on_log
 
 
@@ -120,6 +126,16 @@ def run(prob, setup, workers: int, monolithic: bool = False) -> dict:
            "load": os.getloadavg()[0]}
     if out.stopped:
         print(f"  stopped: {out.stopped}", flush=True)
+    if os.environ.get("QS_LOG"):  # the convergence log of every run, as the CLI writes it
+        import csv
+
+        path = Path(os.environ["QS_LOG"]) / f"convergence-{row['bodies']}-{out.workers}.csv"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        keys = sorted({k for r in out.log for k in r})
+        with open(path, "w", newline="") as f:
+            w = csv.DictWriter(f, keys)
+            w.writeheader()
+            w.writerows(out.log)
     if monolithic:
         import numpy as np
         from impactsim.quasistatic.body import BodyState
