@@ -98,6 +98,7 @@ def _solve(problem, workers, address, on_step, setup, on_log) -> Outcome:
             "heat": sum(p["heat"] for p in per_body),
             "factorization": sum(p["factorization"] for p in per_body),
             "solves": sum(p["solves"] for p in per_body),
+            "bodies_cpu": sum(p.get("cpu", 0.0) for p in per_body),
             "heat_phase_wall": t_heat,
             "mechanics_phase_wall": t_mech,
             "total_wall": time.perf_counter() - t0,
