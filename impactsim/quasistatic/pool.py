@@ -26,7 +26,7 @@ def partition(specs: list[BodySpec], groups: int) -> list[list[BodySpec]]:
     50-pellet stack in process (session 10: heat, factorisations and 145 Schwarz solves): a
     pellet (214 tets) 0.55 s, the tube (10,942 tets, refactorised with its Robin springs)
     17.9 s, i.e. 1.6 ms per tet and 0.2 s (125 tets) per body; the 2000 of session 9 (from
-    the pellets' mechanics solves alone) put the tube with 139 of 349 pellets and gave its
+    the pellets' mechanics solves alone) put the tube with about 157 of 349 pellets and gave its
     worker twice the other's CPU time."""
     cost = np.array([s.model.tets.shape[1] * (4 if s.model.order == 2 else 1) + BODY_OVERHEAD
                      for s in specs], dtype=float)
