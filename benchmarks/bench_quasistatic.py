@@ -4,6 +4,9 @@ bodies where it fits: Schwarz iterations, heat iterations and wall times.
 
     QS_SIZES=10,50,350 QS_WORKERS=1,2 python benchmarks/bench_quasistatic.py
     QS_SET="quasistatic.max_iterations=200" ...   # extra --set overrides, ';'-separated
+    QS_PROGRESS=50 ...      # a progress line every 50 Schwarz iterations (0: none; default 50)
+    QS_CACHE=/tmp/qs ...    # keep each size's meshes and contact set-up (pickled) for reuse
+    QS_LOG=/tmp/qs ...      # write each run's convergence log (convergence-<bodies>-<workers>.csv)
 
 (`make bench` runs it with 10 and 50 bodies only.) The wall time of a run is measured without
 the cluster start, the meshing and the contact set-up (done once per size and printed):
@@ -41,24 +44,73 @@ def stack_overrides(bodies: int) -> list[str]:
 
 
 def prepare(bodies: int):
-    """(problem, setup, seconds to mesh, seconds to set up) of the stack with `bodies` bodies."""
+    """(problem, setup, seconds to mesh, seconds to set up) of the stack with `bodies` bodies.
+    With QS_CACHE set, the meshes and the set-up are pickled there, keyed by the overrides,
+    and read back by a later run (the 350-body set-up takes minutes)."""
+    import hashlib
+    import pickle
+
     from impactsim.case.quasistatic import load_quasistatic
     from impactsim.quasistatic import interfaces as setup_mod
     from impactsim.quasistatic.build import problem
 
     extra = [x for x in os.environ.get("QS_SET", "").split(";") if x.strip()]
-    case = load_quasistatic(CASE, stack_overrides(bodies) + extra)
+    overrides = stack_overrides(bodies) + extra
+    case = load_quasistatic(CASE, overrides)
+    cache = os.environ.get("QS_CACHE")
+    path = None
+    if cache:
+        key = hashlib.sha1((CASE.read_text() + repr(overrides)).encode()).hexdigest()[:16]
+        path = Path(cache) / f"pellets-{bodies}-{key}.pkl"
+        if path.exists():
+            with open(path, "rb") as f:
+                prob, setup, t_mesh = pickle.load(f)
+            # the settings come from the case as loaded now (the cache key has the overrides)
+            return prob, setup, t_mesh, setup[4]
     t0 = time.perf_counter()
     prob = problem(case)
     t_mesh = time.perf_counter() - t0
     setup = setup_mod.setup(prob)
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(path, "wb") as f:
+            pickle.dump((prob, setup, t_mesh), f, protocol=pickle.HIGHEST_PROTOCOL)
     return prob, setup, t_mesh, setup[4]
+
+
+def _progress(every: int, label: str):
+    """on_log for solve: a line every `every` Schwarz iterations and every 10 heat iterations,
+    with the active-set changes since the last line, the wall and CPU seconds (this process)
+    since the run started and the load."""
+    t0, c0 = time.perf_counter(), time.process_time()
+    changes = [0]  # active-set changes since the last line (each restarts Anderson)
+
+    def on_log(rec):
+        changes[0] += bool(rec.get("active_changed"))
+        if rec.get("phase") == "heat" and rec["iteration"] % 10 == 0:
+            print(f"  [{label}] heat iteration {rec['iteration']}: change {rec['change']:.2e}; "
+                  f"{time.perf_counter() - t0:.0f} s wall, load {os.getloadavg()[0]:.1f}",
+                  flush=True)
+        if rec.get("phase") != "mechanics" or rec["iteration"] % every:
+            return
+        print(f"  [{label}] iteration {rec['iteration']}: gap {rec['gap_residual']:.2e} "
+              f"pressure {rec['pressure_residual']:.2e} motion {rec['motion_residual']:.2e} "
+              f"active {rec['active']} ({changes[0]} changes); "
+              f"{time.perf_counter() - t0:.0f} s wall, "
+              f"{time.process_time() - c0:.0f} s CPU here, load {os.getloadavg()[0]:.1f}",
+              flush=True)
+        changes[0] = 0
+    return on_log
 
 
 def run(prob, setup, workers: int, monolithic: bool = False) -> dict:
     from impactsim.quasistatic.solver import solve
 
-    out = solve(prob, workers, setup=setup)
+    every = int(os.environ.get("QS_PROGRESS", "50"))
+    label = f"{len(prob.bodies)} bodies, {workers} workers"
+    c0 = time.process_time()
+    out = solve(prob, workers, setup=setup,
+                on_log=_progress(every, label) if every > 0 else None)
     row = {"bodies": len(prob.bodies), "workers": out.workers, "setup_s": setup[4],
            "iterations": out.steps[-1].get("iterations"),
            "heat_iterations": out.steps[-1].get("heat_iterations"),
@@ -66,7 +118,23 @@ def run(prob, setup, workers: int, monolithic: bool = False) -> dict:
            "heat_s": out.seconds["heat_phase_wall"],
            "mechanics_s": out.seconds["mechanics_phase_wall"],
            "converged": out.stopped is None,
-           "max_T": max(float(f["T"].max()) for f in out.fields.values())}
+           "max_T": max(float(f["T"].max()) for f in out.fields.values()),
+           "client_cpu_s": time.process_time() - c0,
+           # CPU seconds of the bodies' calls in their workers (heat, factorisations, solves)
+           "bodies_cpu_s": out.seconds["bodies_cpu"],
+           "load": os.getloadavg()[0]}
+    if out.stopped:
+        print(f"  stopped: {out.stopped}", flush=True)
+    if os.environ.get("QS_LOG"):  # the convergence log of every run, as the CLI writes it
+        import csv
+
+        path = Path(os.environ["QS_LOG"]) / f"convergence-{row['bodies']}-{out.workers}.csv"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        keys = sorted({k for r in out.log for k in r})
+        with open(path, "w", newline="") as f:
+            w = csv.DictWriter(f, keys)
+            w.writeheader()
+            w.writerows(out.log)
     if monolithic:
         import numpy as np
         from impactsim.quasistatic.body import BodyState
@@ -96,8 +164,8 @@ def main() -> None:
     workers = [int(s) for s in os.environ.get("QS_WORKERS", "1,2").split(",")]
     mono_limit = int(os.environ.get("QS_MONOLITHIC_MAX", "50"))
     cols = ("bodies", "workers", "iterations", "heat_iterations", "setup_s", "wall_s", "heat_s",
-            "mechanics_s", "monolithic_s", "schwarz_vs_monolithic", "axial_diff", "converged",
-            "max_T")
+            "mechanics_s", "client_cpu_s", "bodies_cpu_s", "load", "monolithic_s",
+            "schwarz_vs_monolithic", "axial_diff", "converged", "max_T")
     print(" ".join(f"{c:>12}" for c in cols), flush=True)
     for n in sizes:
         walls = {}

@@ -9,20 +9,25 @@ results are the same whatever the number of workers (the client combines them in
 
 from __future__ import annotations
 
+import pickle
+
 import numpy as np
 
 from impactsim.quasistatic.body import BodyGroup, BodySpec
 
 
-BODY_OVERHEAD = 2000  # tet-equivalents per body: the fixed cost of a body's solve per iteration
+BODY_OVERHEAD = 125  # tet-equivalents per body: the fixed cost of a body's solve per iteration
 
 
 def partition(specs: list[BodySpec], groups: int) -> list[list[BodySpec]]:
     """Contiguous groups of about equal cost: elements plus a fixed cost per body. By elements
     alone the 50-pellet stack went [49 pellets, the tube] onto 2 workers, and the pellets'
-    side did nearly all the work: a pellet's solve (214 tets) costs 2.4 ms per iteration, the
-    tube's (10,942 tets) a few ms (profiled in process), the per-body Python and small
-    sparse solves, not the elements, set the cost."""
+    side did nearly all the work. The fixed cost, measured per body over a whole run of the
+    50-pellet stack in process (session 10: heat, factorisations and 145 Schwarz solves): a
+    pellet (214 tets) 0.55 s, the tube (10,942 tets, refactorised with its Robin springs)
+    17.9 s, i.e. 1.6 ms per tet and 0.2 s (125 tets) per body; the 2000 of session 9 (from
+    the pellets' mechanics solves alone) put the tube with about 157 of 349 pellets and gave its
+    worker twice the other's CPU time."""
     cost = np.array([s.model.tets.shape[1] * (4 if s.model.order == 2 else 1) + BODY_OVERHEAD
                      for s in specs], dtype=float)
     groups = max(1, min(groups, len(specs)))
@@ -71,7 +76,7 @@ class DaskPool:
         names = list(self.client.scheduler_info()["workers"])
         self.workers = len(names)
         parts = partition(specs, len(names))
-        futures = [self.client.submit(BodyGroup, part, actor=True, workers=[w], pure=False)
+        futures = [self.client.submit(PickledGroup, part, actor=True, workers=[w], pure=False)
                    for part, w in zip(parts, names)]
         self.actors = [f.result() for f in futures]
         self.members = [[s.index for s in part] for part in parts]
@@ -81,16 +86,34 @@ class DaskPool:
         for actor, members in zip(self.actors, self.members):
             a = (({i: per_body[i] for i in members if i in per_body},)
                  if per_body is not None else ()) + args
-            futures.append(getattr(actor, method)(*a))
+            futures.append(actor.call(method, _dumps(a)))
         out = {}
         for f in futures:
-            out.update(f.result())
+            out.update(pickle.loads(f.result()))
         return out
 
     def close(self) -> None:
         self.client.close()
         if self.cluster is not None:
             self.cluster.close()
+
+
+def _dumps(obj) -> bytes:
+    return pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
+
+
+class PickledGroup:
+    """A BodyGroup behind one bytes object each way per call. Sent as they are, an
+    iteration's dicts of a few thousand small arrays became as many frames of Dask's protocol:
+    the client's communication threads then took twice its main thread's CPU time (100
+    pellets, 2 workers, 40 iterations: 3.1 s process CPU, 1.1 s of it the main thread);
+    pickled in band (a single frame) the same data costs a few milliseconds."""
+
+    def __init__(self, specs: list[BodySpec]):
+        self.group = BodyGroup(specs)
+
+    def call(self, method: str, blob: bytes) -> bytes:
+        return _dumps(getattr(self.group, method)(*pickle.loads(blob)))
 
 
 def _subset(per_body: dict, bodies: dict) -> dict:

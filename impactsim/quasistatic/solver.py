@@ -8,6 +8,7 @@ import time
 from dataclasses import dataclass, field
 
 from impactsim.quasistatic import interfaces as setup_mod
+from impactsim.quasistatic.blas import single_threaded
 from impactsim.quasistatic.model import Problem
 from impactsim.quasistatic.pool import make_pool
 from impactsim.quasistatic.schwarz import NotConverged, heat_phase, initial_state, \
@@ -25,12 +26,33 @@ class Outcome:
     fields: dict = field(default_factory=dict)
 
 
+class _Log(list):
+    """The convergence log, passing each record to `on_log` as it is appended (progress)."""
+
+    def __init__(self, on_log):
+        super().__init__()
+        self.on_log = on_log
+
+    def append(self, rec) -> None:
+        super().append(rec)
+        self.on_log(rec)
+
+
 def solve(problem: Problem, workers: int = 0, address: str | None = None, on_step=None,
-          setup=None) -> Outcome:
-    """Solve all load steps; `on_step(record, fields, state, interfaces)` after each.
+          setup=None, on_log=None) -> Outcome:
+    """Solve all load steps; `on_step(record, fields, state, interfaces)` after each,
+    `on_log(record)` after each heat and Schwarz iteration (progress).
     A step that does not converge stops the run: Outcome.stopped says why, the finished steps
-    and the unconverged state of the last one are kept (and passed to on_step)."""
+    and the unconverged state of the last one are kept (and passed to on_step).
+    This process (the coordinator) runs BLAS on one thread meanwhile (blas.py)."""
+    with single_threaded():
+        return _solve(problem, workers, address, on_step, setup, on_log)
+
+
+def _solve(problem, workers, address, on_step, setup, on_log) -> Outcome:
     out = Outcome()
+    if on_log is not None:
+        out.log = _Log(on_log)
     t0 = time.perf_counter()
     spaces, itfs, specs, route, t_setup = setup or setup_mod.setup(problem)
     out.interfaces = itfs
@@ -76,6 +98,7 @@ def solve(problem: Problem, workers: int = 0, address: str | None = None, on_ste
             "heat": sum(p["heat"] for p in per_body),
             "factorization": sum(p["factorization"] for p in per_body),
             "solves": sum(p["solves"] for p in per_body),
+            "bodies_cpu": sum(p.get("cpu", 0.0) for p in per_body),
             "heat_phase_wall": t_heat,
             "mechanics_phase_wall": t_mech,
             "total_wall": time.perf_counter() - t0,
