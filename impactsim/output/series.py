@@ -26,8 +26,6 @@ Array conventions of a frame (k = number of points or of cells):
 from __future__ import annotations
 
 import os
-import sys
-import threading
 import xml.etree.ElementTree as ET
 from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -69,8 +67,7 @@ class SeriesWriter:
         self.pvd_path = self.directory / pvd_name
         self.frames: list[tuple[float, str]] = []
         self._count = 0  # frames handed to write() and write_later()
-        self._pool = (ThreadPoolExecutor(1, thread_name_prefix=f"impactsim-{prefix}",
-                                         initializer=_lower_priority)
+        self._pool = (ThreadPoolExecutor(1, thread_name_prefix=f"impactsim-{prefix}")
                       if background else None)
         self._pending: deque[Future] = deque()
 
@@ -187,27 +184,6 @@ class SeriesWriter:
             write_vtu(tmp, *arrays, compression=self.compression)
         self.frames.append((time, name))
         write_text(self.pvd_path, collection_xml(self.frames))
-
-
-WRITER_NICE = 10  # added to the writer thread's nice value (Linux; at most 19)
-
-
-def _lower_priority() -> None:
-    """Give the writer's thread a lower scheduling priority than the run's threads (Linux: a
-    thread's nice value is its own, ``setpriority`` on its thread id). The frames are then
-    written on the cores the run leaves idle (its serial parts, the waits of the numba
-    threads) instead of taking a core from a parallel kernel, every one of whose threads waits
-    for the slowest (docs/performance.md, "Whole scenes, session 9" and "session 10"). A frame
-    still never waits long: the run blocks on the writer when MAX_PENDING frames are queued,
-    and ``close`` waits for the rest. Elsewhere, or when not allowed, nothing changes."""
-    if not sys.platform.startswith("linux"):
-        return
-    try:
-        tid = threading.get_native_id()
-        os.setpriority(os.PRIO_PROCESS, tid,
-                       min(19, os.getpriority(os.PRIO_PROCESS, tid) + WRITER_NICE))
-    except (OSError, AttributeError):
-        pass
 
 
 def collection_xml(frames: list[tuple[float, str]]) -> str:

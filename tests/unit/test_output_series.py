@@ -260,28 +260,3 @@ def test_frames_from_a_snapshot_hold_the_state_at_write_time(tmp_path):
     for k, v in want.cell_data.items():
         np.testing.assert_array_equal(got.cell_data[k][0], v[0])
     np.testing.assert_array_equal(got.cell_data["pressure"][0], pressure0[[0, 2]])
-
-
-@pytest.mark.skipif(not __import__("sys").platform.startswith("linux"),
-                    reason="per-thread nice values are Linux's")
-def test_background_writer_thread_runs_at_a_lower_priority(tmp_path):
-    """The frame writer's thread takes the cores the run leaves idle (series._lower_priority):
-    its nice value is the run's plus WRITER_NICE (at most 19), the run's own is unchanged, and
-    the frame is written all the same."""
-    import os
-    import threading
-
-    main = os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
-    seen = []
-
-    def make():
-        seen.append(os.getpriority(os.PRIO_PROCESS, threading.get_native_id()))
-        return np.zeros((4, 3)), np.array([[0, 1, 2, 3]]), {}, {}, None
-
-    w = SeriesWriter(tmp_path, background=True)
-    w.write_later(0.0, make)
-    w.close()
-    assert seen == [min(19, main + series.WRITER_NICE)]
-    assert os.getpriority(os.PRIO_PROCESS, threading.get_native_id()) == main
-    assert os.getpriority(os.PRIO_PROCESS, 0) == main
-    assert [p.name for _, p in read_collection(tmp_path / "series.pvd")] == ["frame_00000.vtu"]
