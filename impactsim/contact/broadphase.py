@@ -361,6 +361,138 @@ def select_boxes(x, v, tau, ent, pad, body, blo, bhi, keep_all, skip, sel, lo, h
 
 
 @numba.njit(cache=True)
+def _occ_cell(p, o, inv_c, dim):
+    """Cell index of coordinate p on one axis of an occupancy grid (clamped to [0, dim - 1];
+    monotone in p, so two overlapping intervals keep a common cell)."""
+    t = (p - o) * inv_c
+    if not t > 0.0:  # also NaN (the callers check finiteness first)
+        return 0
+    if t >= dim - 1:
+        return dim - 1
+    return int(t)
+
+
+@numba.njit(cache=True)
+def mark_cells(sel, lo, hi, body, origin, inv_c, dims, gen, bits, g):
+    """Occupancy for the pre-selection of ``ContactContext.select`` (ALGORITHMS.md 3.2,
+    "Cost"): every cell of the coarse grid (origin, 1 / inv_c, dims (3,)) that box k (lo, hi)[k]
+    touches gets the bit ``1 << body[sel[k]]``. A cell's bits count only while ``gen`` of the
+    cell equals ``g`` (an older generation reads as empty: no clearing between uses)."""
+    for k in range(sel.shape[0]):
+        bit = np.int64(1) << np.int64(body[sel[k]])
+        x0 = _occ_cell(lo[k, 0], origin[0], inv_c, dims[0])
+        x1 = _occ_cell(hi[k, 0], origin[0], inv_c, dims[0])
+        y0 = _occ_cell(lo[k, 1], origin[1], inv_c, dims[1])
+        y1 = _occ_cell(hi[k, 1], origin[1], inv_c, dims[1])
+        z0 = _occ_cell(lo[k, 2], origin[2], inv_c, dims[2])
+        z1 = _occ_cell(hi[k, 2], origin[2], inv_c, dims[2])
+        for ix in range(x0, x1 + 1):
+            for iy in range(y0, y1 + 1):
+                c = (ix * dims[1] + iy) * dims[2]
+                for iz in range(z0, z1 + 1):
+                    if gen[c + iz] != g:
+                        gen[c + iz] = g
+                        bits[c + iz] = bit
+                    else:
+                        bits[c + iz] |= bit
+
+
+@numba.njit(cache=True)
+def keep_touching(sel, lo, hi, body, origin, inv_c, dims, gen, bits, g):
+    """Keep, in order and in place, the rows k of (sel, lo, hi) whose box touches a cell of
+    generation g (``mark_cells``) holding a bit of a body other than ``body[sel[k]]``; returns
+    how many are kept. Two overlapping boxes share a cell (the cell of any common point), so a
+    box that overlaps a marked box of another body is always kept: the pairs of the hash query
+    over the kept rows are all the pairs of the rows given."""
+    n = 0
+    for k in range(sel.shape[0]):
+        other = ~(np.int64(1) << np.int64(body[sel[k]]))
+        x0 = _occ_cell(lo[k, 0], origin[0], inv_c, dims[0])
+        x1 = _occ_cell(hi[k, 0], origin[0], inv_c, dims[0])
+        y0 = _occ_cell(lo[k, 1], origin[1], inv_c, dims[1])
+        y1 = _occ_cell(hi[k, 1], origin[1], inv_c, dims[1])
+        z0 = _occ_cell(lo[k, 2], origin[2], inv_c, dims[2])
+        z1 = _occ_cell(hi[k, 2], origin[2], inv_c, dims[2])
+        touch = False
+        for ix in range(x0, x1 + 1):
+            for iy in range(y0, y1 + 1):
+                c = (ix * dims[1] + iy) * dims[2]
+                for iz in range(z0, z1 + 1):
+                    if gen[c + iz] == g and (bits[c + iz] & other) != 0:
+                        touch = True
+                        break
+                if touch:
+                    break
+            if touch:
+                break
+        if touch:
+            sel[n] = sel[k]
+            for d in range(3):
+                lo[n, d] = lo[k, d]
+                hi[n, d] = hi[k, d]
+            n += 1
+    return n
+
+
+OCC_CELL = 1.0  # cell of the occupancy grid, a multiple of the hash's cell
+OCC_MAX_CELLS = 1 << 22  # cells of the occupancy grid, at most (larger cells beyond)
+OCC_MAX_BODIES = 63  # bodies the occupancy bits can tell apart
+
+
+class Occupancy:
+    """A coarse grid of which bodies' boxes touch each cell, to pre-select the rows of a broad
+    phase (``mark_cells``, ``keep_touching``): a row whose box touches no cell of another body's
+    boxes cannot be in a pair, and leaving it out of the hash and the queries changes no pair.
+    Kept between steps (generations instead of clearing)."""
+
+    def __init__(self):
+        self.gen = np.zeros(16, np.int32)
+        self.bits = np.zeros(16, np.int64)
+        self.g = 0
+        self.dims = np.ones(3, np.int64)
+        self.origin = np.zeros(3)
+        self.inv_c = 1.0
+
+    def grid(self, lo, hi, cell) -> None:
+        """The grid over the box (lo, hi) (3,) with cells of ``cell`` [m] (larger when the box
+        would need more than OCC_MAX_CELLS); starts a new generation."""
+        lo = np.asarray(lo, np.float64)
+        ext = np.maximum(np.asarray(hi, np.float64) - lo, 0.0)
+        cell = max(float(cell), float(ext.max()) / (1 << 20), 1e-300)
+        while True:
+            dims = np.floor(ext / cell).astype(np.int64) + 1
+            if int(dims.prod()) <= OCC_MAX_CELLS:
+                break
+            cell *= (float(dims.prod()) / OCC_MAX_CELLS) ** (1.0 / 3.0) * 1.01
+        size = int(dims.prod())
+        if self.gen.shape[0] < size:
+            self.gen = np.zeros(size, np.int32)
+            self.bits = np.zeros(size, np.int64)
+            self.g = 0
+        self.origin = lo
+        self.inv_c = 1.0 / cell
+        self.dims = dims
+        self.next()
+
+    def next(self) -> None:
+        """A new generation: every cell reads as empty."""
+        self.g += 1
+        if self.g >= 2**31 - 1:
+            self.gen[:] = 0
+            self.g = 1
+
+    def mark(self, sel, lo, hi, body) -> None:
+        mark_cells(sel, lo, hi, body, self.origin, self.inv_c, self.dims, self.gen, self.bits,
+                   self.g)
+
+    def keep(self, sel, lo, hi, body):
+        """(sel, lo, hi) cut to the rows that touch another body's marked cells (in order)."""
+        k = keep_touching(sel, lo, hi, body, self.origin, self.inv_c, self.dims, self.gen,
+                          self.bits, self.g)
+        return sel[:k], lo[:k], hi[:k]
+
+
+@numba.njit(cache=True)
 def mean_length(x, edges):
     """Mean length [m] of the segments ``edges (g, 2)`` (0 for none): the hash cell size and
     the touching band of ALGORITHMS.md 3 scale with it."""

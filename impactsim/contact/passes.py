@@ -60,8 +60,8 @@ import math
 
 import numpy as np
 
-from impactsim.contact.broadphase import (SpatialHash, body_bounds, grid_from_bounds,
-                                          select_boxes)
+from impactsim.contact.broadphase import (OCC_CELL, OCC_MAX_BODIES, Occupancy, SpatialHash,
+                                          body_bounds, grid_from_bounds, select_boxes)
 from impactsim.contact.diagnostics import PenetrationMeter
 from impactsim.contact.edgeedge import GEO_COLS as EE_GEO_COLS
 from impactsim.contact.edgeedge import edge_edge_sweep, edge_normals, edge_normals_of
@@ -128,6 +128,10 @@ class ContactContext:
         self.projections = PROJECTIONS
         self.slack = SLACK
         self._locks = PrescribedLock()
+        # the pre-selection of the broad phase by a coarse grid of the bodies' boxes
+        # (broadphase.Occupancy); not with self-contact (every row is near its own body)
+        self.occupancy = (Occupancy() if not self.self_contact and self.n_body <= OCC_MAX_BODIES
+                          else None)
         # node -> the key the self-contact exclusion compares (None: the node itself). Node
         # separation sets the mesh node each copy came from, so that the faces a release opens
         # (coincident, sharing the copies of one node) are not taken for contacting ones.
@@ -555,6 +559,21 @@ class ContactPass(Pass):
         if qsel.shape[0] == 0 or esel.shape[0] == 0:
             return _NO_PAIRS
         origin, cell = ctx.grid(blo, bhi, h)
+        if ctx.occupancy is not None:  # only rows near another body's rows (Occupancy)
+            occ = ctx.occupancy
+            occ.grid(origin, bhi[blo[:, 0] <= bhi[:, 0]].max(axis=0), OCC_CELL * cell)
+            if queries is None:
+                occ.mark(esel, elo, ehi, body)
+                esel, elo, ehi = occ.keep(esel, elo, ehi, body)
+                qsel, qlo, qhi = esel, elo, ehi
+            else:
+                occ.mark(qsel, qlo, qhi, qbody)
+                esel, elo, ehi = occ.keep(esel, elo, ehi, body)
+                occ.next()
+                occ.mark(esel, elo, ehi, body)
+                qsel, qlo, qhi = occ.keep(qsel, qlo, qhi, qbody)
+            if qsel.shape[0] == 0 or esel.shape[0] == 0:
+                return _NO_PAIRS
         self.hash.build(elo, ehi, origin, cell)
         qk, ek = qkey[qsel], ekey[esel]
         if ctx.node_key is not None:  # self-contact exclusion by node family (separation)

@@ -143,3 +143,51 @@ def test_huge_extent_keeps_the_grid_within_its_key_range():
     body = np.array([0, 1], np.int32)
     ent = np.array([[0], [1]], np.int32)
     assert len(hs.query(lo, hi, ent, body, ent, body, True, False)) == 0
+
+
+@pytest.mark.parametrize("cell,bodies", [(0.25, 3), (1.0, 2), (3.0, 5), (1e-3, 4)])
+def test_occupancy_keeps_every_row_of_a_pair(cell, bodies):
+    """The pre-selection by a coarse grid of the bodies' boxes (broadphase.Occupancy, used by
+    the contact passes' broad phase) keeps, in order, every row with a partner of another body
+    (brute force), whatever the cell (the last forces OCC_MAX_CELLS' larger cells); the pairs
+    of the hash over the kept rows are the pairs over all rows. Rows it drops have no
+    partner."""
+    from impactsim.contact.broadphase import Occupancy
+
+    rng = np.random.default_rng(11)
+    qlo, qhi = random_boxes(rng, 300, size=0.6, extent=12.0)
+    elo, ehi = random_boxes(rng, 200, size=1.2, extent=12.0)
+    qbody = rng.integers(0, bodies, 300).astype(np.int32)
+    ebody = rng.integers(0, bodies, 200).astype(np.int32)
+    want = brute(qlo, qhi, elo, ehi, qbody, ebody, False)
+    occ = Occupancy()
+    lo_all = np.minimum(qlo.min(axis=0), elo.min(axis=0))
+    hi_all = np.maximum(qhi.max(axis=0), ehi.max(axis=0))
+    occ.grid(lo_all, hi_all, cell)
+    qsel, ql, qh = np.arange(300), qlo.copy(), qhi.copy()
+    esel, el, eh = np.arange(200), elo.copy(), ehi.copy()
+    occ.mark(qsel, ql, qh, qbody)
+    esel, el, eh = occ.keep(esel, el, eh, ebody)
+    occ.next()
+    occ.mark(esel, el, eh, ebody)
+    qsel, ql, qh = occ.keep(qsel, ql, qh, qbody)
+    assert {j for _, j in want} <= set(esel.tolist())
+    assert {i for i, _ in want} <= set(qsel.tolist())
+    assert np.all(np.diff(esel) > 0) and np.all(np.diff(qsel) > 0)
+    np.testing.assert_array_equal(el, elo[esel])
+    np.testing.assert_array_equal(qh, qhi[qsel])
+    if cell == 0.25:  # a fine grid drops rows (else the test would not test the dropping)
+        assert len(qsel) < 300 and len(esel) < 200
+    origin, h = grid_for([(qlo, qhi), (elo, ehi)], 1.0)
+    hs = SpatialHash()
+    hs.build(el, eh, origin, h)
+    pairs = hs.query(ql, qh, qsel.reshape(-1, 1).astype(np.int32), qbody[qsel],
+                     esel.reshape(-1, 1).astype(np.int32) + 1000, ebody[esel], False, False)
+    lifted = np.stack([qsel[pairs[:, 0]], esel[pairs[:, 1]]], axis=1)
+    hs.build(elo, ehi, origin, h)
+    full = hs.query(qlo, qhi, np.arange(300, dtype=np.int32).reshape(-1, 1), qbody,
+                    np.arange(1000, 1200, dtype=np.int32).reshape(-1, 1), ebody, False, False)
+    np.testing.assert_array_equal(lifted, full)
+    # a generation left behind reads as empty
+    occ.next()
+    assert occ.keep(np.arange(200), elo.copy(), ehi.copy(), ebody)[0].shape[0] == 0
