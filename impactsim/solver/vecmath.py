@@ -109,7 +109,6 @@ def power(x, y):
     return exp(y * ln(x))
 
 
-
 def _prefetch_codegen(rw):
     def codegen(context, builder, signature, args):
         ary = context.make_array(signature.args[0])(context, builder, args[0])
