@@ -372,6 +372,17 @@ def _occ_cell(p, o, inv_c, dim):
     return int(t)
 
 
+@numba.njit(cache=True, inline="always")
+def _occ_range(lo, hi, k, origin, inv_c, dims):
+    """The cells (x0, x1, y0, y1, z0, z1), bounds included, that box k (lo, hi)[k] touches."""
+    return (_occ_cell(lo[k, 0], origin[0], inv_c, dims[0]),
+            _occ_cell(hi[k, 0], origin[0], inv_c, dims[0]),
+            _occ_cell(lo[k, 1], origin[1], inv_c, dims[1]),
+            _occ_cell(hi[k, 1], origin[1], inv_c, dims[1]),
+            _occ_cell(lo[k, 2], origin[2], inv_c, dims[2]),
+            _occ_cell(hi[k, 2], origin[2], inv_c, dims[2]))
+
+
 @numba.njit(cache=True)
 def mark_cells(sel, lo, hi, body, origin, inv_c, dims, gen, bits, g):
     """Occupancy for the pre-selection of ``ContactContext.select`` (ALGORITHMS.md 3.2,
@@ -380,12 +391,7 @@ def mark_cells(sel, lo, hi, body, origin, inv_c, dims, gen, bits, g):
     cell equals ``g`` (an older generation reads as empty: no clearing between uses)."""
     for k in range(sel.shape[0]):
         bit = np.int64(1) << np.int64(body[sel[k]])
-        x0 = _occ_cell(lo[k, 0], origin[0], inv_c, dims[0])
-        x1 = _occ_cell(hi[k, 0], origin[0], inv_c, dims[0])
-        y0 = _occ_cell(lo[k, 1], origin[1], inv_c, dims[1])
-        y1 = _occ_cell(hi[k, 1], origin[1], inv_c, dims[1])
-        z0 = _occ_cell(lo[k, 2], origin[2], inv_c, dims[2])
-        z1 = _occ_cell(hi[k, 2], origin[2], inv_c, dims[2])
+        x0, x1, y0, y1, z0, z1 = _occ_range(lo, hi, k, origin, inv_c, dims)
         for ix in range(x0, x1 + 1):
             for iy in range(y0, y1 + 1):
                 c = (ix * dims[1] + iy) * dims[2]
@@ -407,12 +413,7 @@ def keep_touching(sel, lo, hi, body, origin, inv_c, dims, gen, bits, g):
     n = 0
     for k in range(sel.shape[0]):
         other = ~(np.int64(1) << np.int64(body[sel[k]]))
-        x0 = _occ_cell(lo[k, 0], origin[0], inv_c, dims[0])
-        x1 = _occ_cell(hi[k, 0], origin[0], inv_c, dims[0])
-        y0 = _occ_cell(lo[k, 1], origin[1], inv_c, dims[1])
-        y1 = _occ_cell(hi[k, 1], origin[1], inv_c, dims[1])
-        z0 = _occ_cell(lo[k, 2], origin[2], inv_c, dims[2])
-        z1 = _occ_cell(hi[k, 2], origin[2], inv_c, dims[2])
+        x0, x1, y0, y1, z0, z1 = _occ_range(lo, hi, k, origin, inv_c, dims)
         touch = False
         for ix in range(x0, x1 + 1):
             for iy in range(y0, y1 + 1):
