@@ -34,11 +34,8 @@ from impactsim.quasistatic.model import Settings
 SETTLE = 10.0  # the active set is updated when the mismatches are below SETTLE x tolerance
 MAX_INNER = 100  # ... or after this many iterations with the same active set
 ACTIVATE = 10.0  # a node is activated when it penetrates by ACTIVATE x gap tolerance x u_max
-# ... on a Robin interface. Session 10, 100 pellets: 100 halved the iterations (563 -> 293:
-# fewer nodes thrown into the tube by unsettled iterates, which then leave a few per settled
-# state) but let an inactive node end 56 um inside the tube (the threshold is relative to
-# the column's growth, not to the 85 um gap): kept at ACTIVATE (docs/quasistatic.md)
-ACTIVATE_ROBIN = 10.0
+# (on a Robin interface too: 100 there halved the 100-pellet stack's iterations but let an
+# inactive node end 56 um inside the tube; docs/quasistatic.md, Known limits)
 ENTER_FRACTION = 0.1  # penetrating nodes enter within this fraction of the penetrations'
 # spread from the deepest, after a drop (update_active)
 RELEASE = 1e-3  # a node is released when its (smoothed) pressure is below -RELEASE p_max
@@ -487,8 +484,7 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
                 na = act
             else:
                 na = update_active(itf, act, p_act, ua - target,
-                                   (ACTIVATE_ROBIN if itf.robin else ACTIVATE)
-                                   * settings.gap_tolerance * u_scale, p_scale,
+                                   ACTIVATE * settings.gap_tolerance * u_scale, p_scale,
                                    release=settle)
             changed |= bool((na != act).any())
             new_active.append(na)
