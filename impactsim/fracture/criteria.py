@@ -27,12 +27,6 @@ Per live element e, after the element update of the step:
    accumulates at s* <= -1/3, and an intact cell whose D reaches 1 becomes DAMAGED (then
    loosening, step 2, as after spall); it runs before loosening so that such a cell that has
    opened loosens in the same step.
-2c. Loosening by stretch (not in [D19]): a damaged element whose largest principal stretch
-   exceeds LOOSE_STRETCH becomes FRACTURED. A damaged cell carries neither tension nor shear,
-   so its neighbours can draw it out at constant volume, which chi never sees: in the fine
-   perforation run at 400 m/s (docs/validation.md) one such cell tethered the plug to the
-   plate, was drawn from 13 to 42 mm at V/V0 = 1.01 and set the step to 1.8 ns for 86 % of
-   the run's 35,000 steps, and the plate's hole was measured with the plug on it.
 3b. Melt and runaway strain (materials with failure data): a cell within 1 % of the melt
    temperature of its strength model (T* >= MELT_SHARE; no strength left: the Johnson-Cook law
    ends there, and heating stops short of T_melt as the strength vanishes) or
@@ -76,7 +70,6 @@ from impactsim.model import DAMAGED, ERODED, FRACTURED, INTACT
 NONE, PARTICLE, ERODE, GUARD, MELT = 0, 1, 2, 3, 4
 GUARD_FRACTION = 0.01  # [-] predicted V / V0 below which the distortion guard removes a cell
 MAX_PLASTIC_STRAIN = 200.0  # [-] a cell strained beyond this leaves the mesh (3b)
-LOOSE_STRETCH = 3.0  # [-] largest principal stretch at which a damaged cell loosens (2c)
 # [-] homologous temperature T* at which a cell counts as molten (3b): adiabatic heating is
 # beta sigma_y d eps_p and sigma_y vanishes as T* -> 1, so the melt temperature is approached,
 # never reached (sphere-plate: rim cells at 774.99... K of 775 K with plastic strains of 66-166
@@ -241,12 +234,6 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
                                                      + pnode[i3]))
         st, dam, frac = element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev, damage,
                                       eps_rate, temperature, mat_params, dt, spall_k, integrate)
-        stretch = 1.0
-        if st == DAMAGED or int(mat_params[mk, P.EROSION]) == 3:
-            stretch = max_principal_stretch(x, x0, i0, i1, i2, i3)
-        if st == DAMAGED and stretch > LOOSE_STRETCH:
-            st = FRACTURED  # loosened by stretch (2c)
-            frac = 1
         n_dam += 1 if dam > 0 else 0
         n_duct += 1 if dam == 2 else 0
         n_frac += frac
@@ -256,6 +243,9 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
         lone = (face_flag[4 * e] and face_flag[4 * e + 1] and face_flag[4 * e + 2]
                 and face_flag[4 * e + 3] and (adj[e, 0] >= 0 or adj[e, 1] >= 0
                                               or adj[e, 2] >= 0 or adj[e, 3] >= 0))
+        stretch = 1.0
+        if int(mat_params[mk, P.EROSION]) == 3:
+            stretch = max_principal_stretch(x, x0, i0, i1, i2, i3)
         act = element_action(e, mk, st, on_surface, lone, surface_only, eps_p, damage,
                              temperature, mat_params, stretch)
         if act == NONE and failing_material(mat_params, mk):

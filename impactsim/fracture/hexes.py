@@ -5,8 +5,7 @@ ElementBlock's arrays, which have the tets' layout (status, sdev, pressure, vol,
 damage, ...):
 
 - ``hex_fracture_criteria``: one numba pass over a block, the pointwise steps of the tets'
-  kernel (``criteria.element_state``: spall, loosening, Johnson-Cook damage; loosening by
-  stretch (step 2c) with the stretch below;
+  kernel (``criteria.element_state``: spall, loosening, Johnson-Cook damage;
   ``criteria.element_action``: particle, melt, erosion) with the hex's own geometry: a hex is on
   the surface when one of its six quads is free, a one-cell fragment when all six are (and it
   had a neighbour), the patch pressure is the mean over its eight nodes of the nodal means over
@@ -40,7 +39,7 @@ from impactsim.fracture.separation import HEX_FACES, face_adjacency_k
 from impactsim.fracture.separation_refresh import _open_faces_k, move_node_elements
 from impactsim.fracture.spall import SPALL_CELL, spall_pressure
 from impactsim.materials import params as P
-from impactsim.model import DAMAGED, ERODED, FRACTURED
+from impactsim.model import ERODED
 
 # sign of xi, eta, zeta at each corner (VTK order): the centre Jacobian's weights
 XI = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
@@ -139,12 +138,6 @@ def hex_fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol,
         st, dam, frac = C.element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev,
                                         damage, eps_rate, temperature, mat_params, dt, spall_k,
                                         integrate)
-        stretch = 1.0
-        if st == DAMAGED or int(mat_params[mk, P.EROSION]) == 3:
-            stretch = hex_stretch(x, x0, conn, e, xi)
-        if st == DAMAGED and stretch > C.LOOSE_STRETCH:
-            st = FRACTURED  # loosened by stretch (criteria.py, 2c)
-            frac = 1
         n_dam += 1 if dam > 0 else 0
         n_duct += 1 if dam == 2 else 0
         n_frac += frac
@@ -156,6 +149,9 @@ def hex_fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol,
                 free += 1
             if adj[e, i] >= 0:
                 nb += 1
+        stretch = 1.0
+        if int(mat_params[mk, P.EROSION]) == 3:
+            stretch = hex_stretch(x, x0, conn, e, xi)
         act = C.element_action(e, mk, st, free > 0, free == 6 and nb > 0, surface_only, eps_p,
                                damage, temperature, mat_params, stretch)
         if act == C.NONE and C.failing_material(mat_params, mk):
