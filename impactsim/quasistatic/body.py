@@ -40,6 +40,9 @@ class BodySpec:
     # interfaces with Robin conditions (schwarz.py): (interface id, side "a" or "b", rows R
     # (n x 3 N), force columns F (3 N x n), surface mass M (side a) or None, alpha)
     robin: list = field(default_factory=list)
+    # tied contacts on which it is the kinematic side: (interface id, indices of their
+    # matched rows, always active); ElasticBody holds the body by them instead of by springs
+    tied: list = field(default_factory=list)
 
 
 class BodyState:
@@ -51,8 +54,10 @@ class BodyState:
         for _, H, _ in spec.heat:
             robin = H if robin is None else robin + H
         self.heat = HeatBody(spec.model, self.space, robin)
+        kin = {k: C for k, C, _ in spec.kin}
+        tied = sp.vstack([kin[k][rows] for k, rows in spec.tied]) if spec.tied else None
         self.elastic = ElasticBody(spec.model, self.space, spec.regularization,
-                                   solver=spec.solver)
+                                   solver=spec.solver, tied_rows=tied)
         self.C = sp.vstack([c for _, c, _ in spec.kin]).tocsr() if spec.kin else None
         self.rows = np.cumsum([0] + [c.shape[0] for _, c, _ in spec.kin])
         self.f = np.zeros(self.elastic.ndof)
@@ -147,7 +152,10 @@ class BodyState:
             aa = np.concatenate([active[k] for k, _, _ in self.spec.kin])
         else:
             gg = aa = None
-        u, lam = self.elastic.solve(f, self.uD, self.C, gg, aa)
+        tied_g = None
+        if self.elastic.tied_rows is not None:
+            tied_g = np.concatenate([g[k][rows] for k, rows in self.spec.tied])
+        u, lam = self.elastic.solve(f, self.uD, self.C, gg, aa, tied_g)
         self.u = u
         # how far the body moved from where its springs pulled it: at a fixed point, zero
         out = {"move": float(np.max(np.abs(u - before), initial=0.0))}

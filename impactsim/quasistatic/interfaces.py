@@ -235,6 +235,8 @@ def setup(problem: Problem):
             specs[itf.b].robin.append((c, "b", -itf.I_b, -itf.G_b, None, itf.robin))
         elif T is None:
             specs[itf.a].kin.append((c, itf.C_a, itf.M_a))
+            if itf.tied:
+                specs[itf.a].tied.append((c, np.nonzero(itf.matched)[0]))
             specs[itf.b].force.append((c, itf.I_b, itf.G_b))
         else:  # friction: tangential rows and tractions beside the normal ones
             specs[itf.a].kin.append((c, sp.vstack([itf.C_a, T.C_t]).tocsr(), itf.M_a))

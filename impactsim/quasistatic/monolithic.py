@@ -95,12 +95,12 @@ def _solve(states, interfaces, active, off, n, u_prev, fstates=None):
     for i, st in states.items():
         e = st.elastic
         Kff = e.K[e.F][:, e.F]
-        add(Kff + sp.diags(e.spring), off[i], off[i])
+        add(Kff + e.springs, off[i], off[i])
         # the same springs as the iteration's: to the previous iterate, across a centering
         # axis to the reference position (they hold the pellets' sideways position; pulling
         # to the previous iterate instead left it free: 2.9e-3 axially, 12 % sideways)
         rhs[off[i]:off[i] + len(e.F)] = (st.f[e.F] - e.KfD @ st.uD
-                                         + e.spring * e._anchor(u_prev[i])[e.F])
+                                         + e.spring_rhs(u_prev[i]))
     m = n
     lam_slices = []
     extra_rhs = []
