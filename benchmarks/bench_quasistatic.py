@@ -119,6 +119,7 @@ def run(prob, setup, workers: int, monolithic: bool = False) -> dict:
            "mechanics_s": out.seconds["mechanics_phase_wall"],
            "converged": out.stopped is None,
            "max_T": max(float(f["T"].max()) for f in out.fields.values()),
+           "max_penetration": out.steps[-1].get("max_penetration"),
            "client_cpu_s": time.process_time() - c0,
            # CPU seconds of the bodies' calls in their workers (heat, factorisations, solves)
            "bodies_cpu_s": out.seconds["bodies_cpu"],
@@ -165,7 +166,7 @@ def main() -> None:
     mono_limit = int(os.environ.get("QS_MONOLITHIC_MAX", "50"))
     cols = ("bodies", "workers", "iterations", "heat_iterations", "setup_s", "wall_s", "heat_s",
             "mechanics_s", "client_cpu_s", "bodies_cpu_s", "load", "monolithic_s",
-            "schwarz_vs_monolithic", "axial_diff", "converged", "max_T")
+            "schwarz_vs_monolithic", "axial_diff", "converged", "max_T", "max_penetration")
     print(" ".join(f"{c:>12}" for c in cols), flush=True)
     for n in sizes:
         walls = {}

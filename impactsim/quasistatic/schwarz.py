@@ -39,6 +39,7 @@ ACTIVATE = 10.0  # a node is activated when it penetrates by ACTIVATE x gap tole
 ENTER_FRACTION = 0.1  # penetrating nodes enter within this fraction of the penetrations'
 # spread from the deepest, after a drop (update_active)
 RELEASE = 1e-3  # a node is released when its (smoothed) pressure is below -RELEASE p_max
+CHATTER = 2.0  # a Robin node's entry threshold grows by this factor each time it is released
 
 
 ROTATIONS = True  # all six rigid modes on the anchor tree (session 9: 50 pellets converge)
@@ -60,6 +61,8 @@ class ContactState:
     # (state.g is A's target, state.p the pressure B gets, as on the other interfaces)
     tb: list = field(default_factory=list)
     pb: list = field(default_factory=list)
+    # Robin interfaces: how often each node was released (its entry threshold grows with it)
+    leaves: list = field(default_factory=list)
 
 
 def update_active(itf: Interface, act: np.ndarray, p: np.ndarray, penetration: np.ndarray,
@@ -399,6 +402,8 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
     r_old = None
     last_change = 0
     accel = Anderson(settings.anderson, [itf.robin > 0 for itf in interfaces])
+    if not state.leaves:
+        state.leaves = [np.zeros(len(itf.gap), np.int64) for itf in interfaces]
     result = {"iterations": 0, "gap_residual": np.inf, "pressure_residual": np.inf}
     for it in range(1, settings.max_iterations + 1):
         inputs: dict = {}
@@ -455,6 +460,7 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
                              pre_p <= SETTLE * max(settings.pressure_tolerance, 1e-3)) or \
             it - last_change >= MAX_INNER
         worst = [(0.0, -1), (0.0, -1)]  # (mismatch, interface) of the gap and the pressure
+        penetration = 0.0
         for c, itf in enumerate(interfaces):
             ua, ub, pa = ua_all[c], ub_all[c], pa_all[c]
             g0, p0 = gap_res, p_change
@@ -483,11 +489,22 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
                 # again, resetting the acceleration at each change
                 na = act
             else:
-                na = update_active(itf, act, p_act, ua - target,
-                                   ACTIVATE * settings.gap_tolerance * u_scale, p_scale,
+                pen_tol = ACTIVATE * settings.gap_tolerance * u_scale
+                if itf.robin:
+                    # a node that left enters again only deeper: the pellets of a long
+                    # column touch their tube on a few nodes of nearly equal depth; entered at
+                    # the threshold they were thrown off and came back, some every few
+                    # iterations (350 pellets: no convergence in 900; with this 554)
+                    pen_tol = pen_tol * CHATTER ** state.leaves[c]
+                na = update_active(itf, act, p_act, ua - target, pen_tol, p_scale,
                                    release=settle)
+                if itf.robin:
+                    state.leaves[c] += act & ~na
             changed |= bool((na != act).any())
             new_active.append(na)
+            if not itf.tied:  # the deepest node left out of the contact
+                penetration = max(penetration, np.max(ua - target, where=itf.matched & ~na,
+                                                      initial=0.0))
         # (stick and slip are decided on settled iterates, never on the first one)
         fm, pending = friction.measure(interfaces, state, out, pa_all, new_active,
                                        settle and it > 1, u_scale, p_scale)
@@ -543,7 +560,7 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
         state.ua, state.ub = ua_all, ub_all
         r_old = None if changed else r
         result = {"iterations": it, "gap_residual": gap_res, "pressure_residual": p_change,
-                  "motion_residual": move / u_scale}
+                  "motion_residual": move / u_scale, "max_penetration": penetration}
         # (and the bodies have stopped: compatible faces and steady pressures while a body
         # still moves mean its weak springs carry force, which they do not at the fixed point)
         if it >= 2 and not changed and gap_res <= settings.gap_tolerance \
