@@ -1073,6 +1073,12 @@ def _chunk(ch0, ch1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
                         if plastic is not None:
                             VM.prefetch(hard, ahead)
                             VM.prefetch(thermal, ahead)
+                            VM.prefetch_l2(eps_p, ahead)
+                            VM.prefetch_l2(temperature, ahead)
+                        VM.prefetch_l2(pressure, ahead)
+                        VM.prefetch_l2(energy, ahead)
+                        VM.prefetch_l2(vol, ahead)
+                        VM.prefetch_l2(elem_mass, ahead)
                     _load_block(x, v, conn, sdev, pressure, energy, vol, vol_eos, vol0, elem_mass,
                                 jnode, use_anp, e0, buf)
                     shear = mat_params[mk, P.G]
