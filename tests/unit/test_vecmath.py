@@ -72,20 +72,22 @@ def test_a_loop_of_powers_is_vectorised():
 
 
 def test_prefetch_hints_compile_to_prefetch_instructions_and_change_nothing():
-    """`prefetch` / `prefetch_write` on arrays of two element types in one function (each call
-    casts its pointer: a second type once failed to compile), at the last element and past it
-    (a hint never faults): the machine code has both instructions and the arrays are intact."""
+    """`prefetch` / `prefetch_write` / `prefetch_l2` on arrays of two element types in one
+    function (each call casts its pointer: a second type once failed to compile), at the last
+    element and past it (a hint never faults): the machine code has the three instructions
+    and the arrays are intact."""
     @numba.njit(cache=False)
     def touch(a, b):
         n = a.shape[0]
         for i in range(0, n + 64, 8):
             V.prefetch(a, min(i, n - 1))
             V.prefetch_write(b, i)
+            V.prefetch_l2(b, i)
         return a.sum() + b.sum()
 
     a = np.arange(100.0)
     b = np.arange(100, dtype=np.int32)
     assert touch(a, b) == a.sum() + b.sum()
     asm = next(iter(touch.inspect_asm().values())).lower()
-    assert "prefetcht0" in asm and "prefetchw" in asm
+    assert "prefetcht0" in asm and "prefetchw" in asm and "prefetcht2" in asm
     assert np.array_equal(a, np.arange(100.0)) and np.array_equal(b, np.arange(100))
