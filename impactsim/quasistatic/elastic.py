@@ -143,15 +143,15 @@ class ElasticBody:
     def _springs(self, eps: float, diagonal: np.ndarray, tied_rows) -> tuple:
         """(the weak springs on the free dofs, whether they pull to the previous iterate).
 
-        None on a body its displacement conditions hold: they would only slow its soft modes
-        down (a thin tube held at one end bends as a cantilever whose stiffness is a
+        None (zero) on a body its displacement conditions hold: they would only slow its soft
+        modes down (a thin tube held at one end bends as a cantilever whose stiffness is a
         thousandth of the springs': 0.998 per iteration, measured). Where the conditions, the
         rows of tied contacts on which it is the kinematic side (always closed: `tied_rows`)
         and a centering axis together fix every rigid-body mode, only the centering springs
         across the axis (to the reference position): no proximal pull to the previous iterate
         is left, whose anchor is state the accelerated iteration does not see (100 pellets:
-        563 Schwarz iterations with the proximal pull along the axis, 311 without; 350
-        converged). Otherwise the proximal springs eps diag(K) to the previous iterate
+        563 Schwarz iterations with the proximal pull along the axis, 311 without; the 350
+        bodies converge). Otherwise the proximal springs eps diag(K) to the previous iterate
         (across a centering axis, to the reference position)."""
         F, n = self.F, len(self.F)
         modes = rigid_modes(self.space.doflocs)

@@ -402,8 +402,7 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
     r_old = None
     last_change = 0
     accel = Anderson(settings.anderson, [itf.robin > 0 for itf in interfaces])
-    if not state.leaves:
-        state.leaves = [np.zeros(len(itf.gap), np.int64) for itf in interfaces]
+    state.leaves = [np.zeros(len(itf.gap), np.int64) for itf in interfaces]  # per load step
     result = {"iterations": 0, "gap_residual": np.inf, "pressure_residual": np.inf}
     for it in range(1, settings.max_iterations + 1):
         inputs: dict = {}
@@ -494,7 +493,7 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
                     # a node that left enters again only deeper: the pellets of a long
                     # column touch their tube on a few nodes of nearly equal depth; entered at
                     # the threshold they were thrown off and came back, some every few
-                    # iterations (350 pellets: no convergence in 900; with this 554)
+                    # iterations (350 bodies: no convergence in 900; with this 554)
                     pen_tol = pen_tol * CHATTER ** state.leaves[c]
                 na = update_active(itf, act, p_act, ua - target, pen_tol, p_scale,
                                    release=settle)
