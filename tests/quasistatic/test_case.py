@@ -68,6 +68,8 @@ def test_run_writes_the_series_convergence_summary_and_resolved_case(tmp_path):
         assert (out / name).exists(), name
     summary = json.loads((out / "summary.json").read_text())
     assert summary["converged"] and len(summary["iterations_per_step"]) == 2
+    # the deepest node left out of the contact, per load step (m)
+    assert all(0.0 <= s["max_penetration"] < 1e-7 for s in summary["load_steps"])
     import meshio
     m = meshio.read(out / "step_00001.vtu")
     szz = m.point_data["stress"].reshape(-1, 3, 3)[:, 2, 2]
