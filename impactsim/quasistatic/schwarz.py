@@ -101,6 +101,18 @@ def update_active(itf: Interface, act: np.ndarray, p: np.ndarray, penetration: n
     return (act & ~release) | enter
 
 
+def max_penetration(interfaces, state: ContactState) -> float:
+    """The deepest node [m] left out of a compressive-only contact by the last iterate (below
+    its entry threshold, update_active): ua - (ub + gap) on the inactive matched nodes."""
+    deepest = 0.0
+    for c, itf in enumerate(interfaces):
+        if not itf.tied and len(state.ua):
+            pen = state.ua[c] - state.ub[c] - itf.gap
+            deepest = max(deepest, float(np.max(pen, where=itf.matched & ~state.active[c],
+                                                initial=0.0)))
+    return deepest
+
+
 def _anchor_tree(interfaces, active) -> tuple[dict, list]:
     """({body: its anchor interface}, those bodies ordered leaves first, the bodies whose
     anchor is their only closed kinematic contact). Only anchors with active nodes count (an open anchor carries
@@ -459,7 +471,6 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
                              pre_p <= SETTLE * max(settings.pressure_tolerance, 1e-3)) or \
             it - last_change >= MAX_INNER
         worst = [(0.0, -1), (0.0, -1)]  # (mismatch, interface) of the gap and the pressure
-        penetration = 0.0
         for c, itf in enumerate(interfaces):
             ua, ub, pa = ua_all[c], ub_all[c], pa_all[c]
             g0, p0 = gap_res, p_change
@@ -501,9 +512,6 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
                     state.leaves[c] += act & ~na
             changed |= bool((na != act).any())
             new_active.append(na)
-            if not itf.tied:  # the deepest node left out of the contact
-                penetration = max(penetration, np.max(ua - target, where=itf.matched & ~na,
-                                                      initial=0.0))
         # (stick and slip are decided on settled iterates, never on the first one)
         fm, pending = friction.measure(interfaces, state, out, pa_all, new_active,
                                        settle and it > 1, u_scale, p_scale)
@@ -559,14 +567,13 @@ def mechanics_phase(pool, interfaces: list[Interface], settings: Settings, state
         state.ua, state.ub = ua_all, ub_all
         r_old = None if changed else r
         result = {"iterations": it, "gap_residual": gap_res, "pressure_residual": p_change,
-                  "motion_residual": move / u_scale, "max_penetration": penetration}
+                  "motion_residual": move / u_scale}
         # (and the bodies have stopped: compatible faces and steady pressures while a body
         # still moves mean its weak springs carry force, which they do not at the fixed point)
-        if it >= 2 and not changed and gap_res <= settings.gap_tolerance \
-                and p_change <= settings.pressure_tolerance \
-                and move <= settings.gap_tolerance * u_scale:
-            return result
-        if not n_b:
+        if not n_b or (it >= 2 and not changed and gap_res <= settings.gap_tolerance
+                       and p_change <= settings.pressure_tolerance
+                       and move <= settings.gap_tolerance * u_scale):
+            result["max_penetration"] = max_penetration(interfaces, state)
             return result
     raise NotConverged(f"Schwarz iteration: no convergence in {settings.max_iterations} "
                        f"iterations (gap mismatch {gap_res:.3g}, pressure mismatch "
