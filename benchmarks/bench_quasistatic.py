@@ -60,7 +60,10 @@ def prepare(bodies: int):
     cache = os.environ.get("QS_CACHE")
     path = None
     if cache:
-        key = hashlib.sha1((CASE.read_text() + repr(overrides)).encode()).hexdigest()[:16]
+        # keyed by the case, the overrides and the code that builds the set-up (a set-up
+        # pickled by older code would be read back without the fields it now has)
+        code = "".join(p.read_text() for p in sorted(Path(setup_mod.__file__).parent.glob("*.py")))
+        key = hashlib.sha1((CASE.read_text() + repr(overrides) + code).encode()).hexdigest()[:16]
         path = Path(cache) / f"pellets-{bodies}-{key}.pkl"
         if path.exists():
             with open(path, "rb") as f:

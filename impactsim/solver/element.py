@@ -117,8 +117,9 @@ VECTOR_ITERATIONS = 5
 # lanes of a group in the vector return's loops (`_jc_start`, `_jc_newton`, `_jc_finish`): a
 # group with no lane to work on is skipped (two 4-wide vectors with AVX2, one with AVX-512)
 JG = 8
-# blocks ahead whose yield-floor caches (hard, thermal, read after the kinematics) and
-# write-only arrays (q, eps_rate; vol_eos for tets) `_chunk` and hex8.hex_update prefetch (`vecmath.prefetch`)
+# blocks ahead that `_chunk` and hex8.hex_update prefetch: into every cache level the
+# yield-floor caches (hard, thermal, read after the kinematics) and the write-only arrays (q,
+# eps_rate; vol_eos for tets), into L2 the other one-value-per-element arrays (`vecmath`)
 PF_AHEAD = 4
 
 
