@@ -25,6 +25,7 @@ import numba
 import numpy as np
 
 from impactsim.contact.geometry import segment
+from impactsim.solver.workqueue import fetch_add
 
 _AXIS_BITS = 20  # per axis of a cell key; the key is shifted by 3 in an entry (its first-cell bits)
 _AXIS_CELLS = 1 << _AXIS_BITS
@@ -242,22 +243,29 @@ def query_pairs(qlo, qhi, qent, qbody, eent, ebody, same_set, self_contact, orig
 
 @numba.njit(cache=True, parallel=True)
 def query_pairs_chunked(chunk, counts, qlo, qhi, qent, qbody, eent, ebody, same_set, self_contact,
-                        origin, inv_h, tbits, bucket_start, keys, ents, boxes, out):
-    """``query_pairs`` over the threads: query rows in fixed chunks of ``chunk`` rows
+                        origin, inv_h, tbits, bucket_start, keys, ents, boxes, out, threads,
+                        counter):
+    """``query_pairs`` over ``threads`` threads: query rows in fixed chunks of ``chunk`` rows
     (``counts (n_chunk,)``, n_chunk = ceil(n_query / chunk)), chunk c writing to its share
     out[c * per:(c + 1) * per], per = len(out) // n_chunk; the shares are then moved together
-    in chunk order. The chunks do not depend on the number of threads, so neither does the
-    result: the pairs of ``query_pairs``, in the same order. Returns their number, or, when a
-    chunk had more than its share, a capacity that gives every chunk enough (more than len(out):
-    the caller grows ``out`` and repeats)."""
+    in chunk order. Each thread takes the next chunk from ``counter`` (zero on entry,
+    ``solver.workqueue``): the chunks' costs differ with the pairs they find. The chunks do not
+    depend on the number of threads or on which thread runs which, so neither does the result:
+    the pairs of ``query_pairs``, in the same order. Returns their number, or, when a chunk had
+    more than its share, a capacity that gives every chunk enough (more than len(out): the
+    caller grows ``out`` and repeats)."""
     nq = qlo.shape[0]
     nc = counts.shape[0]
     per = out.shape[0] // nc
-    for c in numba.prange(nc):
-        i0 = c * chunk
-        counts[c] = _query_rows(i0, min(nq, i0 + chunk), qlo, qhi, qent, qbody, eent, ebody,
-                                same_set, self_contact, origin, inv_h, tbits, bucket_start,
-                                keys, ents, boxes, out, c * per, (c + 1) * per)
+    for _ in numba.prange(threads):
+        while True:
+            c = fetch_add(counter, 1)
+            if c >= nc:
+                break
+            i0 = c * chunk
+            counts[c] = _query_rows(i0, min(nq, i0 + chunk), qlo, qhi, qent, qbody, eent, ebody,
+                                    same_set, self_contact, origin, inv_h, tbits, bucket_start,
+                                    keys, ents, boxes, out, c * per, (c + 1) * per)
     worst = 0
     for c in range(nc):
         worst = max(worst, counts[c])
@@ -557,7 +565,8 @@ class SpatialHash:
                     self.inv_h, self.tbits, self.bucket_start, self.keys, self.ents, self.boxes,
                     self.pairs_buf)
             if chunked:
-                n = query_pairs_chunked(QUERY_CHUNK, self.chunk_counts[:n_chunk], *args)
+                n = query_pairs_chunked(QUERY_CHUNK, self.chunk_counts[:n_chunk], *args,
+                                        numba.get_num_threads(), np.zeros(1, np.int64))
             else:
                 n = query_pairs(*args)
             if n <= self.pairs_buf.shape[0]:
