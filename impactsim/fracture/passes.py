@@ -46,7 +46,6 @@ from impactsim.fracture.particles import (NEAR_CHUNK, NODE_COLS, Particles, face
                                           pack_face_nodes, particle_boxes,
                                           particle_face_sweep_packed, particle_particle_sweep,
                                           particle_walls)
-from impactsim.fracture.particle_order import SpatialOrder
 from impactsim.fracture.removal import remove_elements
 from impactsim.fracture.spall import PRESSURE_CODES, SPALL_CELL
 from impactsim.materials import params as P
@@ -288,7 +287,6 @@ class ParticlePass(Pass):
         self.s = state
         self.hash = SpatialHash()
         self.pp_hash = SpatialHash()
-        self.order = SpatialOrder()  # the particles' queries in cell order (particle_order.py)
         self.impacts = 0
         self.collisions = 0
         self.cloud = np.zeros((2, 3))  # bounds of the particle boxes of the step
@@ -333,8 +331,8 @@ class ParticlePass(Pass):
             if k:
                 origin, cell = grid_for([(bounds[:1], bounds[1:])], max(s.h_face, 2.0 * r_max))
                 self.hash.build(flo[:k], fhi[:k], origin, cell)
-                pairs = self.order.pairs(self.hash, plo, phi, pa.ids[:n], pa.no_body[:n],
-                                         sel[:k], sel_body[:k], origin, cell)
+                pairs = self.hash.query(plo, phi, pa.ids[:n], pa.no_body[:n], sel[:k],
+                                        sel_body[:k], False, False)
                 if pairs.shape[0]:
                     if self.nodes.shape[0] != model.n_node:
                         self.nodes = np.zeros((model.n_node, NODE_COLS))
