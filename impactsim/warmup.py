@@ -149,19 +149,25 @@ distortion_interval = "20 ns"
 
 
 # scenes run with the size thresholds of the one-thread kernels at 0 (nodal.PARALLEL_NODES,
-# element.PARALLEL_FORCE_NODES, element.PARALLEL_ELEMENTS), so that their parallel versions are
-# compiled too (the tet kernel's with elastic and with plastic tets: element.plastic_kernel)
+# element.PARALLEL_FORCE_NODES, element.PARALLEL_ELEMENTS, and the chunk counts from which the
+# broad-phase query and the particles' face filter run on the threads,
+# broadphase.QUERY_MIN_CHUNKS and particles.NEAR_MIN_CHUNKS), so that their parallel versions
+# are compiled too (the tet kernel's with elastic and with plastic tets: element.plastic_kernel)
 PARALLEL_SCENES = {"fracture-threads", "elastic-wall-threads"}
 
 
 def _thresholds(values=None):
     """The size thresholds above which kernels run on all threads; with ``values``, set them
     (returns the previous ones)."""
+    from impactsim.contact import broadphase
+    from impactsim.fracture import particles
     from impactsim.solver import element, nodal
 
-    old = (nodal.PARALLEL_NODES, element.PARALLEL_FORCE_NODES, element.PARALLEL_ELEMENTS)
+    old = (nodal.PARALLEL_NODES, element.PARALLEL_FORCE_NODES, element.PARALLEL_ELEMENTS,
+           broadphase.QUERY_MIN_CHUNKS, particles.NEAR_MIN_CHUNKS)
     if values is not None:
-        nodal.PARALLEL_NODES, element.PARALLEL_FORCE_NODES, element.PARALLEL_ELEMENTS = values
+        (nodal.PARALLEL_NODES, element.PARALLEL_FORCE_NODES, element.PARALLEL_ELEMENTS,
+         broadphase.QUERY_MIN_CHUNKS, particles.NEAR_MIN_CHUNKS) = values
     return old
 
 
@@ -206,7 +212,7 @@ def warm_up(verbose: bool = True) -> dict[str, dict]:
     for name, text, steps in scenes():
         t0 = time.perf_counter()
         case = load_case_text(text, overrides=[f"run.max_steps={steps}", "output.frames=1"])
-        old = _thresholds((0, 0, 0) if name in PARALLEL_SCENES else None)
+        old = _thresholds((0, 0, 0, 0, 0) if name in PARALLEL_SCENES else None)
         try:
             with (CompileCounter() as compiled,
                   tempfile.TemporaryDirectory(prefix="impactsim-warmup-") as out,

@@ -317,6 +317,7 @@ def _faces_near_rows(f0, f1, x, v, tau, faces, face_body, pad, cloud, lo, hi, se
 
 
 NEAR_CHUNK = 4096  # face rows per chunk of faces_near_chunked (fixed: any thread count)
+NEAR_MIN_CHUNKS = 2  # face lists of fewer chunks are filtered on one thread (faces_near)
 
 
 @numba.njit(cache=True, parallel=True)

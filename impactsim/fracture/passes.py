@@ -41,6 +41,7 @@ from impactsim.fracture.fragments import cloud_axis, cloud_summary, leading_edge
 from impactsim.solver.blocks import hex_corner_forces
 from impactsim.fracture.hexes import HexFracture, pass_orphan_forces
 from impactsim.fracture.measures import body_measures, shield_summary
+from impactsim.fracture import particles
 from impactsim.fracture.particles import (NEAR_CHUNK, NODE_COLS, Particles, faces_near,
                                           faces_near_chunked, move_particles,
                                           pack_face_nodes, particle_boxes,
@@ -364,7 +365,7 @@ class ParticlePass(Pass):
                 sel, sel_body, self.bounds)
         threads = numba.get_num_threads()
         n_chunk = -(-b.n // NEAR_CHUNK)
-        if n_chunk < 2 or threads < 2:
+        if n_chunk < particles.NEAR_MIN_CHUNKS or threads < 2:
             return faces_near(*args)
         counts = self._buffer("near.counts", n_chunk, np.int64, None)
         return faces_near_chunked(*args, counts, self._part_bounds(n_chunk), threads,
