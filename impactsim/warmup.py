@@ -152,7 +152,9 @@ distortion_interval = "20 ns"
 # element.PARALLEL_FORCE_NODES, element.PARALLEL_ELEMENTS, and the chunk counts from which the
 # broad-phase query and the particles' face filter run on the threads,
 # broadphase.QUERY_MIN_CHUNKS and particles.NEAR_MIN_CHUNKS), so that their parallel versions
-# are compiled too (the tet kernel's with elastic and with plastic tets: element.plastic_kernel)
+# are compiled too (the tet kernel's with elastic and with plastic tets: element.plastic_kernel);
+# they run on every thread (run.threads), as a large scene does: the threaded query and filter
+# are only taken with more than one
 PARALLEL_SCENES = {"fracture-threads", "elastic-wall-threads"}
 
 
@@ -205,13 +207,18 @@ def warm_up(verbose: bool = True) -> dict[str, dict]:
     import contextlib
     import io
 
+    import numba
+
     from impactsim.case import load_case_text
     from impactsim.solver.run import run_case
 
     counts = {}
     for name, text, steps in scenes():
         t0 = time.perf_counter()
-        case = load_case_text(text, overrides=[f"run.max_steps={steps}", "output.frames=1"])
+        sets = [f"run.max_steps={steps}", "output.frames=1"]
+        if name in PARALLEL_SCENES:  # on every thread, small as they are (run.thread_count)
+            sets.append(f"run.threads={numba.config.NUMBA_NUM_THREADS}")
+        case = load_case_text(text, overrides=sets)
         old = _thresholds((0, 0, 0, 0, 0) if name in PARALLEL_SCENES else None)
         try:
             with (CompileCounter() as compiled,
