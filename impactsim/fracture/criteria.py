@@ -92,6 +92,76 @@ def _volume6(x, v, h, i0, i1, i2, i3):
     return ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
 
 
+# Margins of the guard's pre-test (``guard_clear``) over the rounding of the full test: the
+# node-velocity spread is inflated by GUARD_SPREAD_SLACK (relative) plus GUARD_POSITION_SLACK
+# times the largest coordinate (the full test rounds x + h v at that scale), and the bound
+# by GUARD_ROUND_SLACK times the cube of the (grown) longest edge (the rounding of a 3x3
+# determinant is a few 1e-16 of it). Each is a thousand times or more what it covers.
+GUARD_SPREAD_SLACK = 1e-6
+GUARD_POSITION_SLACK = 1e-12
+GUARD_ROUND_SLACK = 1e-10
+
+
+@numba.njit(cache=True)
+def guard_reach(x, v, h):
+    """How far [m] two nodes of a tet can move relative to each other within time h at the
+    velocities v, inflated by the pre-test's margins (``guard_clear``): 2 R h with R the
+    radius of the bounding box of all node velocities (|v_i - w| <= R with w its centre), plus
+    the rounding scale of the positions x + h v. nan when a velocity or position is not finite (then every
+    pre-test fails and the full guard runs). One serial pass over the nodes (exact: min and max
+    only, the same on any thread count)."""
+    n = v.shape[0]
+    if n == 0:
+        return 0.0
+    lo0, lo1, lo2 = v[0, 0], v[0, 1], v[0, 2]
+    hi0, hi1, hi2 = lo0, lo1, lo2
+    xa = 0.0
+    va = 0.0
+    bad = 0.0
+    for i in range(n):
+        a, b, c = v[i, 0], v[i, 1], v[i, 2]
+        lo0 = min(lo0, a)
+        lo1 = min(lo1, b)
+        lo2 = min(lo2, c)
+        hi0 = max(hi0, a)
+        hi1 = max(hi1, b)
+        hi2 = max(hi2, c)
+        xa = max(xa, max(abs(x[i, 0]), max(abs(x[i, 1]), abs(x[i, 2]))))
+        va = max(va, max(abs(a), max(abs(b), abs(c))))
+        bad += (a + b + c + x[i, 0] + x[i, 1] + x[i, 2]) * 0.0
+    r0, r1, r2 = 0.5 * (hi0 - lo0), 0.5 * (hi1 - lo1), 0.5 * (hi2 - lo2)
+    reach = (2.0 * math.sqrt(r0 * r0 + r1 * r1 + r2 * r2) * h * (1.0 + GUARD_SPREAD_SLACK)
+             + GUARD_POSITION_SLACK * (xa + h * va))
+    return reach + bad
+
+
+@numba.njit(cache=True, inline="always")
+def guard_clear(x, i0, i1, i2, i3, reach, lim):
+    """The distortion guard's pre-test: True only when the full test (``_volume6`` at
+    positions x + h v, h = 1.1 dt and 2.2 dt, below lim) cannot flag the tet. Each edge vector
+    from node i0 moves by at most ``reach`` (``guard_reach`` for h = 2.2 dt), so by
+    multilinearity and Hadamard's inequality six times the volume changes by at most
+    (L + reach)^3 - L^3, L the longest of the three edges; the rounding of both tests is covered
+    by GUARD_ROUND_SLACK (L + reach)^3. Reads the four nodes' positions only (the full test
+    also reads their velocities and evaluates two determinants): far from inversion, as nearly
+    every cell is, one gather and one determinant decide. False for a non-finite reach."""
+    ax = x[i1, 0] - x[i0, 0]
+    ay = x[i1, 1] - x[i0, 1]
+    az = x[i1, 2] - x[i0, 2]
+    bx = x[i2, 0] - x[i0, 0]
+    by = x[i2, 1] - x[i0, 1]
+    bz = x[i2, 2] - x[i0, 2]
+    cx = x[i3, 0] - x[i0, 0]
+    cy = x[i3, 1] - x[i0, 1]
+    cz = x[i3, 2] - x[i0, 2]
+    v6 = ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
+    l2 = max(ax * ax + ay * ay + az * az, max(bx * bx + by * by + bz * bz,
+                                              cx * cx + cy * cy + cz * cz))
+    ln = math.sqrt(l2)
+    big = (ln + reach) * (ln + reach) * (ln + reach)
+    return v6 - (big - ln * l2) - GUARD_ROUND_SLACK * big > lim
+
+
 @numba.njit(cache=True, inline="always")
 def jc_fracture_strain(mat_params, mk, pressure, seq, rate, temperature):
     """Johnson-Cook (1985) fracture strain eps_f at triaxiality -p/seq (capped at 1.5), rate
@@ -221,6 +291,7 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
     n_frac = 0
     n_act = 0
     n_duct = 0
+    reach = guard_reach(x, v, 2.2 * dt)  # the guard's pre-test (guard_clear)
     for e in numba.prange(n_elem):
         action[e] = NONE
         st = status[e]
@@ -250,7 +321,8 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
                              temperature, mat_params, stretch)
         if act == NONE and failing_material(mat_params, mk):
             lim = 6.0 * GUARD_FRACTION * vol0[e]
-            if (_volume6(x, v, 1.1 * dt, i0, i1, i2, i3) < lim
+            if not guard_clear(x, i0, i1, i2, i3, reach, lim) and (
+                    _volume6(x, v, 1.1 * dt, i0, i1, i2, i3) < lim
                     or _volume6(x, v, 2.2 * dt, i0, i1, i2, i3) < lim):
                 act = GUARD
         action[e] = act

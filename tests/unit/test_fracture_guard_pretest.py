@@ -1,0 +1,121 @@
+"""The distortion guard's pre-test (fracture/criteria.py ``guard_reach``, ``guard_clear``) never
+clears a tet the full guard flags: on random tets of many sizes and places, on tets that the
+velocities crush, and on tets placed right at the pre-test's threshold; so the fracture
+kernel's actions are those of the full guard, bit for bit."""
+
+import numpy as np
+import pytest
+
+from impactsim.fracture.criteria import GUARD_FRACTION, _volume6, guard_clear, guard_reach
+
+
+def _flagged(x, v, dt, t, lim):
+    return (_volume6(x, v, 1.1 * dt, *t) < lim) or (_volume6(x, v, 2.2 * dt, *t) < lim)
+
+
+def _tets(rng, n, scale, offset):
+    """n random tets (4 nodes each, own nodes), positively oriented, of size ``scale`` [m]
+    around ``offset``."""
+    base = offset + scale * rng.standard_normal((n, 1, 3)) * 10.0
+    pts = base + scale * rng.standard_normal((n, 4, 3))
+    a, b, c = (pts[:, k] - pts[:, 0] for k in (1, 2, 3))
+    neg = np.einsum("ij,ij->i", a, np.cross(b, c)) < 0
+    pts[neg, 1], pts[neg, 2] = pts[neg, 2].copy(), pts[neg, 1].copy()
+    return pts.reshape(-1, 3), np.arange(4 * n, dtype=np.int64).reshape(n, 4)
+
+
+def _check(x, v, dt, conn, vol0):
+    """(tets cleared, tets flagged); asserts no cleared tet is flagged."""
+    reach = guard_reach(x, v, 2.2 * dt)
+    cleared = flagged = 0
+    for e, t in enumerate(conn):
+        lim = 6.0 * GUARD_FRACTION * vol0[e]
+        c = guard_clear(x, t[0], t[1], t[2], t[3], reach, lim)
+        f = _flagged(x, v, dt, tuple(t), lim)
+        assert not (c and f), (e, x[t], v[t], lim)
+        cleared += c
+        flagged += f
+    return cleared, flagged
+
+
+@pytest.mark.parametrize("scale,offset", [(1e-3, 0.0), (1e-5, 0.0), (1e-4, 100.0), (10.0, -5.0)])
+def test_random_tets_cleared_are_never_flagged(scale, offset):
+    """Random tets, velocities and steps across scales: most tets are cleared (the test is
+    not empty), some are flagged, none both."""
+    rng = np.random.default_rng(int(scale * 1e6) + int(offset))
+    x, conn = _tets(rng, 3000, scale, offset)
+    speed = 300.0 * rng.lognormal(0.0, 1.0)
+    v = speed * rng.standard_normal(x.shape)
+    vol = np.array([_volume6(x, v, 0.0, *t) for t in conn]) / 6.0
+    # a step at which the fastest nodes cross about a hundredth of a tet, and reference volumes
+    # from a hundredth to ten times the present one (so the limit is sometimes near it)
+    dt = 0.002 * scale / speed
+    vol0 = vol * 10.0 ** rng.uniform(-2.0, 3.5, vol.shape[0])
+    cleared, flagged = _check(x, v, dt, conn, vol0)
+    assert cleared > 1000
+    assert flagged > 10
+
+
+def test_crushed_tets_are_not_cleared():
+    """A tet whose apex flies at its base: the full guard flags it from some speed on; the
+    pre-test clears it only at speeds well below that."""
+    rng = np.random.default_rng(7)
+    for _ in range(300):
+        x, conn = _tets(rng, 1, 1e-3, 0.0)
+        t = tuple(conn[0])
+        n = np.cross(x[2] - x[0], x[3] - x[0])
+        n /= np.linalg.norm(n)
+        h6 = _volume6(x, np.zeros_like(x), 0.0, *t)
+        dt = 1e-8
+        hit = None
+        for speed in np.geomspace(1.0, 1e6, 400):
+            v = np.zeros_like(x)
+            v[1] = -speed * n * np.sign(np.dot(x[1] - x[0], n))
+            reach = guard_reach(x, v, 2.2 * dt)
+            lim = 6.0 * GUARD_FRACTION * h6 / 6.0
+            c = guard_clear(x, *t, reach, lim)
+            f = _flagged(x, v, dt, t, lim)
+            assert not (c and f)
+            if f and hit is None:
+                hit = speed
+        assert hit is not None
+
+
+@pytest.mark.parametrize("scale,offset,drift,spread", [
+    (1e-3, 0.02, 0.0, 500.0),  # tets of a millimetre flying apart at hundreds of m/s
+    (1e-6, 1e3, 1e3, 1e-12),  # far from the origin, translating fast, hardly deforming: the
+    # full test's rounding of x + h v (1e-13 m) is all there is
+])
+def test_tets_at_the_threshold(scale, offset, drift, spread):
+    """Limits a hair either side of where the pre-test stops clearing each tet: none of the
+    cleared ones is flagged (the margins cover the rounding of both tests)."""
+    rng = np.random.default_rng(3)
+    x, conn = _tets(rng, 1000, scale, offset)
+    v = drift + spread * rng.standard_normal(x.shape)
+    dt = 2e-9
+    reach = guard_reach(x, v, 2.2 * dt)
+    near = 0
+    for e, t in enumerate(conn):
+        v6 = _volume6(x, v, 0.0, *t)
+        lo, hi = 0.0, 2.0 * abs(v6)
+        for _ in range(80):  # the largest limit still cleared
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if guard_clear(x, *t, reach, mid) else (lo, mid)
+        for lim in (lo, np.nextafter(lo, np.inf), hi):
+            if guard_clear(x, *t, reach, lim):
+                assert not _flagged(x, v, dt, tuple(t), lim), (e, lim)
+        near += lo > 0.5 * v6
+    assert near > 500  # most tets are cleared up to a limit near their volume
+
+
+def test_a_non_finite_velocity_clears_nothing():
+    """A nan or infinite velocity anywhere: the reach is nan and no tet is cleared (the full
+    guard, and the watch, see the state)."""
+    rng = np.random.default_rng(5)
+    x, conn = _tets(rng, 50, 1e-3, 0.0)
+    for bad in (np.nan, np.inf):
+        v = rng.standard_normal(x.shape)
+        v[17, 1] = bad
+        reach = guard_reach(x, v, 1e-8)
+        assert np.isnan(reach)
+        assert not any(guard_clear(x, *t, reach, 0.0) for t in conn)
