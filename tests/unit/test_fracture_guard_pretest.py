@@ -119,3 +119,69 @@ def test_a_non_finite_velocity_clears_nothing():
         reach = guard_reach(x, v, 1e-8)
         assert np.isnan(reach)
         assert not any(guard_clear(x, *t, reach, 0.0) for t in conn)
+
+
+def _hexes(rng, scale, offset, noise):
+    from impactsim.mesh.hexes import box_hexes, fix_hex_orientation
+
+    pts, hexes = box_hexes((4 * scale, 3 * scale, 2 * scale), scale)
+    hexes, _ = fix_hex_orientation(pts, hexes)
+    x = offset + pts + noise * scale * rng.standard_normal(pts.shape)
+    return x, hexes.astype(np.int32)
+
+
+@pytest.mark.parametrize("scale,offset,drift,spread,noise", [
+    (1e-3, 0.02, 0.0, 300.0, 0.15),  # distorted hexes flying apart
+    # far out, translating fast, hardly deforming, across a power of two (there x + h v rounds
+    # differently on either side)
+    (1e-6, 1024.0 - 2e-6, 1e3, 1e-12, 0.05),
+])
+def test_hexes_cleared_are_never_flagged(scale, offset, drift, spread, noise):
+    """The hexes' pre-test (fracture/hexes.py ``hex_clear``) at limits a hair either side of
+    where it stops clearing each hex, and at random limits: no cleared hex is flagged by the
+    full guard (``hex_volume`` at 1.1 and 2.2 dt)."""
+    from impactsim.fracture.hexes import hex_clear, hex_volume
+
+    rng = np.random.default_rng(11)
+    for _ in range(20):
+        x, hexes = _hexes(rng, scale, offset, noise)
+        v = drift + spread * rng.standard_normal(x.shape)
+        dt = 1e-3 * scale / max(spread, 1.0) if spread > 1.0 else 2e-9
+        reach = guard_reach(x, v, 2.2 * dt)
+        near = 0
+        for e in range(hexes.shape[0]):
+            vol = hex_volume(x, v, 0.0, hexes, e)
+            lo, hi = 0.0, 2.0 * abs(vol)
+            for _ in range(80):
+                mid = 0.5 * (lo + hi)
+                lo, hi = (mid, hi) if hex_clear(x, hexes, e, reach, mid) else (lo, mid)
+            for lim in (lo, np.nextafter(lo, np.inf), hi, rng.uniform(0.0, 2.0) * vol):
+                if hex_clear(x, hexes, e, reach, lim):
+                    assert not (hex_volume(x, v, 1.1 * dt, hexes, e) < lim
+                                or hex_volume(x, v, 2.2 * dt, hexes, e) < lim), (e, lim)
+            near += lo > 0.5 * vol
+        assert near > hexes.shape[0] // 2
+
+
+def test_crushed_hexes_are_not_cleared():
+    """A hex whose top corners fly down at its bottom: the full guard flags it from some
+    speed on, and the pre-test never clears it then."""
+    from impactsim.fracture.hexes import hex_clear, hex_volume
+
+    rng = np.random.default_rng(2)
+    x, hexes = _hexes(rng, 1e-3, 0.0, 0.05)
+    dt = 1e-8
+    for e in range(0, hexes.shape[0], 3):
+        vol = hex_volume(x, x, 0.0, hexes, e)
+        lim = GUARD_FRACTION * vol
+        hit = None
+        for speed in np.geomspace(1.0, 1e6, 200):
+            v = np.zeros_like(x)
+            v[hexes[e, 4:], 2] = -speed
+            reach = guard_reach(x, v, 2.2 * dt)
+            c = hex_clear(x, hexes, e, reach, lim)
+            f = (hex_volume(x, v, 1.1 * dt, hexes, e) < lim
+                 or hex_volume(x, v, 2.2 * dt, hexes, e) < lim)
+            assert not (c and f)
+            hit = speed if f and hit is None else hit
+        assert hit is not None
