@@ -135,15 +135,20 @@ def guard_reach(x, v, h):
     return reach + bad
 
 
+SQRT3_UP = 1.7321  # [-] at least sqrt(3): |p| + |q| + |s| <= SQRT3_UP sqrt(|p|^2 + |q|^2 + |s|^2)
+
+
 @numba.njit(cache=True, inline="always")
 def guard_clear(x, i0, i1, i2, i3, reach, lim):
     """The distortion guard's pre-test: True only when the full test (``_volume6`` at
-    positions x + h v, h = 1.1 dt and 2.2 dt, below lim) cannot flag the tet. Each edge vector
-    from node i0 moves by at most ``reach`` (``guard_reach`` for h = 2.2 dt), so by
-    multilinearity and Hadamard's inequality six times the volume changes by at most
-    (L + reach)^3 - L^3, L the longest of the three edges; the rounding of both tests is covered
-    by GUARD_ROUND_SLACK (L + reach)^3. Reads the four nodes' positions only (the full test
-    also reads their velocities and evaluates two determinants): far from inversion, as nearly
+    positions x + h v, h = 1.1 dt and 2.2 dt, below lim) cannot flag the tet. With edges a, b,
+    c from node i0, each moving by at most r = ``reach`` (``guard_reach`` for h = 2.2 dt), six
+    times the volume changes by at most (expanding the determinant by multilinearity)
+    r (|b x c| + |c x a| + |a x b|) + r^2 (|a| + |b| + |c|) + r^3; both sums are bounded by
+    Cauchy-Schwarz (SQRT3_UP times the root of the sum of squares: two square roots, nearly
+    tight on a well-shaped tet), and the rounding of both tests by GUARD_ROUND_SLACK times the
+    cube of the grown edge scale. Reads the four nodes' positions only (the full test also
+    reads their velocities and evaluates two determinants): far from inversion, as nearly
     every cell is, one gather and one determinant decide. False for a non-finite reach."""
     ax = x[i1, 0] - x[i0, 0]
     ay = x[i1, 1] - x[i0, 1]
@@ -154,12 +159,23 @@ def guard_clear(x, i0, i1, i2, i3, reach, lim):
     cx = x[i3, 0] - x[i0, 0]
     cy = x[i3, 1] - x[i0, 1]
     cz = x[i3, 2] - x[i0, 2]
-    v6 = ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
-    l2 = max(ax * ax + ay * ay + az * az, max(bx * bx + by * by + bz * bz,
-                                              cx * cx + cy * cy + cz * cz))
-    ln = math.sqrt(l2)
-    big = (ln + reach) * (ln + reach) * (ln + reach)
-    return v6 - (big - ln * l2) - GUARD_ROUND_SLACK * big > lim
+    bcx = by * cz - bz * cy
+    bcy = bz * cx - bx * cz
+    bcz = bx * cy - by * cx
+    cax = cy * az - cz * ay
+    cay = cz * ax - cx * az
+    caz = cx * ay - cy * ax
+    abx = ay * bz - az * by
+    aby = az * bx - ax * bz
+    abz = ax * by - ay * bx
+    v6 = ax * bcx + ay * bcy + az * bcz
+    faces = SQRT3_UP * math.sqrt(bcx * bcx + bcy * bcy + bcz * bcz + cax * cax + cay * cay
+                                 + caz * caz + abx * abx + aby * aby + abz * abz)
+    edges = SQRT3_UP * math.sqrt(ax * ax + ay * ay + az * az + bx * bx + by * by + bz * bz
+                                 + cx * cx + cy * cy + cz * cz)
+    r = reach
+    grown = edges + r
+    return v6 - r * (faces + r * (edges + r)) - GUARD_ROUND_SLACK * grown * grown * grown > lim
 
 
 @numba.njit(cache=True, inline="always")

@@ -185,3 +185,30 @@ def test_crushed_hexes_are_not_cleared():
             assert not (c and f)
             hit = speed if f and hit is None else hit
         assert hit is not None
+
+
+@pytest.mark.parametrize("height,slack", [(0.3, 0.25), (0.05, 0.05), (0.005, 0.05)])
+def test_a_flat_cap_closing_head_on_is_cleared_only_just_in_time(height, slack):
+    """The case where the pre-test's bound is nearly reached: a low cap (the apex above the
+    centroid of an equilateral base) whose apex and base fly at each other at the largest
+    speeds the reach allows, so the volume falls at the bound's first-order rate. The largest
+    limit the pre-test clears is not flagged, and it lies within a few per cent of the volume
+    the full guard predicts (``slack`` of the predicted fall; a bound cut by a third would
+    clear flagged caps)."""
+    s = 1e-3
+    base = s * np.array([[1.0, 0.0, 0.0], [-0.5, 0.75 ** 0.5, 0.0], [-0.5, -(0.75 ** 0.5), 0.0]])
+    x = np.vstack([[0.0, 0.0, height * s], base])
+    t = (0, 1, 2, 3)
+    if _volume6(x, np.zeros_like(x), 0.0, *t) < 0:
+        x[[1, 2]] = x[[2, 1]]
+    speed, dt = 200.0, 1e-9
+    v = np.zeros_like(x)
+    v[0, 2], v[1:, 2] = -speed, speed
+    reach = guard_reach(x, v, 2.2 * dt)
+    lo, hi = 0.0, 2.0 * _volume6(x, v, 0.0, *t)
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if guard_clear(x, *t, reach, mid) else (lo, mid)
+    assert not _flagged(x, v, dt, t, lo)
+    worst = min(_volume6(x, v, 1.1 * dt, *t), _volume6(x, v, 2.2 * dt, *t))
+    assert worst > lo > worst - slack * (_volume6(x, v, 0.0, *t) - worst)
