@@ -135,21 +135,25 @@ def guard_reach(x, v, h):
     return reach + bad
 
 
-SQRT3_UP = 1.7321  # [-] at least sqrt(3): |p| + |q| + |s| <= SQRT3_UP sqrt(|p|^2 + |q|^2 + |s|^2)
+GUARD_K = 10.0  # [-] the length scale K * reach of the pre-test's square-root-free bounds
 
 
 @numba.njit(cache=True, inline="always")
-def guard_clear(x, i0, i1, i2, i3, reach, lim):
+def guard_clear(x, i0, i1, i2, i3, reach, inv, lim):
     """The distortion guard's pre-test: True only when the full test (``_volume6`` at
-    positions x + h v, h = 1.1 dt and 2.2 dt, below lim) cannot flag the tet. With edges a, b,
-    c from node i0, each moving by at most r = ``reach`` (``guard_reach`` for h = 2.2 dt), six
-    times the volume changes by at most (expanding the determinant by multilinearity)
-    r (|b x c| + |c x a| + |a x b|) + r^2 (|a| + |b| + |c|) + r^3; both sums are bounded by
-    Cauchy-Schwarz (SQRT3_UP times the root of the sum of squares: two square roots, nearly
-    tight on a well-shaped tet), and the rounding of both tests by GUARD_ROUND_SLACK times the
-    cube of the grown edge scale. Reads the four nodes' positions only (the full test also
-    reads their velocities and evaluates two determinants): far from inversion, as nearly
-    every cell is, one gather and one determinant decide. False for a non-finite reach."""
+    positions x + h v, h = 1.1 dt and 2.2 dt, below lim) cannot flag the tet; ``inv`` is
+    1 / (2 GUARD_K reach). With edges a, b, c from node i0, each moving by at most
+    r = ``reach`` (``guard_reach`` for h = 2.2 dt), six times the volume changes by at most
+    (expanding the determinant by multilinearity)
+        r (|b x c| + |c x a| + |a x b|) + r^2 (|a| + |b| + |c|) + r^3.
+    Square-root free: the first sum is at most sqrt(3 F), F the sum of the three squared
+    face vectors (Cauchy-Schwarz; nearly tight on a well-shaped tet), compared squared; the
+    second, by |a| <= |a|^2 / (2k) + k / 2 with k = GUARD_K r, at most E / (2k) + 3 k / 2, E
+    the sum of the squared edges; the rounding of both tests is covered by GUARD_ROUND_SLACK
+    (E + r^2)^(3/2), bounded the same way. Reads the four nodes' positions only (the full test
+    also reads their velocities and evaluates two determinants): far from inversion, as
+    nearly every cell is, one gather and one determinant decide. False for a non-finite or
+    zero reach."""
     ax = x[i1, 0] - x[i0, 0]
     ay = x[i1, 1] - x[i0, 1]
     az = x[i1, 2] - x[i0, 2]
@@ -169,13 +173,16 @@ def guard_clear(x, i0, i1, i2, i3, reach, lim):
     aby = az * bx - ax * bz
     abz = ax * by - ay * bx
     v6 = ax * bcx + ay * bcy + az * bcz
-    faces = SQRT3_UP * math.sqrt(bcx * bcx + bcy * bcy + bcz * bcz + cax * cax + cay * cay
-                                 + caz * caz + abx * abx + aby * aby + abz * abz)
-    edges = SQRT3_UP * math.sqrt(ax * ax + ay * ay + az * az + bx * bx + by * by + bz * bz
-                                 + cx * cx + cy * cy + cz * cz)
+    f2 = (bcx * bcx + bcy * bcy + bcz * bcz + cax * cax + cay * cay + caz * caz
+          + abx * abx + aby * aby + abz * abz)
+    e2 = ax * ax + ay * ay + az * az + bx * bx + by * by + bz * bz + cx * cx + cy * cy + cz * cz
     r = reach
-    grown = edges + r
-    return v6 - r * (faces + r * (edges + r)) - GUARD_ROUND_SLACK * grown * grown * grown > lim
+    k = GUARD_K * r
+    g2 = e2 + r * r
+    rest = (r * r * (e2 * inv + 1.5 * k) + r * r * r
+            + GUARD_ROUND_SLACK * g2 * (g2 * inv + 0.5 * k))
+    d = v6 - lim - rest
+    return d > 0.0 and d * d > 3.0000001 * r * r * f2
 
 
 @numba.njit(cache=True, inline="always")
@@ -308,6 +315,7 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
     n_act = 0
     n_duct = 0
     reach = guard_reach(x, v, 2.2 * dt)  # the guard's pre-test (guard_clear)
+    inv = 1.0 / (2.0 * GUARD_K * reach) if reach > 0.0 else math.inf
     for e in numba.prange(n_elem):
         action[e] = NONE
         st = status[e]
@@ -337,7 +345,7 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
                              temperature, mat_params, stretch)
         if act == NONE and failing_material(mat_params, mk):
             lim = 6.0 * GUARD_FRACTION * vol0[e]
-            if not guard_clear(x, i0, i1, i2, i3, reach, lim) and (
+            if not guard_clear(x, i0, i1, i2, i3, reach, inv, lim) and (
                     _volume6(x, v, 1.1 * dt, i0, i1, i2, i3) < lim
                     or _volume6(x, v, 2.2 * dt, i0, i1, i2, i3) < lim):
                 act = GUARD
