@@ -181,6 +181,10 @@ class HexSurface(Surface):
     ``face_key``, ``edge_key`` (module docstring, self-contact): the nodes the self-contact
     exclusion compares for each face and edge."""
 
+    # the compact arrays hold the hexes' triangles after the tets': recomputed after a removal
+    # (Surface.incremental)
+    incremental = False
+
     def __init__(self, model):
         self.hex_conn = np.ascontiguousarray(
             np.concatenate([b.conn for b in model.blocks]), np.int32)

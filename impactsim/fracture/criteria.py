@@ -92,6 +92,99 @@ def _volume6(x, v, h, i0, i1, i2, i3):
     return ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
 
 
+# Margins of the guard's pre-test (``guard_clear``) over the rounding of the full test: the
+# node-velocity spread is inflated by GUARD_SPREAD_SLACK (relative) plus GUARD_POSITION_SLACK
+# times the largest coordinate (the full test rounds x + h v at that scale), and the bound
+# by GUARD_ROUND_SLACK times the cube of the (grown) longest edge (the rounding of a 3x3
+# determinant is a few 1e-16 of it). Each is a thousand times or more what it covers.
+GUARD_SPREAD_SLACK = 1e-6
+GUARD_POSITION_SLACK = 1e-12
+GUARD_ROUND_SLACK = 1e-10
+
+
+@numba.njit(cache=True)
+def guard_reach(x, v, h):
+    """How far [m] two nodes of a tet can move relative to each other within time h at the
+    velocities v, inflated by the pre-test's margins (``guard_clear``): 2 R h with R the
+    radius of the bounding box of all node velocities (|v_i - w| <= R with w its centre), plus
+    the rounding scale of the positions x + h v. nan when a velocity or position is not finite (then every
+    pre-test fails and the full guard runs). One serial pass over the nodes (exact: min and max
+    only, the same on any thread count)."""
+    n = v.shape[0]
+    if n == 0:
+        return 0.0
+    lo0, lo1, lo2 = v[0, 0], v[0, 1], v[0, 2]
+    hi0, hi1, hi2 = lo0, lo1, lo2
+    xa = 0.0
+    va = 0.0
+    bad = 0.0
+    for i in range(n):
+        a, b, c = v[i, 0], v[i, 1], v[i, 2]
+        lo0 = min(lo0, a)
+        lo1 = min(lo1, b)
+        lo2 = min(lo2, c)
+        hi0 = max(hi0, a)
+        hi1 = max(hi1, b)
+        hi2 = max(hi2, c)
+        xa = max(xa, max(abs(x[i, 0]), max(abs(x[i, 1]), abs(x[i, 2]))))
+        va = max(va, max(abs(a), max(abs(b), abs(c))))
+        bad += (a + b + c + x[i, 0] + x[i, 1] + x[i, 2]) * 0.0
+    r0, r1, r2 = 0.5 * (hi0 - lo0), 0.5 * (hi1 - lo1), 0.5 * (hi2 - lo2)
+    reach = (2.0 * math.sqrt(r0 * r0 + r1 * r1 + r2 * r2) * h * (1.0 + GUARD_SPREAD_SLACK)
+             + GUARD_POSITION_SLACK * (xa + h * va))
+    return reach + bad
+
+
+GUARD_K = 10.0  # [-] the length scale K * reach of the pre-test's square-root-free bounds
+
+
+@numba.njit(cache=True, inline="always")
+def guard_clear(x, i0, i1, i2, i3, reach, inv, lim):
+    """The distortion guard's pre-test: True only when the full test (``_volume6`` at
+    positions x + h v, h = 1.1 dt and 2.2 dt, below lim) cannot flag the tet; ``inv`` is
+    1 / (2 GUARD_K reach). With edges a, b, c from node i0, each moving by at most
+    r = ``reach`` (``guard_reach`` for h = 2.2 dt), six times the volume changes by at most
+    (expanding the determinant by multilinearity)
+        r (|b x c| + |c x a| + |a x b|) + r^2 (|a| + |b| + |c|) + r^3.
+    Square-root free: the first sum is at most sqrt(3 F), F the sum of the three squared
+    face vectors (Cauchy-Schwarz; nearly tight on a well-shaped tet), compared squared; the
+    second, by |a| <= |a|^2 / (2k) + k / 2 with k = GUARD_K r, at most E / (2k) + 3 k / 2, E
+    the sum of the squared edges; the rounding of both tests is covered by GUARD_ROUND_SLACK
+    (E + r^2)^(3/2), bounded the same way. Reads the four nodes' positions only (the full test
+    also reads their velocities and evaluates two determinants): far from inversion, as
+    nearly every cell is, one gather and one determinant decide. False for a non-finite or
+    zero reach."""
+    ax = x[i1, 0] - x[i0, 0]
+    ay = x[i1, 1] - x[i0, 1]
+    az = x[i1, 2] - x[i0, 2]
+    bx = x[i2, 0] - x[i0, 0]
+    by = x[i2, 1] - x[i0, 1]
+    bz = x[i2, 2] - x[i0, 2]
+    cx = x[i3, 0] - x[i0, 0]
+    cy = x[i3, 1] - x[i0, 1]
+    cz = x[i3, 2] - x[i0, 2]
+    bcx = by * cz - bz * cy
+    bcy = bz * cx - bx * cz
+    bcz = bx * cy - by * cx
+    cax = cy * az - cz * ay
+    cay = cz * ax - cx * az
+    caz = cx * ay - cy * ax
+    abx = ay * bz - az * by
+    aby = az * bx - ax * bz
+    abz = ax * by - ay * bx
+    v6 = ax * bcx + ay * bcy + az * bcz
+    f2 = (bcx * bcx + bcy * bcy + bcz * bcz + cax * cax + cay * cay + caz * caz
+          + abx * abx + aby * aby + abz * abz)
+    e2 = ax * ax + ay * ay + az * az + bx * bx + by * by + bz * bz + cx * cx + cy * cy + cz * cz
+    r = reach
+    k = GUARD_K * r
+    g2 = e2 + r * r
+    rest = (r * r * (e2 * inv + 1.5 * k) + r * r * r
+            + GUARD_ROUND_SLACK * g2 * (g2 * inv + 0.5 * k))
+    d = v6 - lim - rest
+    return d > 0.0 and d * d > 3.0000001 * r * r * f2
+
+
 @numba.njit(cache=True, inline="always")
 def jc_fracture_strain(mat_params, mk, pressure, seq, rate, temperature):
     """Johnson-Cook (1985) fracture strain eps_f at triaxiality -p/seq (capped at 1.5), rate
@@ -221,6 +314,8 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
     n_frac = 0
     n_act = 0
     n_duct = 0
+    reach = guard_reach(x, v, 2.2 * dt)  # the guard's pre-test (guard_clear)
+    inv = 1.0 / (2.0 * GUARD_K * reach) if reach > 0.0 else math.inf
     for e in numba.prange(n_elem):
         action[e] = NONE
         st = status[e]
@@ -250,7 +345,8 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
                              temperature, mat_params, stretch)
         if act == NONE and failing_material(mat_params, mk):
             lim = 6.0 * GUARD_FRACTION * vol0[e]
-            if (_volume6(x, v, 1.1 * dt, i0, i1, i2, i3) < lim
+            if not guard_clear(x, i0, i1, i2, i3, reach, inv, lim) and (
+                    _volume6(x, v, 1.1 * dt, i0, i1, i2, i3) < lim
                     or _volume6(x, v, 2.2 * dt, i0, i1, i2, i3) < lim):
                 act = GUARD
         action[e] = act

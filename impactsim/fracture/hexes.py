@@ -29,6 +29,8 @@ damage, ...):
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -87,6 +89,60 @@ def hex_volume(x, v, h, conn, e):
 
 
 @numba.njit(cache=True, inline="always")
+def _dx(x, conn, e, a, b):
+    """Corner a minus corner b of hex e at positions x."""
+    i, j = conn[e, a], conn[e, b]
+    return x[i, 0] - x[j, 0], x[i, 1] - x[j, 1], x[i, 2] - x[j, 2]
+
+
+@numba.njit(cache=True, inline="always")
+def _norm(a):
+    return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+
+
+@numba.njit(cache=True, inline="always")
+def _term_bound(p, q, s, reach):
+    """(change bound, grown scale) of the triple product p . (q x s) when each corner
+    difference moves by at most reach (p is a sum of two of them): by multilinearity and
+    Hadamard's inequality (|p| + 2 reach)(|q| + reach)(|s| + reach) - |p||q||s|."""
+    np_, nq, ns = _norm(p), _norm(q), _norm(s)
+    big = (np_ + 2.0 * reach) * (nq + reach) * (ns + reach)
+    return big - np_ * nq * ns, big
+
+
+@numba.njit(cache=True, inline="always")
+def hex_clear(x, conn, e, reach, lim):
+    """The hexes' counterpart of ``criteria.guard_clear``: True only when the full guard
+    (``hex_volume`` at x + h v, h = 1.1 dt and 2.2 dt, below lim) cannot flag hex e, each
+    corner difference moving by at most ``reach`` (``criteria.guard_reach`` for h = 2.2 dt).
+    Bounds the change of each of the three triple products of LULESH's closed form
+    (``_term_bound``); the rounding of both tests is covered by GUARD_ROUND_SLACK times the
+    grown terms. Reads the corners' positions only."""
+    a31 = _dx(x, conn, e, 3, 1)
+    a72 = _dx(x, conn, e, 7, 2)
+    a63 = _dx(x, conn, e, 6, 3)
+    a20 = _dx(x, conn, e, 2, 0)
+    a43 = _dx(x, conn, e, 4, 3)
+    a57 = _dx(x, conn, e, 5, 7)
+    a64 = _dx(x, conn, e, 6, 4)
+    a70 = _dx(x, conn, e, 7, 0)
+    a14 = _dx(x, conn, e, 1, 4)
+    a25 = _dx(x, conn, e, 2, 5)
+    a61 = _dx(x, conn, e, 6, 1)
+    a50 = _dx(x, conn, e, 5, 0)
+    p1 = (a31[0] + a72[0], a31[1] + a72[1], a31[2] + a72[2])
+    p2 = (a43[0] + a57[0], a43[1] + a57[1], a43[2] + a57[2])
+    p3 = (a14[0] + a25[0], a14[1] + a25[1], a14[2] + a25[2])
+    t = (_triple(p1[0], p1[1], p1[2], a63[0], a63[1], a63[2], a20[0], a20[1], a20[2])
+         + _triple(p2[0], p2[1], p2[2], a64[0], a64[1], a64[2], a70[0], a70[1], a70[2])
+         + _triple(p3[0], p3[1], p3[2], a61[0], a61[1], a61[2], a50[0], a50[1], a50[2]))
+    d1, b1 = _term_bound(p1, a63, a20, reach)
+    d2, b2 = _term_bound(p2, a64, a70, reach)
+    d3, b3 = _term_bound(p3, a61, a50, reach)
+    return (t - (d1 + d2 + d3) - C.GUARD_ROUND_SLACK * (b1 + b2 + b3)) / 12.0 > lim
+
+
+@numba.njit(cache=True, inline="always")
 def _centre_jacobian(x, conn, e, xi):
     """dx/d(xi, eta, zeta) at the centre of hex e: column c = (1/8) sum_I xi_Ic x_I, returned
     row by row (j_rc, r the coordinate)."""
@@ -123,6 +179,7 @@ def hex_fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol,
     n_frac = 0
     n_act = 0
     n_duct = 0
+    reach = C.guard_reach(x, v, 2.2 * dt)  # the guard's pre-test (hex_clear)
     for e in numba.prange(conn.shape[0]):
         action[e] = C.NONE
         st = status[e]
@@ -156,7 +213,8 @@ def hex_fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol,
                                damage, temperature, mat_params, stretch)
         if act == C.NONE and C.failing_material(mat_params, mk):
             lim = C.GUARD_FRACTION * vol0[e]
-            if (hex_volume(x, v, 1.1 * dt, conn, e) < lim
+            if not hex_clear(x, conn, e, reach, lim) and (
+                    hex_volume(x, v, 1.1 * dt, conn, e) < lim
                     or hex_volume(x, v, 2.2 * dt, conn, e) < lim):
                 act = C.GUARD
         action[e] = act
