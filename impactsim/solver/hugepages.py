@@ -27,9 +27,10 @@ MIN_ARRAY = 1 << 16  # arrays smaller than this are left where they are
 ALIGN = 64
 
 
-def _candidates(objs: list) -> list[tuple[object, str, np.ndarray]]:
-    """(object, attribute, array) for the C-contiguous, writeable arrays of at least MIN_ARRAY
-    bytes that own their data and share it with no other attribute of `objs`."""
+def _candidates(objs: list, names) -> list[tuple[list, np.ndarray]]:
+    """(owners, array) for the C-contiguous, writeable arrays of at least MIN_ARRAY bytes that
+    own their data and share it with no other attribute of `objs` (of those in `names`, when
+    given); owners: the (object, attribute) pairs that hold the array."""
     found, seen, viewed = [], {}, set()
     for obj in objs:  # the arrays others are views of stay where they are (the views too)
         for a in vars(obj).values():
@@ -38,6 +39,8 @@ def _candidates(objs: list) -> list[tuple[object, str, np.ndarray]]:
                 viewed.add(id(a))
     for obj in objs:
         for name, a in vars(obj).items():
+            if names is not None and name not in names:
+                continue
             if not isinstance(a, np.ndarray) or a.nbytes < MIN_ARRAY:
                 continue
             if (a.base is not None or id(a) in viewed or not a.flags.c_contiguous
@@ -51,12 +54,14 @@ def _candidates(objs: list) -> list[tuple[object, str, np.ndarray]]:
     return [(owners, a) for a in found for owners in [seen[id(a)]]]
 
 
-def pack(*objs) -> int:
+def pack(*objs, names=None) -> int:
     """Move the large arrays that are attributes of `objs` (a Model, its ElementBlocks, a
-    runner's buffers) into one mapping advised for huge pages; returns the bytes moved (0 when
-    there are too few to matter or the platform cannot advise). Call it before anything else
-    holds a reference to those arrays: a reference taken earlier keeps the old copy."""
-    cands = _candidates(list(objs))
+    runner's buffers; only the attributes in `names`, when given) into one mapping advised for
+    huge pages; returns the bytes moved (0 when there are too few to matter or the platform
+    cannot advise). Call it before anything else holds a reference to those arrays: a
+    reference taken earlier (an attribute of an object not passed, a local) keeps the old
+    copy, which the kernels would then no longer update."""
+    cands = _candidates(list(objs), names)
     offsets, total = [], 0
     for _, a in cands:
         offsets.append(total)

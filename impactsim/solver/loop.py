@@ -76,9 +76,10 @@ class Simulation:
             from impactsim.solver.blocks import BlockRunner
 
             self.block_runners = [BlockRunner(model, b) for b in model.blocks]
-        # the tet kernel's buffers onto huge pages (hugepages.py; the model's are, since
-        # build_model); not fext alone, which set_parts replaces
-        hugepages.pack(self)
+        # the tet kernel's own buffers onto huge pages (hugepages.py; the model's are, since
+        # build_model); by name: vol_eos may be model.vol itself, which must stay shared
+        hugepages.pack(self, names=("fext", "chunk_out", "jnode", "vol_now", "hardening",
+                                    "thermal") + (("vol_eos",) if self.use_anp else ()))
         for p in passes:  # passes that need the integrator (fracture: refresh_forces)
             if hasattr(p, "attach"):
                 p.attach(self)
