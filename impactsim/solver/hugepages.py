@@ -7,7 +7,8 @@ many arrays of 1-3.5 MB (one double per element, x, v and force of the nodes, co
 rows) sit on 4 kB pages: about 10,000 pages against the 3,072 entries of this Zen 4's second-level
 data TLB, so every step walks the page tables for most of them again. `pack` copies the arrays
 of an object into one anonymous mapping advised for huge pages, each at a 64-byte boundary: the
-hex kernel alone ran 6 % faster (docs/performance.md, "The hex step, session 12").
+hex kernel alone ran 6 % faster on its state so placed, the whole hex step 1-2 % (the tets'
+step: no change measured; docs/performance.md, "The hex step, session 12").
 
 Only the memory changes: the values are copied, the arrays keep their dtype, shape and
 C order (numba compiles the same kernels), so every result is the same, bit for bit. Where the
