@@ -36,7 +36,7 @@ from impactsim.solver import hex8_block as HB  # noqa: E402
 
 # the digest of hex8_block.py (scripts/gen_hex8_block.py), so that numba recompiles `_parts`
 # when the block functions it compiles in change (its cache is keyed by this file alone)
-BLOCK_SOURCE = "e61240c045f29674"
+BLOCK_SOURCE = "6a9859e1f3a00d65"
 STATE = ["sdev", "pressure", "q", "eps_p", "eps_rate", "temperature", "energy", "vol", "hg"]
 
 

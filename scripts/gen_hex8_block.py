@@ -299,7 +299,7 @@ def hourglass_lines():
     A("cv = buf[HGV * B + i]")
     A("cs = buf[HGS * B + i]")
     A("chg = math.sqrt(max(c2, 0.0))")
-    A(f"{hk(K_KV)} = cv * rho * chg * VM.power(vnew, 2.0 / 3.0)")
+    A(f"{hk(K_KV)} = cv * rho * chg * VM.pow_two_thirds(vnew)")
     A(f"{hk(K_KS)} = cs * dt * (bulk + 4.0 * shear / 3.0) * {hk(K_BB)} / vnew * (1.0 / 3.0)")
     loops.append(L)
     # loop 4: resultants, their work, T = sigma - M / 8 (M_ij = sum_a Q_ia h_aj), the pair sums;

@@ -14,6 +14,7 @@ import numpy as np
 from impactsim.model import ElementBlock, Model
 from impactsim.solver import element as E
 from impactsim.solver import hex8 as H
+from impactsim.solver import hugepages
 from impactsim.solver.scatter import force_rows
 
 
@@ -30,6 +31,7 @@ class BlockRunner:
         self.hard, self.thermal = np.zeros(block.n_elem), np.zeros(block.n_elem)
         E.yield_cache(block.elem_mat, model.mat_params, block.eps_p, block.temperature,
                       self.hard, self.thermal)
+        hugepages.pack(self, self.rows)  # onto huge pages (hugepages.py)
 
     def update(self, model: Model, dt: float, cq: float, cl: float, assign: bool = False
                ) -> np.ndarray:

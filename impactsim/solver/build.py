@@ -7,6 +7,7 @@ import numpy as np
 from impactsim.case.schema import Body, Case, NodeSelector
 from impactsim.materials.params import DUCTILE, T_INIT, material_table
 from impactsim.model import ElementBlock, Model
+from impactsim.solver import hugepages
 
 
 def select_nodes(sel: NodeSelector, x: np.ndarray) -> np.ndarray:
@@ -122,7 +123,7 @@ def build_model(case: Case, meshes: list[tuple[np.ndarray, np.ndarray]] | None =
     walls = np.array([[*w.point, *(np.asarray(w.normal) / np.linalg.norm(w.normal)), w.friction]
                       for w in case.walls], dtype=np.float64).reshape(-1, 7)
     temp0 = mat_params[emat, T_INIT].copy()
-    return Model(
+    model = Model(
         x=x, v=v, x0=x.copy(), mass=mass, force=np.zeros((n_node, 3)),
         node_body=np.concatenate(node_body),
         conn=conn, elem_body=np.concatenate(elem_body), elem_mat=emat,
@@ -138,6 +139,9 @@ def build_model(case: Case, meshes: list[tuple[np.ndarray, np.ndarray]] | None =
                       "eroded": 0.0, **({"hourglass": 0.0} if blocks else {})},
         blocks=blocks, separable_bodies=tuple(separable),
     )
+    # the state arrays onto huge pages, before anything else holds them (hugepages.py)
+    hugepages.pack(model, *model.blocks)
+    return model
 
 
 def _initial_velocity(body: Body, pts: np.ndarray) -> np.ndarray:

@@ -943,7 +943,7 @@ def forces_block(buf, dt, eos, rho0, bulk, c0, s, gamma0, shear, cq, cl, stiff):
         cv = buf[HGV * B + i]
         cs = buf[HGS * B + i]
         chg = math.sqrt(max(c2, 0.0))
-        buf[(HK + 47) * B + i] = cv * rho * chg * VM.power(vnew, 2.0 / 3.0)
+        buf[(HK + 47) * B + i] = cv * rho * chg * VM.pow_two_thirds(vnew)
         buf[(HK + 48) * B + i] = cs * dt * (bulk + 4.0 * shear / 3.0) * buf[(HK + 21) * B + i] / vnew * (1.0 / 3.0)
     if stiff:
         for i in range(B):

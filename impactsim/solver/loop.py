@@ -20,6 +20,7 @@ import numpy as np
 
 from impactsim.model import Model
 from impactsim.solver import element as E
+from impactsim.solver import hugepages
 from impactsim.solver.constraints import WallPass, predict_walls_move
 from impactsim.solver.nodal import (PARALLEL_NODES, element_volumes, force_power,
                                     internal_energy, kinetic_energy, move, nodal_volume_ratio,
@@ -75,6 +76,10 @@ class Simulation:
             from impactsim.solver.blocks import BlockRunner
 
             self.block_runners = [BlockRunner(model, b) for b in model.blocks]
+        # the tet kernel's own buffers onto huge pages (hugepages.py; the model's are, since
+        # build_model); by name: vol_eos may be model.vol itself, which must stay shared
+        hugepages.pack(self, names=("fext", "chunk_out", "jnode", "vol_now", "hardening",
+                                    "thermal") + (("vol_eos",) if self.use_anp else ()))
         for p in passes:  # passes that need the integrator (fracture: refresh_forces)
             if hasattr(p, "attach"):
                 p.attach(self)
@@ -99,6 +104,7 @@ class Simulation:
             raise ValueError(f"part size {part_size} is not a multiple of {E.CHUNK}")
         self.force_rows = force_rows(self.model.conn, self.model.n_node, part_size)
         self.fext = np.zeros((self.force_rows.n_rows, 3))
+        hugepages.pack(self.force_rows)  # the kernel's fext is packed in __init__
 
     def next_dt(self, limit: float = math.inf) -> float:
         """The next step: C_cfl times the stable step, at most DT_GROWTH times the last step that

@@ -109,6 +109,27 @@ def power(x, y):
     return exp(y * ln(x))
 
 
+# x^(-1/3) within 3.5 % from the bits of x (the exponent and mantissa divided by 3, the
+# constant of the known inverse-cube-root start), for `pow_two_thirds`
+CBRT_MAGIC = 0x553EF0FF289DD796
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy", fastmath=FAST)
+def pow_two_thirds(x):
+    """x^(2/3) for positive normal x, as x y with y = x^(-1/3) by four Newton steps
+    y <- y (4 - x y^3) / 3 from a start within 3.5 % read from the bits of x (the relative
+    error squares at each step: 3.4e-2, 2.4e-3, 1.1e-5, 2.6e-10, then round-off, a few ulp).
+    No logarithm, exponential or division: about 20 operations a lane against the ~60 of
+    `power(x, 2/3)`, which it replaces in the hex kernel's viscous hourglass coefficient. The
+    bits are divided by 3 in floating point (an int64 division does not vectorise)."""
+    y = from_bits(CBRT_MAGIC - int(float(as_bits(x)) * (1.0 / 3.0)))
+    y = y * (4.0 - x * y * y * y) * (1.0 / 3.0)
+    y = y * (4.0 - x * y * y * y) * (1.0 / 3.0)
+    y = y * (4.0 - x * y * y * y) * (1.0 / 3.0)
+    y = y * (4.0 - x * y * y * y) * (1.0 / 3.0)
+    return x * y
+
+
 def _prefetch_codegen(rw, locality=3):
     def codegen(context, builder, signature, args):
         ary = context.make_array(signature.args[0])(context, builder, args[0])
