@@ -585,6 +585,32 @@ def edge_normals_of(x, faces, face_edges, fsel, out):
 
 
 @numba.njit(cache=True)
+def faces_at_edges(pairs, face_edges, mark, fsel):
+    """The faces (increasing, into ``fsel``) with an edge in ``pairs (k, 2)`` of edge rows:
+    every face of each such edge, so that ``edge_normals_of`` over them gives those edges the
+    normals ``edge_normals`` would. ``mark (g,) bool`` all False on entry and on return.
+    Returns how many faces. One pass over the pairs and one over the faces' edge rows, where
+    ``edge_normals`` over every face also reads three nodes and takes a root per face."""
+    for k in range(pairs.shape[0]):
+        mark[pairs[k, 0]] = True
+        mark[pairs[k, 1]] = True
+    n = 0
+    for f in range(face_edges.shape[0]):
+        hit = False
+        for j in range(3):
+            g = face_edges[f, j]
+            if g >= 0 and mark[g]:
+                hit = True
+        if hit:
+            fsel[n] = f
+            n += 1
+    for k in range(pairs.shape[0]):
+        mark[pairs[k, 0]] = False
+        mark[pairs[k, 1]] = False
+    return n
+
+
+@numba.njit(cache=True)
 def edge_edge_sweep(pairs, edges, normals, x, v, mass, tau, mu, band, restore, active, stamp,
                     sweep, since, geo, slack, lock=NO_LOCK):
     """Gauss-Seidel sweep over candidate edge pairs (ALGORITHMS.md 3.2): sequentially, in the

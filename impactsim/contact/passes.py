@@ -64,7 +64,7 @@ from impactsim.contact.broadphase import (OCC_CELL, OCC_MAX_BODIES, Occupancy, S
                                           body_bounds, grid_from_bounds, select_boxes)
 from impactsim.contact.diagnostics import PenetrationMeter
 from impactsim.contact.edgeedge import GEO_COLS as EE_GEO_COLS
-from impactsim.contact.edgeedge import edge_edge_sweep, edge_normals, edge_normals_of
+from impactsim.contact.edgeedge import (edge_edge_sweep, edge_normals_of, faces_at_edges)
 from impactsim.contact.edgeedge import far_apart as ee_far_apart
 from impactsim.contact.energy import impulse_work
 from impactsim.contact.impulse import NO_LOCK as _NO_LOCK
@@ -673,12 +673,21 @@ class EdgeEdgePass(ContactPass):
         if pairs.shape[0]:
             # outward normals at the edges, for touching pairs (edgeedge module docstring)
             self.normals = ctx.buffer("ee.normals", (s.n_edges, 3))
-            if self._init is None:
-                edge_normals(model.x, s.faces, s.face_edges, self.normals)
-            else:  # pairs of the kept list: the faces at its edges are enough
-                edge_normals_of(model.x, s.faces, s.face_edges, self._normal_faces(),
-                                self.normals)
+            if self._init is None:  # the faces at the pairs' edges (the other rows unread)
+                fsel = ctx.buffer("ee.faces", s.n_faces, np.int64)
+                mark = self._edge_marks(s.n_edges)
+                fsel = fsel[:faces_at_edges(pairs, s.face_edges, mark, fsel)]
+            else:  # pairs of the kept list: the faces at its edges, found at its build
+                fsel = self._normal_faces()
+            edge_normals_of(model.x, s.faces, s.face_edges, fsel, self.normals)
         return pairs
+
+    def _edge_marks(self, n_edges: int) -> np.ndarray:
+        """A bool per edge, all False (``faces_at_edges`` leaves them so)."""
+        m = getattr(self, "_marks", None)
+        if m is None or m.shape[0] < n_edges:
+            m = self._marks = np.zeros(max(n_edges, 16) * 3 // 2, dtype=bool)
+        return m[:n_edges]
 
     def _normal_faces(self) -> np.ndarray:
         """The faces at the edges of the kept candidate list (``edge_normals_of``), found again

@@ -307,3 +307,28 @@ def test_far_apart_pairs_stay_apart_while_the_list_is_kept():
                                      np.zeros((0, 3)))
                 assert J == 0.0 and np.array_equal(v1, v), trial
     assert 0 < flagged < total
+
+
+def test_normals_at_the_pairs_edges_are_the_full_normals():
+    """The edge-edge pass computes normals only at the faces of its pairs' edges
+    (faces_at_edges, then edge_normals_of): at every edge of a pair they are, bit for bit,
+    those of edge_normals over every face, on a real boundary surface."""
+    from impactsim.contact.edgeedge import edge_normals_of, faces_at_edges
+    from impactsim.contact.surface import Surface
+    from impactsim.mesh.structured import structured_box
+
+    x, conn = structured_box((3e-3, 2e-3, 1e-3), 0.5e-3)
+    rng = np.random.default_rng(11)
+    x = x + rng.normal(0.0, 2e-5, x.shape)
+    s = Surface(conn, np.zeros(conn.shape[0], np.int32))
+    full = np.empty((s.n_edges, 3))
+    edge_normals(x, s.faces, s.face_edges, full)
+    pairs = np.sort(rng.integers(0, s.n_edges, (40, 2)), axis=0)
+    mark = np.zeros(s.n_edges, bool)
+    fsel = np.empty(s.n_faces, np.int64)
+    k = faces_at_edges(pairs, s.face_edges, mark, fsel)
+    assert not mark.any() and 0 < k < s.n_faces
+    out = np.full((s.n_edges, 3), np.nan)
+    edge_normals_of(x, s.faces, s.face_edges, fsel[:k], out)
+    used = np.unique(pairs)
+    np.testing.assert_array_equal(out[used], full[used])
