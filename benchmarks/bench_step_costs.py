@@ -108,7 +108,7 @@ def main(argv=None) -> int:
                 res[side] = (out, used[20].copy(), used[5].copy())
         same = (res["old"][0] == res["new"][0] and np.array_equal(res["old"][1], res["new"][1])
                 and np.array_equal(res["old"][2], res["new"][2]))
-        print(f"fracture_criteria at call {k} (t = dt sum unknown, dt {args[19]:.3g} s): "
+        print(f"fracture_criteria at call {k} (dt {args[19]:.3g} s): "
               f"{1e3 * min(times['old']):.2f} -> {1e3 * min(times['new']):.2f} ms; "
               f"same counts, actions and statuses: {same}")
     if surface is not None:
