@@ -224,6 +224,31 @@ def _lower(keys, key):
     return lo
 
 
+@numba.njit(cache=True, inline="always")
+def _lower_face(face_elem, face_local, slot):
+    """``_lower`` over the face keys 4 * face_elem + face_local (ascending)."""
+    lo, hi = 0, face_elem.shape[0]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if 4 * face_elem[mid] + face_local[mid] < slot:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@numba.njit(cache=True, inline="always")
+def _next_stop(dels, nd, di, ins, na, ai, n):
+    """The old position where the next run of kept entries stops: the next deletion or
+    insertion point, or n."""
+    stop = n
+    if di < nd:
+        stop = dels[di]
+    if ai < na and ins[ai] < stop:
+        stop = ins[ai]
+    return stop
+
+
 @numba.njit(cache=True)
 def _changed_slots(events, m):
     """The face slots of ``events[:m]`` (``free_face_changes``), sorted, each once."""
@@ -247,16 +272,16 @@ def _compact_changes(events, m, face_flag, edge_count, node_count, conn, elem_bo
     and its gathers of every boundary face's element rows."""
     cs = _changed_slots(events, m)
     nc = cs.shape[0]
-    # the changed faces, edges and nodes: which join, which leave (positions in the old lists)
-    keys = np.empty(face_elem.shape[0], np.int64)
-    for k in range(face_elem.shape[0]):
-        keys[k] = 4 * face_elem[k] + face_local[k]
+    # the changed faces, edges and nodes: which join (and before which old entry), which
+    # leave (their positions in the old lists)
     add_f = np.empty(nc, np.int64)
+    ins_f = np.empty(nc, np.int64)
     del_f = np.empty(nc, np.int64)
     na_f = 0
     nd_f = 0
     ce = np.empty(3 * nc, np.int64)
     cn = np.empty(3 * nc, np.int64)
+    nf_old = face_elem.shape[0]
     for k in range(nc):
         s = cs[k]
         e = s // 4
@@ -264,10 +289,11 @@ def _compact_changes(events, m, face_flag, edge_count, node_count, conn, elem_bo
         for j in range(3):
             ce[3 * k + j] = elem_edges[e, face_edges_local[i, j]]
             cn[3 * k + j] = conn[e, local_faces[i, j]]
-        at = _lower(keys, s)
-        was = at < keys.shape[0] and keys[at] == s
+        at = _lower_face(face_elem, face_local, s)
+        was = at < nf_old and 4 * face_elem[at] + face_local[at] == s
         if face_flag[s] and not was:
             add_f[na_f] = s
+            ins_f[na_f] = at
             na_f += 1
         elif was and not face_flag[s]:
             del_f[nd_f] = at
@@ -275,6 +301,7 @@ def _compact_changes(events, m, face_flag, edge_count, node_count, conn, elem_bo
     ce = np.unique(ce)
     cn = np.unique(cn)
     add_e = np.empty(ce.shape[0], np.int64)
+    ins_e = np.empty(ce.shape[0], np.int64)
     del_e = np.empty(ce.shape[0], np.int64)
     na_e = 0
     nd_e = 0
@@ -284,11 +311,13 @@ def _compact_changes(events, m, face_flag, edge_count, node_count, conn, elem_bo
         was = at < edge_mesh.shape[0] and edge_mesh[at] == me
         if edge_count[me] > 0 and not was:
             add_e[na_e] = me
+            ins_e[na_e] = at
             na_e += 1
         elif was and not edge_count[me] > 0:
             del_e[nd_e] = at
             nd_e += 1
     add_n = np.empty(cn.shape[0], np.int64)
+    ins_n = np.empty(cn.shape[0], np.int64)
     del_n = np.empty(cn.shape[0], np.int64)
     na_n = 0
     nd_n = 0
@@ -298,11 +327,14 @@ def _compact_changes(events, m, face_flag, edge_count, node_count, conn, elem_bo
         was = at < nodes.shape[0] and nodes[at] == i
         if node_count[i] > 0 and not was:
             add_n[na_n] = i
+            ins_n[na_n] = at
             na_n += 1
         elif was and not node_count[i] > 0:
             del_n[nd_n] = at
             nd_n += 1
-    # edges: old ones kept in order, new ones merged in (mesh index order)
+    # each list: runs of kept old entries copied whole, new entries inserted before the old
+    # entry their lower bound names, deleted ones skipped
+    # edges (mesh index order), with the old -> new index of each kept edge
     ng_old = edge_mesh.shape[0]
     ng = ng_old - nd_e + na_e
     n_edges = np.empty((ng, 2), np.int32)
@@ -310,32 +342,35 @@ def _compact_changes(events, m, face_flag, edge_count, node_count, conn, elem_bo
     n_edge_body = np.empty(ng, np.int32)
     remap = np.empty(ng_old, np.int64)
     o = 0
+    g = 0
     a = 0
     d = 0
-    for g in range(ng):
-        while d < nd_e and del_e[d] == o:
-            remap[o] = -1
-            o += 1
-            d += 1
-        if a < na_e and (o >= ng_old or add_e[a] < edge_mesh[o]):
+    while True:
+        stop = _next_stop(del_e, nd_e, d, ins_e, na_e, a, ng_old)
+        ln = stop - o
+        n_edges[g:g + ln] = edges[o:stop]
+        n_edge_mesh[g:g + ln] = edge_mesh[o:stop]
+        n_edge_body[g:g + ln] = edge_body[o:stop]
+        for t in range(ln):
+            remap[o + t] = g + t
+        g += ln
+        o = stop
+        if a < na_e and ins_e[a] == o:
             me = add_e[a]
             n_edges[g, 0] = mesh_edges[me, 0]
             n_edges[g, 1] = mesh_edges[me, 1]
             n_edge_mesh[g] = me
             n_edge_body[g] = node_body_all[mesh_edges[me, 0]]
+            g += 1
             a += 1
-        else:
-            n_edges[g, 0] = edges[o, 0]
-            n_edges[g, 1] = edges[o, 1]
-            n_edge_mesh[g] = edge_mesh[o]
-            n_edge_body[g] = edge_body[o]
-            remap[o] = g
+        elif d < nd_e and del_e[d] == o:
+            remap[o] = -1
             o += 1
-    while o < ng_old:  # deleted edges at the end
-        remap[o] = -1
-        o += 1
-    # faces: the same merge by slot
-    nf_old = keys.shape[0]
+            d += 1
+        else:
+            break
+    same_edges = na_e == 0 and nd_e == 0
+    # faces (slot order)
     nf = nf_old - nd_f + na_f
     n_faces = np.empty((nf, 3), np.int32)
     n_face_elem = np.empty(nf, np.int64)
@@ -343,13 +378,25 @@ def _compact_changes(events, m, face_flag, edge_count, node_count, conn, elem_bo
     n_face_body = np.empty(nf, np.int32)
     n_face_edges = np.empty((nf, 3), np.int64)
     o = 0
+    k = 0
     a = 0
     d = 0
-    for k in range(nf):
-        while d < nd_f and del_f[d] == o:
-            o += 1
-            d += 1
-        if a < na_f and (o >= nf_old or add_f[a] < keys[o]):
+    while True:
+        stop = _next_stop(del_f, nd_f, d, ins_f, na_f, a, nf_old)
+        ln = stop - o
+        n_faces[k:k + ln] = faces[o:stop]
+        n_face_elem[k:k + ln] = face_elem[o:stop]
+        n_face_local[k:k + ln] = face_local[o:stop]
+        n_face_body[k:k + ln] = face_body[o:stop]
+        if same_edges:
+            n_face_edges[k:k + ln] = face_edges[o:stop]
+        else:
+            for t in range(ln):
+                for j in range(3):
+                    n_face_edges[k + t, j] = remap[face_edges[o + t, j]]
+        k += ln
+        o = stop
+        if a < na_f and ins_f[a] == o:
             s = add_f[a]
             e = s // 4
             i = s - 4 * e
@@ -359,35 +406,39 @@ def _compact_changes(events, m, face_flag, edge_count, node_count, conn, elem_bo
             for j in range(3):
                 n_faces[k, j] = conn[e, local_faces[i, j]]
                 n_face_edges[k, j] = _lower(n_edge_mesh, elem_edges[e, face_edges_local[i, j]])
+            k += 1
             a += 1
-        else:
-            n_face_elem[k] = face_elem[o]
-            n_face_local[k] = face_local[o]
-            n_face_body[k] = face_body[o]
-            for j in range(3):
-                n_faces[k, j] = faces[o, j]
-                n_face_edges[k, j] = remap[face_edges[o, j]]
+        elif d < nd_f and del_f[d] == o:
             o += 1
-    # nodes
+            d += 1
+        else:
+            break
+    # nodes (index order)
     nh_old = nodes.shape[0]
     nh = nh_old - nd_n + na_n
     n_nodes = np.empty(nh, np.int32)
     n_node_body = np.empty(nh, np.int32)
     o = 0
+    h = 0
     a = 0
     d = 0
-    for h in range(nh):
-        while d < nd_n and del_n[d] == o:
-            o += 1
-            d += 1
-        if a < na_n and (o >= nh_old or add_n[a] < nodes[o]):
+    while True:
+        stop = _next_stop(del_n, nd_n, d, ins_n, na_n, a, nh_old)
+        ln = stop - o
+        n_nodes[h:h + ln] = nodes[o:stop]
+        n_node_body[h:h + ln] = node_body[o:stop]
+        h += ln
+        o = stop
+        if a < na_n and ins_n[a] == o:
             n_nodes[h] = add_n[a]
             n_node_body[h] = node_body_all[add_n[a]]
+            h += 1
             a += 1
-        else:
-            n_nodes[h] = nodes[o]
-            n_node_body[h] = node_body[o]
+        elif d < nd_n and del_n[d] == o:
             o += 1
+            d += 1
+        else:
+            break
     return (n_faces, n_face_elem, n_face_local, n_face_body, n_face_edges, n_edges,
             n_edge_mesh, n_edge_body, n_nodes, n_node_body)
 

@@ -1,7 +1,7 @@
 """A wrong run never ends quietly: the state and the energy balance watched every step.
 
 After each step ``Watch.after_step(sim)`` runs one pass over the node and element arrays
-(``state_sums``, a numba kernel threaded over fixed chunks: kinetic and internal energy, which the balance needs, and a
+(``state_sums``, a numba kernel: kinetic and internal energy, which the balance needs, and a
 sum of ``value * 0`` over every position, velocity, force, stress, pressure and specific energy,
 which is 0 when all are finite and nan otherwise). Its cost is measured by
 benchmarks/bench_watch.py (docs/user-guide.md, Stops). When the sum is not finite, a second
@@ -30,49 +30,34 @@ from impactsim.model import ERODED
 CHUNK = 4096
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def state_sums(x, v, force, mass, sdev, pressure, energy, elem_mass, status):
     """(kinetic energy, internal energy, finiteness sum, force power): the third is 0.0 when
     every value of the arrays is finite, nan otherwise; the last the sum of F . v over the nodes
-    with mass (nodal.force_power, for the time-centred balance). The threads take fixed chunks
-    of CHUNK nodes or elements; each chunk's partial sums are added in chunk order afterwards,
-    so the sums are the same on any thread count (the finiteness sum is 0 or nan whatever the
-    order)."""
+    with mass (nodal.force_power, for the time-centred balance). Sums in fixed chunks, the same
+    on any thread count."""
     n = mass.shape[0]
-    ne = energy.shape[0]
-    nc = (n + CHUNK - 1) // CHUNK
-    mc = (ne + CHUNK - 1) // CHUNK
-    part = np.empty((nc + mc, 2))
+    ke = 0.0
     bad = 0.0
-    for c in numba.prange(nc + mc):
+    power = 0.0
+    for c in range(0, n, CHUNK):
         s = 0.0
         p = 0.0
-        b = 0.0
-        if c < nc:
-            for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
-                s += mass[i] * (v[i, 0] * v[i, 0] + v[i, 1] * v[i, 1] + v[i, 2] * v[i, 2])
-                b += (x[i, 0] + x[i, 1] + x[i, 2] + force[i, 0] + force[i, 1] + force[i, 2]) * 0.0
-                if mass[i] > 0.0:
-                    p += force[i, 0] * v[i, 0] + force[i, 1] * v[i, 1] + force[i, 2] * v[i, 2]
-        else:
-            for e in range((c - nc) * CHUNK, min(ne, (c - nc + 1) * CHUNK)):
-                if status[e] != ERODED:
-                    s += elem_mass[e] * energy[e]
-                    b += (pressure[e] + sdev[e, 0] + sdev[e, 1] + sdev[e, 2] + sdev[e, 3]
-                          + sdev[e, 4] + sdev[e, 5]) * 0.0
-        part[c, 0] = s
-        part[c, 1] = p
-        bad += b
-    ke = 0.0
-    power = 0.0
-    for c in range(nc):
-        ke += part[c, 0]
-        power += part[c, 1]
+        for i in range(c, min(n, c + CHUNK)):
+            s += mass[i] * (v[i, 0] * v[i, 0] + v[i, 1] * v[i, 1] + v[i, 2] * v[i, 2])
+            bad += (x[i, 0] + x[i, 1] + x[i, 2] + force[i, 0] + force[i, 1] + force[i, 2]) * 0.0
+            if mass[i] > 0.0:
+                p += force[i, 0] * v[i, 0] + force[i, 1] * v[i, 1] + force[i, 2] * v[i, 2]
+        ke += s
+        power += p
     ke *= 0.5
     bad += ke * 0.0
     ie = 0.0
-    for c in range(nc, nc + mc):
-        ie += part[c, 0]
+    for e in range(energy.shape[0]):
+        if status[e] != ERODED:
+            ie += elem_mass[e] * energy[e]
+            bad += (pressure[e] + sdev[e, 0] + sdev[e, 1] + sdev[e, 2] + sdev[e, 3]
+                    + sdev[e, 4] + sdev[e, 5]) * 0.0
     bad += ie * 0.0
     return ke, ie, bad, power
 

@@ -1,6 +1,6 @@
-"""The watch's per-step sums (solver/watch.py ``state_sums``): threaded over fixed chunks, the
-same bits on one and two threads, the chunked sums of the energies, and a non-finite value in any
-watched array of a live node or element caught."""
+"""The watch's per-step sums (solver/watch.py ``state_sums``): the same bits on one and two
+threads, the kinetic energy and force power summed in fixed chunks, the internal energy in
+element order, and a non-finite value in any watched array of a live node or element caught."""
 
 import numba
 import numpy as np
@@ -27,7 +27,8 @@ def _state(seed=0, n=3 * CHUNK + 123, ne=5 * CHUNK + 77):
 
 
 def _reference(x, v, force, mass, sdev, pressure, energy, elem_mass, status):
-    """The sums in the kernel's order: per chunk of CHUNK, chunk partials added in order."""
+    """The sums in the kernel's order: nodes per chunk of CHUNK, chunk partials added in order;
+    elements one after the other."""
     ke = power = ie = 0.0
     for c in range(0, mass.shape[0], CHUNK):
         s = p = 0.0
@@ -37,16 +38,13 @@ def _reference(x, v, force, mass, sdev, pressure, energy, elem_mass, status):
                 p += force[i, 0] * v[i, 0] + force[i, 1] * v[i, 1] + force[i, 2] * v[i, 2]
         ke += s
         power += p
-    for c in range(0, energy.shape[0], CHUNK):
-        s = 0.0
-        for e in range(c, min(energy.shape[0], c + CHUNK)):
-            if status[e] != ERODED:
-                s += elem_mass[e] * energy[e]
-        ie += s
+    for e in range(energy.shape[0]):
+        if status[e] != ERODED:
+            ie += elem_mass[e] * energy[e]
     return 0.5 * ke, ie, power
 
 
-def test_sums_are_the_chunked_sums_on_any_thread_count():
+def test_sums_are_the_same_on_any_thread_count():
     args = _state()
     ke, ie, power = _reference(*args)
     live = args[8] != ERODED
