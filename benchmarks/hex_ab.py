@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import inspect
 import math
 import sys
 import time
@@ -51,8 +50,6 @@ def kernel_call(pkg: str, hourglass: str, warm: int, scalar: bool = False):
     state = {k: getattr(blk, k).copy() for k in STATE}
     state["hard"], state["thermal"] = run.hard.copy(), run.thermal.copy()
     fr = run.rows
-    # a fresh part counter (solver/workqueue.py) per call, for revisions whose kernel takes it
-    takes_counter = "counter" in inspect.signature(H.hex_update.py_func).parameters
 
     def call(a):
         H.hex_update(model.x, model.v, blk.conn, blk.elem_mat, blk.status, a["sdev"],
@@ -60,8 +57,7 @@ def kernel_call(pkg: str, hourglass: str, warm: int, scalar: bool = False):
                      a["hard"], a["thermal"], a["energy"], a["vol"], blk.elem_mass, a["hg"],
                      blk.hg_visc, blk.hg_stiff, model.mat_params, sim.dt, sim.cq, sim.cl,
                      model.force, fr.rows, run.fext, fr.extra_ptr, fr.extra_rows,
-                     fr.part_size // H.CHUNK, run.chunk_out, 1, False,
-                     *((np.zeros(1, np.int64),) if takes_counter else ()))
+                     fr.part_size // H.CHUNK, run.chunk_out, 1, False)
     return call, state, blk.n_elem
 
 

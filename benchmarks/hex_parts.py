@@ -166,7 +166,7 @@ def main(argv=None) -> dict:
                      a["thermal"], a["energy"], a["vol"], blk.elem_mass, a["hg"], blk.hg_visc,
                      blk.hg_stiff, m.mat_params, dt, sim.cq, sim.cl, m.force, fr.rows, run.fext,
                      fr.extra_ptr, fr.extra_rows, fr.part_size // H.CHUNK, run.chunk_out, 1,
-                     False, np.zeros(1, np.int64))
+                     False)
 
     out = {"kernel": cpu_ns(kernel, state, n, args.reps, inner),
            "stream": cpu_ns(lambda a: _stream(

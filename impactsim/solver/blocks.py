@@ -42,8 +42,7 @@ class BlockRunner:
                      b.eps_p, b.eps_rate, b.temperature, self.hard, self.thermal, b.energy,
                      b.vol, b.elem_mass, b.hg, b.hg_visc, b.hg_stiff, model.mat_params, dt, cq,
                      cl, model.force, fr.rows, self.fext, fr.extra_ptr, fr.extra_rows,
-                     fr.part_size // H.CHUNK, self.chunk_out, numba.get_num_threads(), assign,
-                     np.zeros(1, np.int64))
+                     fr.part_size // H.CHUNK, self.chunk_out, numba.get_num_threads(), assign)
         return self.chunk_out
 
 

@@ -51,7 +51,6 @@ from impactsim.materials.laws import (eos_linear_part, hardening, newton_start,
 from impactsim.model import DAMAGED, ERODED, FRACTURED
 from impactsim.solver import vecmath as VM
 from impactsim.solver.scatter import take_node
-from impactsim.solver.workqueue import fetch_add
 
 DAMAGED_F, FRACTURED_F = float(DAMAGED), float(FRACTURED)  # as row R_STAT holds them
 
@@ -1241,9 +1240,9 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
             thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp, dt, cq,
             cl, rows, fext, part_chunks, chunk_out, threads, plastic)
     kernel = _update_parallel if parallel else _update_serial
-    kernel(*args, None, np.zeros(1, np.int64))
+    kernel(*args, None)
     if chunk_out[:, OUT_DEFERRED].any():  # blocks left: masked passes, the mesh's last block
-        kernel(*args, True, np.zeros(1, np.int64))
+        kernel(*args, True)
     (_sum_parallel if parallel else _sum_serial)(force, fext, extra_ptr, extra_rows)
 
 
@@ -1252,21 +1251,16 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
 def _update_parallel(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                      hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
                      use_anp, dt, cq, cl, rows, fext, part_chunks, chunk_out, threads, plastic,
-                     deferred, counter):
-    """element_update's blocks on `threads` threads: each thread takes the next part from
-    `counter` (``workqueue.fetch_add``; zero on entry) until none is left, each part in chunk
-    order; the full blocks (`_chunk`) with `deferred` None, else the blocks they left
-    (`_deferred_chunk`): two specialisations, pruned at compile time. A part's force rows and
-    chunk results have that part as their one writer, so which thread runs it changes no bit."""
+                     deferred):
+    """element_update's blocks on `threads` threads: parts t, t + threads, t + 2 threads, ... on
+    thread t, each in chunk order; the full blocks (`_chunk`) with `deferred` None, else the
+    blocks they left (`_deferred_chunk`): two specialisations, pruned at compile time."""
     half = 0.5 * dt
     n_ch = (conn.shape[0] + CHUNK - 1) // CHUNK
     n_parts = (n_ch + part_chunks - 1) // part_chunks
     for t in numba.prange(threads):
         buf = aligned_empty(TET_ROWS * B)  # one block buffer per thread and step
-        while True:
-            part = fetch_add(counter, 1)
-            if part >= n_parts:
-                break
+        for part in range(t, n_parts, threads):
             c0, c1 = part * part_chunks, min(n_ch, (part + 1) * part_chunks)
             if deferred is None:
                 _chunk(c0, c1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
@@ -1286,8 +1280,8 @@ def _update_parallel(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
 def _update_serial(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                    hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
                    use_anp, dt, cq, cl, rows, fext, part_chunks, chunk_out, threads, plastic,
-                   deferred, counter):
-    """`_update_parallel` on one thread (`counter` not read): the chunks in order (the parts' order), `_chunk` called
+                   deferred):
+    """`_update_parallel` on one thread: the chunks in order (the parts' order), `_chunk` called
     from here directly (numba links a called kernel's code into its caller and optimises it
     again there, so every level of calls costs compile time: one more, 1.5 s)."""
     buf = aligned_empty(TET_ROWS * B)

@@ -60,7 +60,6 @@ from impactsim.solver import vecmath as VM
 from impactsim.solver.element import FAST, _deviator, _deviatoric_work, _jaumann_trial
 from impactsim.solver.hex8_block import _vol_der
 from impactsim.solver.scatter import take_node
-from impactsim.solver.workqueue import fetch_add
 
 B = E.B  # lanes of a block of the vector path (hex8_block.py)
 CHUNK = 256  # hexes per reduction chunk (a multiple of B)
@@ -324,27 +323,24 @@ def _vector_block(elem_mat, status, e0):
 def hex_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                hard, thermal, energy, vol, elem_mass, hg, hg_visc, hg_stiff, mat_params, dt, cq,
                cl, force, rows, fext, extra_ptr, extra_rows, part_chunks, chunk_out, threads,
-               assign, counter):
+               assign):
     """Advance every hex of a block from n to n+1 and ADD its nodal forces to `force` (after
     the tets' element update has written it; with `assign` they are written instead, for the
     first block of a model without tets). fext must be zero on entry and is left zero. Per chunk of CHUNK hexes, chunk_out holds
     [min stable dt, viscous work, inverted count, element of min dt, hourglass work].
-    Parts of `part_chunks` chunks run one per thread, each of the `threads` threads taking the
-    next part from `counter` (zero on entry, `workqueue.fetch_add`) until none is left; every
-    corner adds to its row of `fext` (`scatter.force_rows(conn, n_node, part_chunks * CHUNK)`
-    for the (n, 8) conn), and each node's rows are added to force in part order: the same bits
-    on any number of threads, whichever thread runs a part."""
+    Parts of `part_chunks` chunks run one per thread (part t, t + T, ... on thread t of
+    T = `threads`), every corner adds to its row of `fext` (`scatter.force_rows(conn, n_node,
+    part_chunks * CHUNK)` for the (n, 8) conn), and each node's rows are added to force in part
+    order: the same bits on any
+    number of threads."""
     n_elem = conn.shape[0]
     half = 0.5 * dt
     n_ch = (n_elem + CHUNK - 1) // CHUNK
     n_parts = (n_ch + part_chunks - 1) // part_chunks
-    for _ in numba.prange(threads):
+    for t in numba.prange(threads):
         w = np.empty(SCRATCH)
         buf = E.aligned_empty(HB.HROWS * B)  # the block buffer of the vector path
-        while True:
-            part = fetch_add(counter, 1)
-            if part >= n_parts:
-                break
+        for part in range(t, n_parts, threads):
             for ch in range(part * part_chunks, min(n_ch, (part + 1) * part_chunks)):
                 dt_min = math.inf
                 worst = -1
