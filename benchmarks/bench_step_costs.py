@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import copy
 import importlib
+import inspect
 import sys
 import time
 from pathlib import Path
@@ -103,10 +104,12 @@ def main(argv=None) -> int:
         res = {}
         for _ in range(2):
             for side, fn in (("old", old_fc), ("new", C.fracture_criteria)):
-                t, out, used = best_cpu(fn, lambda: copy.deepcopy(args), a.reps)
+                # a revision whose kernel takes fewer arguments (before the guard's reach)
+                n = len(inspect.signature(fn.py_func).parameters)
+                t, out, used = best_cpu(fn, lambda: copy.deepcopy(args[:n]), a.reps)
                 times[side].append(t)
                 res[side] = (out, used[20].copy(), used[5].copy())
-        same = (res["old"][0] == res["new"][0] and np.array_equal(res["old"][1], res["new"][1])
+        same = (res["old"][0][:4] == res["new"][0][:4] and np.array_equal(res["old"][1], res["new"][1])
                 and np.array_equal(res["old"][2], res["new"][2]))
         print(f"fracture_criteria at call {k} (dt {args[19]:.3g} s): "
               f"{1e3 * min(times['old']):.2f} -> {1e3 * min(times['new']):.2f} ms; "

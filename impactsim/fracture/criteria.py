@@ -295,7 +295,8 @@ def element_action(e, mk, st, on_surface, lone, surface_only, eps_p, damage, tem
 @numba.njit(cache=True, parallel=True)
 def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p,
                       eps_p_prev, damage, eps_rate, temperature, mat_params, face_flag, adj,
-                      surface_only, dt, action, spall_mode, pnode, jnode, spall_k, integrate):
+                      surface_only, dt, action, spall_mode, pnode, jnode, spall_k, integrate,
+                      reach):
     """Apply spall and loosening to ``status`` and decide ``action (e,) int8`` (module docstring).
 
     face_flag (4e,) bool free faces and adj (e,4) face neighbours at t = 0 (-1: none)
@@ -303,9 +304,11 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
     spall reads, from the element's own and p_patch from pnode, the nodal means of
     `patch_fields` (not read for "cell"; jnode is not read). spall_k (e,) the Tuler-Butcher
     accumulators, integrate: `[fracture] spall_criterion = "tuler-butcher"` (spall.py).
-    eps_p_prev (e,) plastic strain at the previous call (updated here). Returns
-    (newly damaged, newly fractured, elements with an action, newly damaged by the ductile
-    criterion). The pointwise steps
+    eps_p_prev (e,) plastic strain at the previous call (updated here). ``reach``: the guard's
+    pre-test reach (``guard_reach`` for h = 2.2 dt), or inf to run the full guard alone.
+    Returns (newly damaged, newly fractured, elements with an action, newly damaged by the
+    ductile criterion, cells the guard tested, of them cleared by the pre-test). The
+    pointwise steps
     (``element_state``, ``element_action``) are shared with the hexes' kernel
     (impactsim.fracture.hexes).
     """
@@ -314,7 +317,9 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
     n_frac = 0
     n_act = 0
     n_duct = 0
-    reach = guard_reach(x, v, 2.2 * dt)  # the guard's pre-test (guard_clear)
+    n_guard = 0
+    n_clear = 0
+    pretest = reach < math.inf  # the guard's pre-test (guard_clear); nan: it clears nothing
     inv = 1.0 / (2.0 * GUARD_K * reach) if reach > 0.0 else math.inf
     for e in numba.prange(n_elem):
         action[e] = NONE
@@ -345,14 +350,59 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
                              temperature, mat_params, stretch)
         if act == NONE and failing_material(mat_params, mk):
             lim = 6.0 * GUARD_FRACTION * vol0[e]
-            if not guard_clear(x, i0, i1, i2, i3, reach, inv, lim) and (
-                    _volume6(x, v, 1.1 * dt, i0, i1, i2, i3) < lim
-                    or _volume6(x, v, 2.2 * dt, i0, i1, i2, i3) < lim):
+            n_guard += 1
+            if pretest and guard_clear(x, i0, i1, i2, i3, reach, inv, lim):
+                n_clear += 1
+            elif (_volume6(x, v, 1.1 * dt, i0, i1, i2, i3) < lim
+                  or _volume6(x, v, 2.2 * dt, i0, i1, i2, i3) < lim):
                 act = GUARD
         action[e] = act
         if act != NONE:
             n_act += 1
-    return n_dam, n_frac, n_act, n_duct
+    return n_dam, n_frac, n_act, n_duct, n_guard, n_clear
+
+
+class GuardPretest:
+    """Whether the distortion guard's pre-test (``guard_clear``, ``hexes.hex_clear``) runs.
+
+    Its bound grows with the spread of all node velocities: where that is large against the
+    cells (a 2 km/s projectile through 0.5 mm cells, sphere-plate) it clears few cells, which
+    then pay for it and for the full test. So the pre-test runs while it clears at least
+    MIN_SHARE of the cells the guard tests in a step; below that it rests for PROBE steps and is
+    tried again. The actions are the full guard's either way (the pre-test only skips cells
+    the full test cannot flag), so this decides cost only, never a result; the counts, and so
+    the decisions, are the same on any number of threads."""
+
+    MIN_SHARE = 0.5
+    PROBE = 50
+
+    def __init__(self):
+        self.on = True
+        self.idle = 0
+        self.tested = 0
+        self.cleared = 0
+
+    def reach(self, model, dt) -> float:
+        """The reach for a kernel about to run (``guard_reach`` for h = 2.2 dt, from the
+        velocities as they are then: a removal before it may have changed some), inf while the
+        pre-test rests."""
+        return float(guard_reach(model.x, model.v, 2.2 * dt)) if self.on else math.inf
+
+    def count(self, tested: int, cleared: int) -> None:
+        """Add a kernel's counts of cells the guard tested and the pre-test cleared."""
+        self.tested += int(tested)
+        self.cleared += int(cleared)
+
+    def end_step(self) -> None:
+        """After the step's kernels: keep the pre-test, rest it, or try it again."""
+        if self.on:
+            if self.tested and self.cleared < self.MIN_SHARE * self.tested:
+                self.on = False
+                self.idle = 0
+        else:
+            self.idle += 1
+            self.on = self.idle >= self.PROBE
+        self.tested = self.cleared = 0
 
 
 @numba.njit(cache=True)

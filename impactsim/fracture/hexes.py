@@ -168,18 +168,23 @@ def hex_stretch(x, x0, conn, e, xi):
 @numba.njit(cache=True, parallel=True)
 def hex_fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p,
                           eps_p_prev, damage, eps_rate, temperature, mat_params, face_flag, adj,
-                          surface_only, dt, action, spall_mode, pnode, xi, spall_k, integrate):
+                          surface_only, dt, action, spall_mode, pnode, xi, spall_k, integrate,
+                          reach):
     """``criteria.fracture_criteria`` on a hex block (module docstring): applies spall and
     loosening to ``status`` and decides ``action (n,) int8``. face_flag (6n,) free quads and adj
     (n, 6) quad neighbours at t = 0 (``HexBoundary``); pnode the nodal means of
     ``criteria.patch_fields`` over the block (read unless spall_mode is "cell"); spall_k, integrate
-    the Tuler-Butcher accumulators and criterion (``spall.spalls``). Returns (newly damaged,
-    newly fractured, hexes with an action, newly damaged by the ductile criterion)."""
+    the Tuler-Butcher accumulators and criterion (``spall.spalls``); reach, the guard's
+    pre-test (``hex_clear``), as in ``criteria.fracture_criteria``. Returns (newly damaged,
+    newly fractured, hexes with an action, newly damaged by the ductile criterion, hexes the
+    guard tested, of them cleared by the pre-test)."""
     n_dam = 0
     n_frac = 0
     n_act = 0
     n_duct = 0
-    reach = C.guard_reach(x, v, 2.2 * dt)  # the guard's pre-test (hex_clear)
+    n_guard = 0
+    n_clear = 0
+    pretest = reach < math.inf
     for e in numba.prange(conn.shape[0]):
         action[e] = C.NONE
         st = status[e]
@@ -213,14 +218,16 @@ def hex_fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol,
                                damage, temperature, mat_params, stretch)
         if act == C.NONE and C.failing_material(mat_params, mk):
             lim = C.GUARD_FRACTION * vol0[e]
-            if not hex_clear(x, conn, e, reach, lim) and (
-                    hex_volume(x, v, 1.1 * dt, conn, e) < lim
-                    or hex_volume(x, v, 2.2 * dt, conn, e) < lim):
+            n_guard += 1
+            if pretest and hex_clear(x, conn, e, reach, lim):
+                n_clear += 1
+            elif (hex_volume(x, v, 1.1 * dt, conn, e) < lim
+                  or hex_volume(x, v, 2.2 * dt, conn, e) < lim):
                 act = C.GUARD
         action[e] = act
         if act != C.NONE:
             n_act += 1
-    return n_dam, n_frac, n_act, n_duct
+    return n_dam, n_frac, n_act, n_duct, n_guard, n_clear
 
 
 @numba.njit(cache=True)
@@ -498,9 +505,11 @@ class HexFracture:
             move_node_elements(ptr, n2e, 8, e, j, old, new)
             self._n2e = (ptr, n2e, blk.conn)
 
-    def criteria(self, model, dt: float, surface_only: bool, spall_mode: int, integrate: bool):
+    def criteria(self, model, dt: float, surface_only: bool, spall_mode: int, integrate: bool,
+                 guard=None):
         """Run the criteria on the block; returns (newly damaged, newly fractured, ascending ids
-        of the hexes with an action); adds the ductile criterion's share to self.ductile."""
+        of the hexes with an action); adds the ductile criterion's share to self.ductile.
+        ``guard``: the pre-test's ``criteria.GuardPretest`` (None: always the full guard)."""
         b, blk = self.boundary, self.blk
         np.copyto(self.status_before, blk.status)  # what the element update saw
         if spall_mode != SPALL_CELL:
@@ -510,11 +519,14 @@ class HexFracture:
                 self._n2e = (*node_to_element(blk.conn, model.n_node), blk.conn)
             C.patch_fields(blk.vol, blk.vol0, blk.pressure, blk.status, self._n2e[0],
                            self._n2e[1], self.pnode, self.jnode, 8)
-        n_dam, n_frac, n_act, n_duct = hex_fracture_criteria(
+        reach = math.inf if guard is None else guard.reach(model, dt)
+        n_dam, n_frac, n_act, n_duct, n_guard, n_clear = hex_fracture_criteria(
             model.x, model.v, model.x0, blk.conn, blk.elem_mat, blk.status, blk.sdev,
             blk.pressure, blk.vol, blk.vol0, blk.eps_p, self.eps_p_prev, blk.damage,
             blk.eps_rate, blk.temperature, model.mat_params, b.face_flag, b.adj, surface_only,
-            dt, self.action, spall_mode, self.pnode, XI, self.spall_k, integrate)
+            dt, self.action, spall_mode, self.pnode, XI, self.spall_k, integrate, reach)
+        if guard is not None:
+            guard.count(n_guard, n_clear)
         ids = self.ids[:C.action_ids(self.action, self.ids)] if n_act else self.ids[:0]
         self.ductile += int(n_duct)
         return int(n_dam), int(n_frac), ids

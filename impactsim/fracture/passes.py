@@ -127,6 +127,7 @@ class FracturePass(Pass):
         self.s = state
         self.sim = None
         self.criteria = None  # any material with failure data (set at the first run)
+        self.guard = C.GuardPretest()  # whether the distortion guard's pre-test pays
 
     def attach(self, sim) -> None:
         """Bind the integrator: the nodal forces of a removed element's nodes are recomputed
@@ -168,12 +169,14 @@ class FracturePass(Pass):
         if s.spall_mode != SPALL_CELL:
             C.patch_fields(model.vol, model.vol0, model.pressure, model.status, model.n2e_ptr,
                            model.n2e, s.pnode, s.jnode, 4)
-        n_dam, n_frac, n_act, n_duct = C.fracture_criteria(
+        reach = self.guard.reach(model, dt)
+        n_dam, n_frac, n_act, n_duct, n_guard, n_clear = C.fracture_criteria(
             model.x, model.v, model.x0, model.conn, model.elem_mat, model.status, model.sdev,
             model.pressure, model.vol, model.vol0, model.eps_p, s.eps_p_prev, model.damage,
             model.eps_rate, model.temperature, model.mat_params, b.face_flag, b.adj,
             s.surface_only, dt, s.action, s.spall_mode, s.pnode, s.jnode, s.spall_k,
-            s.spall_integrate)
+            s.spall_integrate, reach)
+        self.guard.count(n_guard, n_clear)
         s.counts["damaged"] += int(n_dam)
         s.counts["ductile"] += int(n_duct)
         s.counts["fractured"] += int(n_frac)
@@ -181,11 +184,12 @@ class FracturePass(Pass):
             self._remove(model, s.ids[:C.action_ids(s.action, s.ids)])
         for hf in s.hexes:  # the hex blocks (fracture/hexes.py)
             n_dam, n_frac, ids = hf.criteria(model, dt, s.surface_only, s.spall_mode,
-                                             s.spall_integrate)
+                                             s.spall_integrate, self.guard)
             s.counts["damaged"] += n_dam
             s.counts["fractured"] += n_frac
             if ids.shape[0]:
                 self._remove_hexes(model, hf, ids, hf.action[ids], dt)
+        self.guard.end_step()
 
     def _remove(self, model, ids, kinds=None):
         s = self.s

@@ -219,3 +219,32 @@ def test_a_flat_cap_closing_head_on_is_cleared_only_just_in_time(height, slack):
     assert not _flagged(x, v, dt, t, lo)
     worst = min(_volume6(x, v, 1.1 * dt, *t), _volume6(x, v, 2.2 * dt, *t))
     assert worst > lo > worst - slack * (_volume6(x, v, 0.0, *t) - worst)
+
+
+def test_the_pretest_rests_where_it_clears_few_cells_and_is_tried_again():
+    """GuardPretest (criteria.py): off after a step where it cleared less than MIN_SHARE of the
+    tested cells (its reach is then inf: the kernels run the full guard alone), on again after
+    PROBE steps; it decides cost only (the guard's actions do not depend on it)."""
+    import math
+
+    from impactsim.fracture.criteria import GuardPretest
+
+    class M:
+        x = np.zeros((3, 3))
+        v = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.0]])
+
+    g = GuardPretest()
+    assert 0.0 < g.reach(M, 1e-6) < math.inf
+    g.count(100, 90)
+    g.end_step()
+    assert g.on  # 90 % cleared: it pays
+    g.count(100, 10)
+    g.end_step()
+    assert not g.on and g.reach(M, 1e-6) == math.inf
+    for _ in range(GuardPretest.PROBE - 1):
+        g.end_step()
+        assert not g.on
+    g.end_step()
+    assert g.on and g.reach(M, 1e-6) < math.inf
+    g.end_step()  # a step without tested cells keeps it on
+    assert g.on
