@@ -225,6 +225,31 @@ def _lower(keys, key):
 
 
 @numba.njit(cache=True, inline="always")
+def _joins_and_leaves(changed, keys, count):
+    """Of the ``changed`` keys (mesh edges or nodes, ascending), those that join the ascending
+    list ``keys`` (count > 0 now, not listed) with the position of the old entry they go
+    before, and the positions of those that leave it (listed, count 0 now): (joining keys,
+    their positions, leaving positions, how many join, how many leave)."""
+    add = np.empty(changed.shape[0], np.int64)
+    ins = np.empty(changed.shape[0], np.int64)
+    dele = np.empty(changed.shape[0], np.int64)
+    na = 0
+    nd = 0
+    for k in range(changed.shape[0]):
+        c = changed[k]
+        at = _lower(keys, c)
+        was = at < keys.shape[0] and keys[at] == c
+        if count[c] > 0 and not was:
+            add[na] = c
+            ins[na] = at
+            na += 1
+        elif was and not count[c] > 0:
+            dele[nd] = at
+            nd += 1
+    return add, ins, dele, na, nd
+
+
+@numba.njit(cache=True, inline="always")
 def _lower_face(face_elem, face_local, slot):
     """``_lower`` over the face keys 4 * face_elem + face_local (ascending)."""
     lo, hi = 0, face_elem.shape[0]
@@ -300,38 +325,8 @@ def _compact_changes(events, m, face_flag, edge_count, node_count, conn, elem_bo
             nd_f += 1
     ce = np.unique(ce)
     cn = np.unique(cn)
-    add_e = np.empty(ce.shape[0], np.int64)
-    ins_e = np.empty(ce.shape[0], np.int64)
-    del_e = np.empty(ce.shape[0], np.int64)
-    na_e = 0
-    nd_e = 0
-    for k in range(ce.shape[0]):
-        me = ce[k]
-        at = _lower(edge_mesh, me)
-        was = at < edge_mesh.shape[0] and edge_mesh[at] == me
-        if edge_count[me] > 0 and not was:
-            add_e[na_e] = me
-            ins_e[na_e] = at
-            na_e += 1
-        elif was and not edge_count[me] > 0:
-            del_e[nd_e] = at
-            nd_e += 1
-    add_n = np.empty(cn.shape[0], np.int64)
-    ins_n = np.empty(cn.shape[0], np.int64)
-    del_n = np.empty(cn.shape[0], np.int64)
-    na_n = 0
-    nd_n = 0
-    for k in range(cn.shape[0]):
-        i = cn[k]
-        at = _lower(nodes, i)
-        was = at < nodes.shape[0] and nodes[at] == i
-        if node_count[i] > 0 and not was:
-            add_n[na_n] = i
-            ins_n[na_n] = at
-            na_n += 1
-        elif was and not node_count[i] > 0:
-            del_n[nd_n] = at
-            nd_n += 1
+    add_e, ins_e, del_e, na_e, nd_e = _joins_and_leaves(ce, edge_mesh, edge_count)
+    add_n, ins_n, del_n, na_n, nd_n = _joins_and_leaves(cn, nodes, node_count)
     # each list: runs of kept old entries copied whole, new entries inserted before the old
     # entry their lower bound names, deleted ones skipped
     # edges (mesh index order), with the old -> new index of each kept edge
