@@ -521,6 +521,7 @@ class SpatialHash:
         self.pairs_buf = np.zeros((max(pair_capacity, 16), 2), dtype=np.int64)
         self.grows = 0  # how often a buffer had to grow (reported in the pass summary)
         self.chunk_counts = np.zeros(1, dtype=np.int64)
+        self.counter = np.zeros(1, dtype=np.int64)  # the threaded query's (solver/workqueue.py)
         self.box_rows = np.zeros((16, 8))  # the hashed boxes, one row (lo, hi, 2 unused) each
         self.n_entries = 0
 
@@ -565,8 +566,9 @@ class SpatialHash:
                     self.inv_h, self.tbits, self.bucket_start, self.keys, self.ents, self.boxes,
                     self.pairs_buf)
             if chunked:
+                self.counter[0] = 0
                 n = query_pairs_chunked(QUERY_CHUNK, self.chunk_counts[:n_chunk], *args,
-                                        numba.get_num_threads(), np.zeros(1, np.int64))
+                                        numba.get_num_threads(), self.counter)
             else:
                 n = query_pairs(*args)
             if n <= self.pairs_buf.shape[0]:

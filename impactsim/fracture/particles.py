@@ -42,7 +42,6 @@ from impactsim.contact.geometry import (barycentric_numerators, clamped_weights,
                                         segment, triangle_normal, unit_normal)
 from impactsim.contact.impulse import NO_LOCK
 from impactsim.contact.nodeface import point_face_impulse
-from impactsim.solver.workqueue import fetch_add
 
 
 class Particles:
@@ -281,16 +280,8 @@ def faces_near(x, v, tau, faces, face_body, n_faces, pad, cloud, lo, hi, sel, se
     only they can meet a particle this step. Writes their rows (in order) to ``sel (k, 3)``,
     bodies to ``sel_body``, boxes to ``lo, hi`` and widens ``bounds (2, 3)`` to cover them;
     returns k. Linear in the number of faces, no allocation."""
-    return _faces_near_rows(0, n_faces, x, v, tau, faces, face_body, pad, cloud, lo, hi, sel,
-                            sel_body, bounds, 0)
-
-
-@numba.njit(cache=True, inline="always")
-def _faces_near_rows(f0, f1, x, v, tau, faces, face_body, pad, cloud, lo, hi, sel, sel_body,
-                     bounds, k):
-    """``faces_near`` for the face rows [f0, f1), writing from row k on; returns the row after
-    the last written."""
-    for f in range(f0, f1):
+    k = 0
+    for f in range(n_faces):
         inside = True
         for d in range(3):
             a = np.inf
@@ -313,48 +304,6 @@ def _faces_near_rows(f0, f1, x, v, tau, faces, face_body, pad, cloud, lo, hi, se
             bounds[0, d] = min(bounds[0, d], lo[k, d])
             bounds[1, d] = max(bounds[1, d], hi[k, d])
         k += 1
-    return k
-
-
-NEAR_CHUNK = 4096  # face rows per chunk of faces_near_chunked (fixed: any thread count)
-NEAR_MIN_CHUNKS = 2  # face lists of fewer chunks are filtered on one thread (faces_near)
-
-
-@numba.njit(cache=True, parallel=True)
-def faces_near_chunked(x, v, tau, faces, face_body, n_faces, pad, cloud, lo, hi, sel, sel_body,
-                       bounds, counts, part_bounds, threads, counter):
-    """``faces_near`` over ``threads`` threads: chunk c of NEAR_CHUNK face rows writes its faces
-    from row c * NEAR_CHUNK on (``counts (n_chunk,)``, ``part_bounds (n_chunk, 2, 3)``
-    scratch; the threads take the chunks from ``counter``, zero on entry:
-    ``solver.workqueue``), then the chunks' rows are moved together in chunk order. The same
-    rows in the same order and the same bounds (minima and maxima do not depend on the order)
-    as ``faces_near``. ``lo, hi, sel, sel_body`` need n_faces rows."""
-    nc = counts.shape[0]
-    for _ in numba.prange(threads):
-        while True:
-            c = fetch_add(counter, 1)
-            if c >= nc:
-                break
-            for d in range(3):
-                part_bounds[c, 0, d] = np.inf
-                part_bounds[c, 1, d] = -np.inf
-            f0 = c * NEAR_CHUNK
-            counts[c] = _faces_near_rows(f0, min(n_faces, f0 + NEAR_CHUNK), x, v, tau, faces,
-                                         face_body, pad, cloud, lo, hi, sel, sel_body,
-                                         part_bounds[c], f0) - f0
-    k = 0
-    for c in range(nc):
-        src = c * NEAR_CHUNK
-        for a in range(counts[c]):
-            for d in range(3):
-                lo[k + a, d] = lo[src + a, d]
-                hi[k + a, d] = hi[src + a, d]
-                sel[k + a, d] = sel[src + a, d]
-            sel_body[k + a] = sel_body[src + a]
-        k += counts[c]
-        for d in range(3):
-            bounds[0, d] = min(bounds[0, d], part_bounds[c, 0, d])
-            bounds[1, d] = max(bounds[1, d], part_bounds[c, 1, d])
     return k
 
 

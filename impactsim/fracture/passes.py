@@ -29,7 +29,6 @@ mass_final (elements plus particles), particles, eroded_elements, and per body r
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
 from impactsim.contact.broadphase import SpatialHash, grid_for
@@ -41,9 +40,7 @@ from impactsim.fracture.fragments import cloud_axis, cloud_summary, leading_edge
 from impactsim.solver.blocks import hex_corner_forces
 from impactsim.fracture.hexes import HexFracture, pass_orphan_forces
 from impactsim.fracture.measures import body_measures, shield_summary
-from impactsim.fracture import particles
-from impactsim.fracture.particles import (NEAR_CHUNK, NODE_COLS, Particles, faces_near,
-                                          faces_near_chunked, move_particles,
+from impactsim.fracture.particles import (NODE_COLS, Particles, faces_near, move_particles,
                                           pack_face_nodes, particle_boxes,
                                           particle_face_sweep_packed, particle_particle_sweep,
                                           particle_walls)
@@ -331,8 +328,8 @@ class ParticlePass(Pass):
             k = 0
             for b in lists:  # the faces near the particles, list after list
                 if b.n:
-                    k += self._faces_near(model, dt, b, pad, flo[k:], fhi[k:], sel[k:],
-                                          sel_body[k:])
+                    k += faces_near(model.x, model.v, dt, b.faces, b.face_body, b.n, pad,
+                                    cloud, flo[k:], fhi[k:], sel[k:], sel_body[k:], bounds)
             if k:
                 origin, cell = grid_for([(bounds[:1], bounds[1:])], max(s.h_face, 2.0 * r_max))
                 self.hash.build(flo[:k], fhi[:k], origin, cell)
@@ -361,27 +358,6 @@ class ParticlePass(Pass):
         model.energy_terms["contact_dissipated"] -= work
         move_particles(pa.x, pa.v, n, dt)
         s.update_particle_energy(model)
-
-    def _faces_near(self, model, dt, b, pad, flo, fhi, sel, sel_body) -> int:
-        """``faces_near`` of the face list b into the rows given (widening self.bounds), over
-        the threads for a long list: the same rows, boxes and bounds either way."""
-        args = (model.x, model.v, dt, b.faces, b.face_body, b.n, pad, self.cloud, flo, fhi,
-                sel, sel_body, self.bounds)
-        threads = numba.get_num_threads()
-        n_chunk = -(-b.n // NEAR_CHUNK)
-        if n_chunk < particles.NEAR_MIN_CHUNKS or threads < 2:
-            return faces_near(*args)
-        counts = self._buffer("near.counts", n_chunk, np.int64, None)
-        return faces_near_chunked(*args, counts, self._part_bounds(n_chunk), threads,
-                                  np.zeros(1, np.int64))
-
-    def _part_bounds(self, n_chunk):
-        """Scratch (n_chunk, 2, 3) for the chunks' bounds (faces_near_chunked)."""
-        b = self._buf.get("near.part")
-        if b is None or b.shape[0] < n_chunk:
-            b = np.empty((n_chunk * 3 // 2 + 1, 2, 3))
-            self._buf["near.part"] = b
-        return b[:n_chunk]
 
     def summary(self, model):
         return {"fracture.particles": {"particle_face_impacts": self.impacts,
