@@ -61,7 +61,8 @@ import math
 import numpy as np
 
 from impactsim.contact.broadphase import (OCC_CELL, OCC_MAX_BODIES, Occupancy, SpatialHash,
-                                          body_bounds, grid_from_bounds, select_boxes)
+                                          body_bounds, grid_from_bounds, mark_cells,
+                                          select_boxes)
 from impactsim.contact.diagnostics import PenetrationMeter
 from impactsim.contact.edgeedge import GEO_COLS as EE_GEO_COLS
 from impactsim.contact.edgeedge import (edge_edge_sweep, edge_normals_of, faces_at_edges)
@@ -136,6 +137,24 @@ class ContactContext:
         # separation sets the mesh node each copy came from, so that the faces a release opens
         # (coincident, sharing the copies of one node) are not taken for contacting ones.
         self.node_key = None
+        # counts the surface's rebuilds and reconnections (node separation): a kept candidate
+        # list follows erosion (contact.skin), and is built afresh after those
+        self.topology = 0
+        self._ident = (None, -1, None)
+
+    def identities(self):
+        """(faces, edges, nodes): the identities of the surface's entities, increasing in the
+        canonical order of its compact arrays (``SkinList.follow``): a face's element and local
+        face (and which of a hex quad's two triangles), an edge's mesh edge, a node's index."""
+        s = self.surface
+        if self._ident[0] is not s or self._ident[1] != s.version:
+            f = s.face_elem.astype(np.int64) * 16 + s.face_local
+            twin = np.zeros(f.shape[0], np.int64)
+            if f.shape[0] > 1:
+                twin[1:] = f[1:] == f[:-1]
+            self._ident = (s, s.version, (2 * f + twin, s.edge_mesh.astype(np.int64),
+                                          s.nodes.astype(np.int64)))
+        return self._ident[2]
 
     def lock(self, model) -> np.ndarray:
         """``prescribed_lock(model)``, cached (`PrescribedLock`)."""
@@ -148,6 +167,7 @@ class ContactContext:
         self._conn_shape = model.conn.shape
         self._h_key = None
         self.proxy = _proxy(model)
+        self.topology += 1
 
     def reconnect_surface(self, model, changed, hex_changed=None) -> None:
         """After node separation repointed the corners of the tets ``changed`` and of the hexes
@@ -170,12 +190,14 @@ class ContactContext:
             self.surface.reconnect(model.conn, changed)
         self._conn_shape = model.conn.shape
         self._h_key = None
+        self.topology += 1
 
     def prepare(self, model) -> float:
         """Follow erosion (status) and return the current mean surface edge length h [m]."""
         if model.conn.shape != self._conn_shape:
             self.surface = Surface.from_model(model)
             self._conn_shape = model.conn.shape
+            self.topology += 1
         changed = self.surface.sync(model.status)
         key = (model.step, self.surface.version)
         if changed or key != self._h_key:
@@ -427,6 +449,24 @@ def _band_max(ctx, h, pad_b) -> float:
     return ctx.band_rel * (h + 2.0 * math.sqrt(3.0) * pad_b)
 
 
+def _copies(record, sel, lo, hi):
+    """(sel, lo, hi) copied when a build records what it selects (else None)."""
+    return None if record is None else (sel.copy(), lo.copy(), hi.copy())
+
+
+def _mark_dropped(marks, before, sel, body) -> None:
+    """Mark in ``marks`` the cells of the rows of ``before`` (sel, lo, hi) not in ``sel``
+    (the rows the occupancy grid kept, a subsequence): the rows it left out."""
+    if marks is None:
+        return
+    sel0, lo0, hi0 = before
+    at = np.minimum(np.searchsorted(sel, sel0), max(sel.shape[0] - 1, 0))
+    out = ~((sel.shape[0] > 0) & (sel[at] == sel0)) if sel.shape[0] else np.ones(
+        sel0.shape[0], bool)
+    mark_cells(sel0[out], lo0[out], hi0[out], body, marks.origin, marks.inv_c, marks.dims,
+               marks.gen, marks.bits, marks.g)
+
+
 def _lift(pairs, qsel, esel):
     """Pairs of selected rows -> pairs of full rows (order is kept: the maps are increasing)."""
     if pairs.shape[0]:
@@ -511,21 +551,25 @@ class ContactPass(Pass):
         ctx = self.ctx
         s = ctx.surface
         pad = BOX_PAD * h
-        if not self.skin.skin_rel > 0.0:  # no kept list: the broad phase afresh every step
+        sk = self.skin
+        if not sk.skin_rel > 0.0:  # no kept list: the broad phase afresh every step
             return self._fresh_pairs(model, dt, h, pad, hashed, queries)
-        ents = (hashed[1],) if queries is None else (hashed[1], queries[1])
-        state = self.skin.state(s, ctx.node_key, ents, model.x, model.v, dt, pad)
-        if state == "changed":  # the surface changed: no list kept this step
-            return self._fresh_pairs(model, dt, h, pad, hashed, queries)
+        sides = self._sides(hashed, queries)
+        state = sk.state(s, ctx.node_key, ctx.topology, model.x, model.v, dt, pad, h)
+        if state == "changed" and not sk.follow(s, sides, ctx.node_key, self.hash,
+                                                self._far_of_list):
+            state = "build"
         if state == "build":
-            pad_b = pad + 0.5 * self.skin.skin_rel * h
-            kept = self._fresh_pairs(model, 0.0, h, pad_b, hashed, queries)
-            self.skin.keep(s, ctx.node_key, ents, model.x, kept, pad_b,
-                           self._far_apart(model, kept, h, pad_b))
-        kept = self.skin.pairs
+            pad_b = pad + 0.5 * sk.skin_rel * h
+            record = sk.new_record()
+            kept = self._fresh_pairs(model, 0.0, h, pad_b, hashed, queries, record)
+            self._h_b = h
+            sk.keep(s, ctx.node_key, ctx.topology, sides, model.x, kept, pad_b,
+                    h + 2.0 * math.sqrt(3.0) * pad_b,
+                    self._far_apart(model.x, kept, h, pad_b), record, ctx.self_contact)
+        kept = sk.pairs
         if kept.shape[0] == 0:
             return _NO_PAIRS
-        sk = self.skin
         name, _, body = hashed[:3]
         elo, ehi = ctx.all_boxes(name, model, dt, sk.e_ent, body, pad)
         qlo, qhi = elo, ehi
@@ -537,14 +581,33 @@ class ContactPass(Pass):
         self._init = far[:n]
         return out[:n]
 
-    def _far_apart(self, model, kept, h, pad_b):
+    def _sides(self, hashed, queries):
+        """Per side of the broad phase (hashed, then queries if any): (entity rows, bodies,
+        keys, identities) for the kept list (``SkinList.follow``)."""
+        faces, edges, nodes = self.ctx.identities()
+        ident = {"nf.face": faces, "ee.edge": edges, "nf.node": nodes}
+        out = []
+        for side in (hashed, queries):
+            if side is not None:
+                out.append((side[1], side[2], side[3] if len(side) > 3 else side[1],
+                            ident[side[0]]))
+        return out
+
+    def _far_of_list(self, pairs, xb):
+        """``_far_apart`` of pairs added to the kept list: at the build's positions ``xb``,
+        with its h and padding."""
+        return self._far_apart(xb, pairs, self._h_b, self.skin._pad_b)
+
+    def _far_apart(self, x, kept, h, pad_b):
         """Per kept pair, the sweep's start value: its pass's FAR for the pairs apart for as
-        long as the list is kept (the pass's ``far_apart``), else 0; None: all 0."""
+        long as the list is kept (the pass's ``far_apart``, at the build's positions x), else
+        0; None: all 0."""
         return None
 
-    def _fresh_pairs(self, model, dt, h, pad, hashed, queries) -> np.ndarray:
+    def _fresh_pairs(self, model, dt, h, pad, hashed, queries, record=None) -> np.ndarray:
         """The broad phase of ``_broad_phase`` run afresh with boxes swept over dt (0: static
-        boxes) and padded by ``pad``."""
+        boxes) and padded by ``pad``; ``record`` (``skin.BuildRecord``, or None): what a build
+        of the kept list selected against, kept to follow surface changes."""
         ctx = self.ctx
         blo, bhi = ctx.bounds(model, dt, pad)
         name, ent, body = hashed[:3]
@@ -559,25 +622,50 @@ class ContactPass(Pass):
         if qsel.shape[0] == 0 or esel.shape[0] == 0:
             return _NO_PAIRS
         origin, cell = ctx.grid(blo, bhi, h)
+        drop = [None, None]
         if ctx.occupancy is not None:  # only rows near another body's rows (Occupancy)
             occ = ctx.occupancy
-            occ.grid(origin, bhi[blo[:, 0] <= bhi[:, 0]].max(axis=0), OCC_CELL * cell)
+            occ_hi = bhi[blo[:, 0] <= bhi[:, 0]].max(axis=0)
+            occ.grid(origin, occ_hi, OCC_CELL * cell)
+            if record is not None:  # marks of the rows the grid leaves out, per side
+                for t in range(1 if queries is None else 2):
+                    record.marks[t].grid(origin, occ_hi, OCC_CELL * cell)
+                    drop[t] = record.marks[t]
             if queries is None:
                 occ.mark(esel, elo, ehi, body)
+                before = _copies(record, esel, elo, ehi)
                 esel, elo, ehi = occ.keep(esel, elo, ehi, body)
+                _mark_dropped(drop[0], before, esel, body)
                 qsel, qlo, qhi = esel, elo, ehi
             else:
                 occ.mark(qsel, qlo, qhi, qbody)
+                before = _copies(record, esel, elo, ehi)
                 esel, elo, ehi = occ.keep(esel, elo, ehi, body)
+                _mark_dropped(drop[0], before, esel, body)
                 occ.next()
                 occ.mark(esel, elo, ehi, body)
+                before = _copies(record, qsel, qlo, qhi)
                 qsel, qlo, qhi = occ.keep(qsel, qlo, qhi, qbody)
+                _mark_dropped(drop[1], before, qsel, qbody)
             if qsel.shape[0] == 0 or esel.shape[0] == 0:
                 return _NO_PAIRS
         self.hash.build(elo, ehi, origin, cell)
         qk, ek = qkey[qsel], ekey[esel]
         if ctx.node_key is not None:  # self-contact exclusion by node family (separation)
             qk, ek = ctx.node_key[qk], ctx.node_key[ek]
+        if record is not None:
+            record.complete = True
+            record.blo, record.bhi = blo.copy(), bhi.copy()
+            record.grid = (origin, cell)
+            record.dropped = drop
+            record.rows[0] = esel.copy()
+            record.keys[0] = np.ascontiguousarray(ek, np.int64)
+            record.bodies[0] = body[esel]
+            if queries is not None:
+                record.rows[1] = qsel.copy()
+                record.keys[1] = np.ascontiguousarray(qk, np.int64)
+                record.bodies[1] = qbody[qsel]
+                record.q_boxes = (qlo.copy(), qhi.copy())
         pairs = self.hash.query(qlo, qhi, qk, qbody[qsel], ek, body[esel],
                                 queries is None, ctx.self_contact)
         return _lift(pairs, qsel, esel)
@@ -638,10 +726,10 @@ class NodeFacePass(ContactPass):
         return self._broad_phase(model, dt, h, ("nf.face", s.faces, s.face_body, s.face_key),
                                  ("nf.node", s.nodes.reshape(-1, 1), s.node_body))
 
-    def _far_apart(self, model, kept, h, pad_b):
+    def _far_apart(self, x, kept, h, pad_b):
         s = self.ctx.surface
         out = np.empty(kept.shape[0], np.uint8)
-        nf_far_apart(kept, s.nodes, s.faces, model.x, _band_max(self.ctx, h, pad_b), pad_b, out)
+        nf_far_apart(kept, s.nodes, s.faces, x, _band_max(self.ctx, h, pad_b), pad_b, out)
         return out
 
     def _sweep(self, model, dt, h, pairs, active, stamp, sweep, since, geo, slack):
@@ -693,18 +781,18 @@ class EdgeEdgePass(ContactPass):
         """The faces at the edges of the kept candidate list (``edge_normals_of``), found again
         at each of its builds."""
         sk = self.skin
-        if getattr(self, "_faces_build", None) != sk.builds:
-            fe = self.ctx.surface.face_edges
-            used = np.zeros(self.ctx.surface.n_edges + 1, bool)
-            used[sk.e_map] = True
-            self._faces = np.flatnonzero(used[fe].any(axis=1))  # (-1, no edge: the last row)
-            self._faces_build = sk.builds
+        if getattr(self, "_faces_version", None) != sk.version:
+            s = self.ctx.surface
+            fsel = np.empty(s.n_faces, np.int64)
+            n = faces_at_edges(sk.pairs, s.face_edges, self._edge_marks(s.n_edges), fsel)
+            self._faces = fsel[:n]
+            self._faces_version = sk.version
         return self._faces
 
-    def _far_apart(self, model, kept, h, pad_b):
+    def _far_apart(self, x, kept, h, pad_b):
         s = self.ctx.surface
         out = np.empty(kept.shape[0], np.uint8)
-        ee_far_apart(kept, s.edges, model.x, _band_max(self.ctx, h, pad_b), pad_b, out)
+        ee_far_apart(kept, s.edges, x, _band_max(self.ctx, h, pad_b), pad_b, out)
         return out
 
     def _sweep(self, model, dt, h, pairs, active, stamp, sweep, since, geo, slack):

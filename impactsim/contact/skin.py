@@ -26,19 +26,23 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from impactsim.contact.broadphase import (Occupancy, SpatialHash, _shares_node, keep_touching,
+                                          select_boxes)
+
 SKIN = 0.2  # the skin, a fraction of the mean surface edge length h
 REACH = 0.999  # share of the skin's half a node may use (round-off of the box arithmetic)
 
 
 @numba.njit(cache=True)
 def within_reach(x, v, tau, nodes, xb, limit):
-    """True when every node ``nodes[k]`` has |x - xb[k]|_inf + tau |v|_inf <= limit (False
-    for a non-finite position or velocity: the list is then built afresh, and the broad phase
-    reports it)."""
+    """True when every node ``nodes[k]`` has |x - xb|_inf + tau |v|_inf <= limit, xb the
+    positions of every node at the build (also the nodes that joined the surface since: their
+    positions then, when they were inside the body); False for a non-finite position or
+    velocity (the list is then built afresh, and the broad phase reports it)."""
     for k in range(nodes.shape[0]):
         i = nodes[k]
         for d in range(3):
-            reach = abs(x[i, d] - xb[k, d]) + tau * abs(v[i, d])
+            reach = abs(x[i, d] - xb[i, d]) + tau * abs(v[i, d])
             if not reach <= limit:
                 return False
     return True
@@ -64,6 +68,174 @@ def overlapping_pairs(pairs, qlo, qhi, elo, ehi, qmap, emap, far, out, out_far):
     return n
 
 
+@numba.njit(cache=True)
+def match_rows(old_key, new_key, old_ent, new_ent, remap, fresh):
+    """Follow a surface change for one kind of entity: ``old_key``, ``new_key`` the entities'
+    identities (strictly increasing: the compact arrays' canonical order) before and after,
+    ``old_ent``, ``new_ent`` their node rows. Writes remap[i] = the new row of old row i (-1:
+    gone) and the new rows with no old one to ``fresh``; returns (how many fresh, ok); not ok
+    when an identity list is not increasing or an entity kept its identity but not its nodes
+    (the caller builds the list afresh)."""
+    no = old_key.shape[0]
+    nn = new_key.shape[0]
+    for k in range(1, no):
+        if not old_key[k - 1] < old_key[k]:
+            return 0, False
+    for k in range(1, nn):
+        if not new_key[k - 1] < new_key[k]:
+            return 0, False
+    i = 0
+    j = 0
+    nf = 0
+    while i < no or j < nn:
+        if j >= nn or (i < no and old_key[i] < new_key[j]):
+            remap[i] = -1
+            i += 1
+        elif i >= no or new_key[j] < old_key[i]:
+            fresh[nf] = j
+            nf += 1
+            j += 1
+        else:
+            for c in range(old_ent.shape[1]):
+                if old_ent[i, c] != new_ent[j, c]:
+                    return nf, False
+            remap[i] = j
+            i += 1
+            j += 1
+    return nf, True
+
+
+@numba.njit(cache=True)
+def remap_pairs(pairs, far, rq, re, out, out_far):
+    """The pairs (rows, flags ``far``) whose two entities are still on the surface, their rows
+    renumbered (``rq`` for column 0, ``re`` for column 1, from ``match_rows``), in order into
+    ``out``, ``out_far``; returns how many. The renumbering is increasing over the kept rows,
+    so the order (by column 0, then 1) is kept."""
+    n = 0
+    for k in range(pairs.shape[0]):
+        a = rq[pairs[k, 0]]
+        b = re[pairs[k, 1]]
+        if a >= 0 and b >= 0:
+            out[n, 0] = a
+            out[n, 1] = b
+            out_far[n] = far[k]
+            n += 1
+    return n
+
+
+@numba.njit(cache=True)
+def remap_rows(rows, remap):
+    """rows[k] = remap[rows[k]] in place (-1 stays -1)."""
+    for k in range(rows.shape[0]):
+        if rows[k] >= 0:
+            rows[k] = remap[rows[k]]
+
+
+@numba.njit(cache=True)
+def box_pairs(qlo, qhi, qkey, qbody, elo, ehi, ekey, ebody, same_set, self_contact, out):
+    """Every pair (i, j) of box i of (qlo, qhi) and box j of (elo, ehi) that overlap (closed
+    boxes, the comparisons of the hash query), of different bodies or, with ``self_contact``,
+    without a shared key node (``broadphase.query_pairs``'s rule); with ``same_set`` j > i.
+    A scan of every pair, for the few entities a surface change adds; ``out`` holds at least
+    len(qlo) * len(elo) rows. Returns how many, sorted by (i, j)."""
+    n = 0
+    for i in range(qlo.shape[0]):
+        for j in range(i + 1 if same_set else 0, elo.shape[0]):
+            if (qlo[i, 0] <= ehi[j, 0] and elo[j, 0] <= qhi[i, 0]
+                    and qlo[i, 1] <= ehi[j, 1] and elo[j, 1] <= qhi[i, 1]
+                    and qlo[i, 2] <= ehi[j, 2] and elo[j, 2] <= qhi[i, 2]
+                    and (qbody[i] != ebody[j]
+                         or (self_contact and not _shares_node(qkey, i, ekey, j)))):
+                out[n, 0] = i
+                out[n, 1] = j
+                n += 1
+    return n
+
+
+@numba.njit(cache=True)
+def merge_pairs(a, fa, b, fb, out, out_far):
+    """The sorted pair lists a and b (no pair in both) merged, sorted by (column 0, column 1),
+    with their flags, into ``out``, ``out_far``."""
+    i = 0
+    j = 0
+    n = 0
+    na = a.shape[0]
+    nb = b.shape[0]
+    while i < na or j < nb:
+        if j >= nb or (i < na and (a[i, 0] < b[j, 0]
+                                   or (a[i, 0] == b[j, 0] and a[i, 1] < b[j, 1]))):
+            out[n, 0] = a[i, 0]
+            out[n, 1] = a[i, 1]
+            out_far[n] = fa[i]
+            i += 1
+        else:
+            out[n, 0] = b[j, 0]
+            out[n, 1] = b[j, 1]
+            out_far[n] = fb[j]
+            j += 1
+        n += 1
+
+
+@numba.njit(cache=True)
+def pair_maps(pairs, same_set, pos_q, pos_e, q_map, e_map, local):
+    """The entities of the kept pairs: ``e_map`` the rows in column 1 (both columns with
+    ``same_set``), ``q_map`` those in column 0 (the same as e_map with same_set), increasing,
+    each once, and ``local`` the pairs as positions in the maps. ``pos_q``, ``pos_e`` (one slot
+    per row) are zero on entry and on return. Returns (len(q_map), len(e_map))."""
+    for k in range(pairs.shape[0]):
+        if same_set:
+            pos_e[pairs[k, 0]] = 1
+        else:
+            pos_q[pairs[k, 0]] = 1
+        pos_e[pairs[k, 1]] = 1
+    ne = 0
+    for r in range(pos_e.shape[0]):
+        if pos_e[r] != 0:
+            e_map[ne] = r
+            ne += 1
+            pos_e[r] = ne  # position + 1
+    nq = ne
+    if same_set:
+        for k in range(pairs.shape[0]):
+            local[k, 0] = pos_e[pairs[k, 0]] - 1
+            local[k, 1] = pos_e[pairs[k, 1]] - 1
+        for k in range(ne):
+            q_map[k] = e_map[k]
+    else:
+        nq = 0
+        for r in range(pos_q.shape[0]):
+            if pos_q[r] != 0:
+                q_map[nq] = r
+                nq += 1
+                pos_q[r] = nq
+        for k in range(pairs.shape[0]):
+            local[k, 0] = pos_q[pairs[k, 0]] - 1
+            local[k, 1] = pos_e[pairs[k, 1]] - 1
+        for k in range(nq):
+            pos_q[q_map[k]] = 0
+    for k in range(ne):
+        pos_e[e_map[k]] = 0
+    return nq, ne
+
+
+class BuildRecord:
+    """What a build of the list selected against, for following surface changes
+    (``SkinList.follow``): filled by the broad phase (``ContactPass._fresh_pairs``)."""
+
+    def __init__(self, marks):
+        self.marks = marks  # two Occupancy grids for the rows left out (the list's own)
+        self.grid = None  # (origin, cell) of the build's hash
+        self.complete = False  # the broad phase reached its hash (else: nothing to follow from)
+        self.blo = self.bhi = None  # the bodies' static boxes (body_bounds)
+        # per side (0: hashed, 1: queries): rows in the hash (build rows), their keys and bodies,
+        # and the occupancy marks of the rows the grid left out (None: no occupancy grid)
+        self.rows = [None, None]
+        self.keys = [None, None]
+        self.bodies = [None, None]
+        self.dropped = [None, None]
+        self.q_boxes = None  # (lo, hi) of the hashed queries (node-face)
+
+
 class SkinList:
     """The kept candidate pairs of one contact pass (module docstring)."""
 
@@ -75,62 +247,269 @@ class SkinList:
         self._key = None
         self._xb = None
         self._pad_b = 0.0
+        self._h_max = 0.0
         self.builds = 0  # how often the list was built (reported in the pass summary)
+        self.follows = 0  # surface changes followed without a build
+        self.uncovered = 0  # builds because a new entity fell outside the build's selection
+        self.version = 0  # changes with every build and followed change
+        self.q_hash = SpatialHash()  # the queries' static boxes of the build (node-face)
+        self._drop = [Occupancy(), Occupancy()]
+        self._pos = [np.zeros(16, np.int64), np.zeros(16, np.int64)]
 
-    def _key_of(self, surface, node_key, ents):
-        """What the kept list depends on besides positions: the surface (its object, version
-        and compact arrays), the self-contact keys and the entity rows' shapes."""
-        return ((surface, surface.version, node_key, surface.faces, surface.edges, surface.nodes)
-                + tuple(e.shape for e in ents))
-
-    def _same(self, key) -> bool:
-        old = self._key
-        return (old is not None and len(key) == len(old)
-                and all(a is b for a, b in zip(key[:6], old)) and key[1] == old[1]
-                and key[6:] == old[6:])
-
-    def state(self, surface, node_key, ents, x, v, tau, pad) -> str:
+    def state(self, surface, node_key, topology, x, v, tau, pad, h) -> str:
         """"kept": the kept list still holds every pair of this step (module docstring);
-        "build": build it (none yet, or a node has moved too far); "changed": the surface or
-        the self-contact keys changed since the last step. A surface that changes every step
-        (erosion, particle conversion) would have the list built every step, at a larger cost
-        than the plain broad phase: the caller runs the plain broad phase then and builds the
-        list at the first step without a change."""
-        key = self._key_of(surface, node_key, ents)
-        if not self._same(key):
-            first = self._key is None
-            self._key = key
-            self.pairs = None
-            return "build" if first else "changed"
-        if self.pairs is None:
+        "build": build it (none yet, a node has moved too far, the mean edge length has grown
+        past what the list's far-apart flags allow, or the surface was rebuilt or
+        reconnected); "changed": the surface changed (erosion) since the last step, and the
+        list is still within reach: ``follow`` it."""
+        key = (surface, node_key, topology)
+        old = self._key
+        if (self.pairs is None or old is None or any(a is not b for a, b in zip(key, old))
+                or key[2] != old[2] or self._xb.shape != x.shape):
+            return "build"
+        if not h <= self._h_max:
             return "build"
         limit = REACH * (self._pad_b - pad)
-        ok = limit > 0.0 and within_reach(x, v, tau, surface.nodes, self._xb, limit)
-        return "kept" if ok else "build"
+        if not (limit > 0.0 and within_reach(x, v, tau, surface.nodes, self._xb, limit)):
+            return "build"
+        return "kept" if surface.version == self._version else "changed"
 
-    def keep(self, surface, node_key, ents, x, pairs, pad_b, far=None) -> None:
+    def keep(self, surface, node_key, topology, sides, x, pairs, pad_b, h_max, far=None,
+             record=None, self_contact=False) -> None:
         """Keep ``pairs`` (the broad phase of static boxes at x padded by pad_b). Only the
-        entities in kept pairs have their boxes made each step: ``hashed`` (rows ``ents[0]``)
-        and ``queries`` (``ents[1]``, or the same as hashed), with ``pairs`` in their positions
+        entities in kept pairs have their boxes made each step: ``hashed`` (rows ``sides[0]``)
+        and ``queries`` (``sides[1]``, or the same as hashed), with ``pairs`` in their positions
         (``local``) and the maps back to entity rows (increasing: the order is kept). ``far``
         (uint8 per pair, or None: zeros): what the pass's sweep starts each step with for the
-        pair (its ``far_apart``: the pairs apart for as long as the list is kept)."""
+        pair (its ``far_apart``: the pairs apart for as long as the list is kept). ``sides``:
+        per side (entity rows, bodies, keys, identities) (``ContactPass._sides``); ``record``
+        what the build selected against (``BuildRecord``), to follow surface changes;
+        ``h_max`` the largest mean edge length the far flags allow."""
         self.pairs = np.array(pairs, dtype=np.int64, copy=True)
         self.far = (np.zeros(self.pairs.shape[0], np.uint8) if far is None
-                    else np.ascontiguousarray(far, dtype=np.uint8))
-        if len(ents) == 1:
-            used = np.unique(self.pairs)
-            self.e_map = self.q_map = used
-            self.e_ent = self.q_ent = np.ascontiguousarray(ents[0][used])
-            self.local = np.searchsorted(used, self.pairs)
-        else:
-            self.e_map = np.unique(self.pairs[:, 1])
-            self.q_map = np.unique(self.pairs[:, 0])
-            self.e_ent = np.ascontiguousarray(ents[0][self.e_map])
-            self.q_ent = np.ascontiguousarray(ents[1][self.q_map])
-            self.local = np.stack([np.searchsorted(self.q_map, self.pairs[:, 0]),
-                                   np.searchsorted(self.e_map, self.pairs[:, 1])], axis=1)
-        self._key = self._key_of(surface, node_key, ents)
-        self._xb = np.ascontiguousarray(x[surface.nodes])
+                    else np.array(far, dtype=np.uint8, copy=True))
+        self._key = (surface, node_key, topology)
+        self._version = surface.version
+        self._xb = np.array(x, copy=True)
         self._pad_b = float(pad_b)
+        self._h_max = float(h_max)
+        self._self_contact = bool(self_contact)
+        self._record = record if record is not None and record.complete else None
+        self._sides = [(s[0], s[3]) for s in sides]
+        if self._record is not None:
+            r = self._record
+            self._h_rows = [None if r.rows[t] is None else r.rows[t].copy()
+                            for t in range(2)]
+            if r.q_boxes is not None:  # the queries' static boxes in a hash of their own
+                self.q_hash.build(r.q_boxes[0], r.q_boxes[1], r.grid[0], r.grid[1])
+            r.q_boxes = None
+            self._added = [_Added(), _Added()]
         self.builds += 1
+        self._index(sides)
+
+    def _index(self, sides) -> None:
+        """The maps and entity rows of the kept pairs (``pair_maps``)."""
+        same = len(sides) == 1
+        ne_rows = sides[0][0].shape[0]
+        nq_rows = sides[-1][0].shape[0]
+        for t, n in ((0, nq_rows), (1, ne_rows)):
+            if self._pos[t].shape[0] < n:
+                self._pos[t] = np.zeros(int(n * 1.25) + 16, np.int64)
+        k = self.pairs.shape[0]
+        q_map = np.empty(nq_rows if not same else ne_rows, np.int64)
+        e_map = np.empty(ne_rows, np.int64)
+        self.local = np.empty((k, 2), np.int64)
+        nq, ne = pair_maps(self.pairs, same, self._pos[0][:nq_rows], self._pos[1][:ne_rows],
+                           q_map, e_map, self.local)
+        self.e_map = e_map[:ne]
+        self.q_map = self.e_map if same else q_map[:nq]
+        self.e_ent = np.ascontiguousarray(sides[0][0][self.e_map])
+        self.q_ent = self.e_ent if same else np.ascontiguousarray(sides[-1][0][self.q_map])
+        self.version += 1
+
+    def new_record(self) -> BuildRecord:
+        return BuildRecord(self._drop)
+
+    def follow(self, surface, sides, node_key, e_hash, far_fn) -> bool:
+        """Follow a surface change (erosion) without a build: the pairs of entities that left
+        dropped, the rest renumbered (the compact arrays keep their canonical order, so the
+        sorted order survives: ``match_rows``, ``remap_pairs``), and the pairs of every entity
+        that joined, from static boxes at the build's positions, padded as at the build:
+        against the build's hashes of the other side (``e_hash`` of the hashed side, ``q_hash``
+        of the queries), against the entities that joined since the build and among
+        themselves (``box_pairs``). The list is then the one a build at the build's positions
+        over the current surface gives. False (the caller builds the list) when the build
+        left out an entity of the other side that a joining one may meet (``_covers``) or the
+        change is not a removal the identities follow. ``far_fn(pairs, xb)``: the far-apart
+        flags of new pairs at the build's positions."""
+        r = self._record
+        if r is None:
+            return False
+        same = len(sides) == 1
+        remaps = []
+        new = []
+        for t, (ent, body, key, ident) in enumerate(sides):
+            old_ent, old_ident = self._sides[t]
+            remap = np.empty(old_ident.shape[0], np.int64)
+            fresh = np.empty(ident.shape[0], np.int64)
+            nf, ok = match_rows(old_ident, ident, old_ent, ent, remap, fresh)
+            if not ok:
+                return False
+            fresh = fresh[:nf]
+            remaps.append(remap)
+            lo = np.empty((nf, 3))
+            hi = np.empty((nf, 3))
+            b = np.ascontiguousarray(body[fresh])
+            k = key[fresh]
+            if node_key is not None:
+                k = node_key[k]
+            select_boxes(self._xb, self._xb, 0.0, np.ascontiguousarray(ent[fresh]),
+                         self._pad_b, b, _NO_BOUNDS, _NO_BOUNDS, True, _NO_SKIP,
+                         np.empty(nf, np.int64), lo, hi)
+            new.append((fresh, lo, hi, np.ascontiguousarray(k, np.int64), b))
+        for t in range(len(sides)):  # a new entity meets the other side's rows
+            if new[t][0].shape[0] and not self._covers(0 if same else 1 - t, new[t][1],
+                                                       new[t][2], new[t][4]):
+                self.uncovered += 1
+                return False
+        re = remaps[0]
+        rq = re if same else remaps[1]
+        out = np.empty_like(self.pairs)
+        out_far = np.empty(self.pairs.shape[0], np.uint8)
+        n = remap_pairs(self.pairs, self.far, rq, re, out, out_far)
+        kept, kept_far = out[:n], out_far[:n]
+        for t in range(len(sides)):
+            if self._h_rows[t] is not None:
+                remap_rows(self._h_rows[t], remaps[t])
+            self._added[t].remap(remaps[t])
+        sc = self._self_contact
+        parts = []
+        if same:
+            fr, lo, hi, k, b = new[0]
+            if fr.shape[0]:
+                i, j = _hash_pairs(e_hash, lo, hi, k, b, r, 0, self._h_rows[0], sc)
+                parts.append(_ordered(fr[i], j))
+                i, j = self._added[0].pairs(lo, hi, k, b, sc)
+                parts.append(_ordered(fr[i], j))
+                bp = np.empty((fr.shape[0] * fr.shape[0], 2), np.int64)
+                m = box_pairs(lo, hi, k, b, lo, hi, k, b, True, sc, bp)
+                parts.append(np.stack([fr[bp[:m, 0]], fr[bp[:m, 1]]], axis=1))
+        else:
+            fe, elo, ehi, ek, eb = new[0]
+            fq, qlo, qhi, qk, qb = new[1]
+            if fq.shape[0]:
+                i, j = _hash_pairs(e_hash, qlo, qhi, qk, qb, r, 0, self._h_rows[0], sc)
+                parts.append(np.stack([fq[i], j], axis=1))
+                i, j = self._added[0].pairs(qlo, qhi, qk, qb, sc)
+                parts.append(np.stack([fq[i], j], axis=1))
+            if fe.shape[0]:
+                i, j = _hash_pairs(self.q_hash, elo, ehi, ek, eb, r, 1, self._h_rows[1], sc)
+                parts.append(np.stack([j, fe[i]], axis=1))
+                i, j = self._added[1].pairs(elo, ehi, ek, eb, sc)
+                parts.append(np.stack([j, fe[i]], axis=1))
+            if fq.shape[0] and fe.shape[0]:
+                bp = np.empty((fq.shape[0] * fe.shape[0], 2), np.int64)
+                m = box_pairs(qlo, qhi, qk, qb, elo, ehi, ek, eb, False, sc, bp)
+                parts.append(np.stack([fq[bp[:m, 0]], fe[bp[:m, 1]]], axis=1))
+        for t in range(len(sides)):
+            self._added[t].append(*new[t])
+        if parts:
+            add = np.concatenate(parts).astype(np.int64)
+            add = np.ascontiguousarray(add[np.lexsort((add[:, 1], add[:, 0]))])
+        else:
+            add = np.zeros((0, 2), np.int64)
+        if add.shape[0]:
+            add_far = np.ascontiguousarray(far_fn(add, self._xb), dtype=np.uint8)
+            self.pairs = np.empty((kept.shape[0] + add.shape[0], 2), np.int64)
+            self.far = np.empty(self.pairs.shape[0], np.uint8)
+            merge_pairs(kept, kept_far, add, add_far, self.pairs, self.far)
+        else:
+            self.pairs = np.ascontiguousarray(kept)
+            self.far = np.ascontiguousarray(kept_far)
+        self._sides = [(s[0], s[3]) for s in sides]
+        self._version = surface.version
+        self.follows += 1
+        self._index(sides)
+        return True
+
+    def _covers(self, t, lo, hi, bodies) -> bool:
+        """True when every entity of side t the build left out lies apart from the boxes
+        (lo, hi) of bodies ``bodies``: each box within its body's static box of the build
+        (so that any entity of another body it meets met that body's box, and was selected),
+        and no cell of it (the build's occupancy grid) touched by a row of another body the
+        grid left out (``BuildRecord.dropped``; ``keep_touching``'s test). With self-contact
+        the build keeps every row."""
+        if self._self_contact:
+            return True
+        r = self._record
+        if not (np.all(lo >= r.blo[bodies]) and np.all(hi <= r.bhi[bodies])):
+            return False
+        d = r.dropped[t]
+        if d is None:
+            return True
+        n = lo.shape[0]
+        return keep_touching(np.arange(n, dtype=np.int64), lo.copy(), hi.copy(), bodies,
+                             d.origin, d.inv_c, d.dims, d.gen, d.bits, d.g) == 0
+
+
+def _hash_pairs(hsh, lo, hi, keys, bodies, record, t, rows, self_contact):
+    """(i, rows): the boxes (lo, hi) against the build's hash ``hsh`` of side t: the box's
+    index and the current row of each entry it meets (entries whose entity left dropped)."""
+    if rows is None or rows.shape[0] == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    p = hsh.query(lo, hi, keys, bodies, record.keys[t], record.bodies[t], False, self_contact)
+    j = rows[p[:, 1]]
+    ok = j >= 0
+    return p[ok, 0].copy(), j[ok]
+
+
+def _ordered(a, b):
+    """Pairs of one entity list (edge-edge), the smaller row first."""
+    return np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1)
+
+
+class _Added:
+    """The entities of one side that joined the surface since the list's build: their current
+    rows, static boxes at the build's positions, keys and bodies."""
+
+    def __init__(self):
+        self.rows = np.zeros(0, np.int64)
+        self.lo = np.zeros((0, 3))
+        self.hi = np.zeros((0, 3))
+        self.keys = None
+        self.bodies = np.zeros(0, np.int32)
+
+    def remap(self, remap) -> None:
+        if self.rows.shape[0] == 0:
+            return
+        remap_rows(self.rows, remap)
+        ok = self.rows >= 0
+        if not ok.all():
+            self.rows, self.lo, self.hi = self.rows[ok], self.lo[ok], self.hi[ok]
+            self.keys, self.bodies = self.keys[ok], self.bodies[ok]
+
+    def append(self, rows, lo, hi, keys, bodies) -> None:
+        if rows.shape[0] == 0:
+            return
+        if self.keys is None or self.rows.shape[0] == 0:
+            self.rows, self.lo, self.hi, self.keys, self.bodies = (
+                rows.copy(), lo, hi, keys, bodies.astype(np.int32))
+            return
+        self.rows = np.concatenate([self.rows, rows])
+        self.lo = np.concatenate([self.lo, lo])
+        self.hi = np.concatenate([self.hi, hi])
+        self.keys = np.concatenate([self.keys, keys])
+        self.bodies = np.concatenate([self.bodies, bodies.astype(np.int32)])
+
+    def pairs(self, lo, hi, keys, bodies, self_contact):
+        """(i, rows): the pairs of the boxes (lo, hi) with these entities."""
+        if self.rows.shape[0] == 0 or lo.shape[0] == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        out = np.empty((lo.shape[0] * self.rows.shape[0], 2), np.int64)
+        m = box_pairs(lo, hi, keys, bodies, self.lo, self.hi, self.keys, self.bodies, False,
+                      self_contact, out)
+        return out[:m, 0].copy(), self.rows[out[:m, 1]]
+
+
+_NO_SKIP = np.zeros(0, np.uint8)
+_NO_BOUNDS = np.zeros((0, 3))
