@@ -72,7 +72,7 @@ from impactsim.contact.impulse import NO_LOCK as _NO_LOCK
 from impactsim.contact.nodeface import GEO_COLS as NF_GEO_COLS
 from impactsim.contact.nodeface import far_apart as nf_far_apart
 from impactsim.contact.nodeface import node_face_sweep
-from impactsim.contact.skin import SkinList, overlapping_pairs
+from impactsim.contact.skin import SkinList, face_identities, increasing, overlapping_pairs
 from impactsim.contact.rows import (gather_edge_edge, gather_node_face, row_partners,
                                    rows_round)
 from impactsim.contact.surface import Surface
@@ -145,15 +145,15 @@ class ContactContext:
     def identities(self):
         """(faces, edges, nodes): the identities of the surface's entities, increasing in the
         canonical order of its compact arrays (``SkinList.follow``): a face's element and local
-        face (and which of a hex quad's two triangles), an edge's mesh edge, a node's index."""
+        face (and which of a hex quad's two triangles: ``skin.face_identities``), an edge's
+        mesh edge, a node's index; None for a list out of that order."""
         s = self.surface
         if self._ident[0] is not s or self._ident[1] != s.version:
-            f = s.face_elem.astype(np.int64) * 16 + s.face_local
-            twin = np.zeros(f.shape[0], np.int64)
-            if f.shape[0] > 1:
-                twin[1:] = f[1:] == f[:-1]
-            self._ident = (s, s.version, (2 * f + twin, s.edge_mesh.astype(np.int64),
-                                          s.nodes.astype(np.int64)))
+            f = np.empty(s.face_elem.shape[0], np.int64)
+            out = [f if face_identities(s.face_elem, s.face_local, f) else None]
+            for keys in (s.edge_mesh, s.nodes):
+                out.append(keys if increasing(keys) else None)
+            self._ident = (s, s.version, tuple(out))
         return self._ident[2]
 
     def lock(self, model) -> np.ndarray:

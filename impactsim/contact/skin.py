@@ -69,40 +69,82 @@ def overlapping_pairs(pairs, qlo, qhi, elo, ehi, qmap, emap, far, out, out_far):
 
 
 @numba.njit(cache=True)
-def match_rows(old_key, new_key, old_ent, new_ent, remap, fresh):
+def increasing(keys):
+    """True when ``keys`` is strictly increasing (a count without an early exit: it
+    vectorises)."""
+    bad = 0
+    for k in range(1, keys.shape[0]):
+        bad += np.int64(not keys[k - 1] < keys[k])
+    return bad == 0
+
+
+@numba.njit(cache=True)
+def face_identities(face_elem, face_local, out):
+    """A face's identity (``ContactContext.identities``): 32 * element + 2 * local face, + 1
+    for the second triangle of a hex quad (the rows after one of the same element and local
+    face). True when they increase (the canonical order)."""
+    bad = 0
+    prev = -1
+    for k in range(face_elem.shape[0]):
+        f = np.int64(face_elem[k]) * 16 + np.int64(face_local[k])
+        out[k] = 2 * f + np.int64(f == prev)
+        prev = f
+        if k > 0:
+            bad += np.int64(not out[k - 1] < out[k])
+    return bad == 0
+
+
+@numba.njit(cache=True)
+def match_rows(old_key, new_key, remap, fresh):
     """Follow a surface change for one kind of entity: ``old_key``, ``new_key`` the entities'
-    identities (strictly increasing: the compact arrays' canonical order) before and after,
-    ``old_ent``, ``new_ent`` their node rows. Writes remap[i] = the new row of old row i (-1:
-    gone) and the new rows with no old one to ``fresh``; returns (how many fresh, ok); not ok
-    when an identity list is not increasing or an entity kept its identity but not its nodes
-    (the caller builds the list afresh)."""
+    identities before and after (strictly increasing: the compact arrays' canonical order,
+    checked where they are made). Writes remap[i] = the new row of old row i (-1: gone) and
+    the new rows with no old one to ``fresh``; returns how many fresh."""
     no = old_key.shape[0]
     nn = new_key.shape[0]
-    for k in range(1, no):
-        if not old_key[k - 1] < old_key[k]:
-            return 0, False
-    for k in range(1, nn):
-        if not new_key[k - 1] < new_key[k]:
-            return 0, False
     i = 0
     j = 0
     nf = 0
-    while i < no or j < nn:
-        if j >= nn or (i < no and old_key[i] < new_key[j]):
-            remap[i] = -1
-            i += 1
-        elif i >= no or new_key[j] < old_key[i]:
-            fresh[nf] = j
-            nf += 1
-            j += 1
-        else:
-            for c in range(old_ent.shape[1]):
-                if old_ent[i, c] != new_ent[j, c]:
-                    return nf, False
+    while i < no and j < nn:
+        a = old_key[i]
+        b = new_key[j]
+        if a == b:
             remap[i] = j
             i += 1
             j += 1
-    return nf, True
+        elif a < b:
+            remap[i] = -1
+            i += 1
+        else:
+            fresh[nf] = j
+            nf += 1
+            j += 1
+    while i < no:
+        remap[i] = -1
+        i += 1
+    while j < nn:
+        fresh[nf] = j
+        nf += 1
+        j += 1
+    return nf
+
+
+@numba.njit(cache=True)
+def covered(lo, hi, bodies, blo, bhi, marks, origin, inv_c, dims, gen, bits, g):
+    """``SkinList._covers``: every box k (lo, hi)[k] of body bodies[k] within that body's box
+    (blo, bhi)[bodies[k]], and, with ``marks``, touching no cell of the occupancy grid
+    (origin, inv_c, dims, gen, bits, g) that holds a bit of another body (``keep_touching``'s
+    test)."""
+    for k in range(lo.shape[0]):
+        b = bodies[k]
+        for d in range(3):
+            if not (lo[k, d] >= blo[b, d] and hi[k, d] <= bhi[b, d]):
+                return False
+    if not marks:
+        return True
+    sel = np.arange(lo.shape[0])
+    return keep_touching(sel, lo.copy(), hi.copy(), bodies, origin, inv_c, dims, gen, bits,
+                         g) == 0
 
 
 @numba.njit(cache=True)
@@ -295,7 +337,7 @@ class SkinList:
         self._h_max = float(h_max)
         self._self_contact = bool(self_contact)
         self._record = record if record is not None and record.complete else None
-        self._sides = [(s[0], s[3]) for s in sides]
+        self._sides = [s[3] for s in sides]
         if self._record is not None:
             r = self._record
             self._h_rows = [None if r.rows[t] is None else r.rows[t].copy()
@@ -349,12 +391,12 @@ class SkinList:
         remaps = []
         new = []
         for t, (ent, body, key, ident) in enumerate(sides):
-            old_ent, old_ident = self._sides[t]
+            old_ident = self._sides[t]
+            if ident is None or old_ident is None:
+                return False  # identities out of order
             remap = np.empty(old_ident.shape[0], np.int64)
             fresh = np.empty(ident.shape[0], np.int64)
-            nf, ok = match_rows(old_ident, ident, old_ent, ent, remap, fresh)
-            if not ok:
-                return False
+            nf = match_rows(old_ident, ident, remap, fresh)
             fresh = fresh[:nf]
             remaps.append(remap)
             lo = np.empty((nf, 3))
@@ -426,7 +468,7 @@ class SkinList:
         else:
             self.pairs = np.ascontiguousarray(kept)
             self.far = np.ascontiguousarray(kept_far)
-        self._sides = [(s[0], s[3]) for s in sides]
+        self._sides = [s[3] for s in sides]
         self._version = surface.version
         self.follows += 1
         self._index(sides)
@@ -442,14 +484,12 @@ class SkinList:
         if self._self_contact:
             return True
         r = self._record
-        if not (np.all(lo >= r.blo[bodies]) and np.all(hi <= r.bhi[bodies])):
-            return False
         d = r.dropped[t]
         if d is None:
-            return True
-        n = lo.shape[0]
-        return keep_touching(np.arange(n, dtype=np.int64), lo.copy(), hi.copy(), bodies,
-                             d.origin, d.inv_c, d.dims, d.gen, d.bits, d.g) == 0
+            return covered(lo, hi, bodies, r.blo, r.bhi, False, _ZERO3, 1.0, _ONES3, _NO_GEN,
+                           _NO_BITS, 0)
+        return covered(lo, hi, bodies, r.blo, r.bhi, True, d.origin, d.inv_c, d.dims, d.gen,
+                       d.bits, d.g)
 
 
 def _hash_pairs(hsh, lo, hi, keys, bodies, record, t, rows, self_contact):
@@ -513,3 +553,7 @@ class _Added:
 
 _NO_SKIP = np.zeros(0, np.uint8)
 _NO_BOUNDS = np.zeros((0, 3))
+_ZERO3 = np.zeros(3)
+_ONES3 = np.ones(3, np.int64)
+_NO_GEN = np.zeros(0, np.int32)
+_NO_BITS = np.zeros(0, np.int64)
