@@ -560,7 +560,7 @@ class ContactPass(Pass):
                                                 self._far_of_list):
             state = "build"
         if state == "build":
-            pad_b = pad + 0.5 * sk.skin_rel * h
+            pad_b = pad + 0.5 * sk.build_skin() * h
             record = sk.new_record()
             kept = self._fresh_pairs(model, 0.0, h, pad_b, hashed, queries, record)
             self._h_b = h

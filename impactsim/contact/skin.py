@@ -26,10 +26,12 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from impactsim.contact.broadphase import (Occupancy, SpatialHash, _shares_node, keep_touching,
-                                          select_boxes)
+from impactsim.contact.broadphase import Occupancy, SpatialHash, _shares_node, keep_touching
 
 SKIN = 0.2  # the skin, a fraction of the mean surface edge length h
+SKIN_CHANGING = 0.4  # the skin of a list built after one that followed surface changes (erosion
+#                      goes on: the list is followed at every step, and a larger skin builds it
+#                      less often)
 REACH = 0.999  # share of the skin's half a node may use (round-off of the box arithmetic)
 
 
@@ -130,6 +132,34 @@ def match_rows(old_key, new_key, remap, fresh):
 
 
 @numba.njit(cache=True)
+def joined_boxes(old_ident, ident, ent, body, key, node_key, xb, pad, remap, fresh, lo, hi, keys,
+                 bodies):
+    """``match_rows``, then for each entity that joined (rows ``fresh[:n]``): its static box
+    at the build's positions ``xb`` padded by ``pad`` (``broadphase.select_boxes`` with tau =
+    0: the same values), its keys (through ``node_key`` unless it is empty) and body. Returns
+    n."""
+    nf = match_rows(old_ident, ident, remap, fresh)
+    use_key = node_key.shape[0] > 0
+    for k in range(nf):
+        r = fresh[k]
+        for d in range(3):
+            lo[k, d] = np.inf
+            hi[k, d] = -np.inf
+        for j in range(ent.shape[1]):
+            i = ent[r, j]
+            for d in range(3):
+                lo[k, d] = min(lo[k, d], xb[i, d])
+                hi[k, d] = max(hi[k, d], xb[i, d])
+        for d in range(3):
+            lo[k, d] -= pad
+            hi[k, d] += pad
+        for c in range(key.shape[1]):
+            keys[k, c] = node_key[key[r, c]] if use_key else key[r, c]
+        bodies[k] = body[r]
+    return nf
+
+
+@numba.njit(cache=True)
 def covered(lo, hi, bodies, blo, bhi, marks, origin, inv_c, dims, gen, bits, g):
     """``SkinList._covers``: every box k (lo, hi)[k] of body bodies[k] within that body's box
     (blo, bhi)[bodies[k]], and, with ``marks``, touching no cell of the occupancy grid
@@ -219,11 +249,14 @@ def merge_pairs(a, fa, b, fb, out, out_far):
 
 
 @numba.njit(cache=True)
-def pair_maps(pairs, same_set, pos_q, pos_e, q_map, e_map, local):
+def pair_maps(pairs, same_set, pos_q, pos_e, q_map, e_map, local, e_rows, q_rows, e_ent,
+              q_ent):
     """The entities of the kept pairs: ``e_map`` the rows in column 1 (both columns with
     ``same_set``), ``q_map`` those in column 0 (the same as e_map with same_set), increasing,
     each once, and ``local`` the pairs as positions in the maps. ``pos_q``, ``pos_e`` (one slot
-    per row) are zero on entry and on return. Returns (len(q_map), len(e_map))."""
+    per row) are zero on entry and on return. The maps' entity rows (of ``e_rows``,
+    ``q_rows``) to ``e_ent``, ``q_ent`` (q_ent not written with same_set). Returns
+    (len(q_map), len(e_map))."""
     for k in range(pairs.shape[0]):
         if same_set:
             pos_e[pairs[k, 0]] = 1
@@ -257,6 +290,12 @@ def pair_maps(pairs, same_set, pos_q, pos_e, q_map, e_map, local):
             pos_q[q_map[k]] = 0
     for k in range(ne):
         pos_e[e_map[k]] = 0
+        for c in range(e_rows.shape[1]):
+            e_ent[k, c] = e_rows[e_map[k], c]
+    if not same_set:
+        for k in range(nq):
+            for c in range(q_rows.shape[1]):
+                q_ent[k, c] = q_rows[q_map[k], c]
     return nq, ne
 
 
@@ -285,6 +324,8 @@ class SkinList:
         """``skin`` a fraction of h; 0: no list kept (the broad phase runs afresh every
         step)."""
         self.skin_rel = float(skin)
+        self.skin_change = SKIN_CHANGING
+        self._followed = False  # the list followed a surface change since its build
         self.pairs = None  # (k, 2) int64, sorted; None: build at the next step
         self._key = None
         self._xb = None
@@ -297,6 +338,18 @@ class SkinList:
         self.q_hash = SpatialHash()  # the queries' static boxes of the build (node-face)
         self._drop = [Occupancy(), Occupancy()]
         self._pos = [np.zeros(16, np.int64), np.zeros(16, np.int64)]
+        self._bufs = {}
+
+    def _buffer(self, name, shape, dtype=np.int64):
+        """A reusable scratch array (contents undefined), reallocated only when it must grow
+        (``ContactContext.buffer``)."""
+        b = self._bufs.get(name)
+        rows = shape[0] if isinstance(shape, tuple) else shape
+        if b is None or b.shape[0] < rows:
+            full = (int(rows * 1.25) + 16,) + (tuple(shape[1:]) if isinstance(shape, tuple)
+                                               else ())
+            b = self._bufs[name] = np.empty(full, dtype=dtype)
+        return b[:rows]
 
     def state(self, surface, node_key, topology, x, v, tau, pad, h) -> str:
         """"kept": the kept list still holds every pair of this step (module docstring);
@@ -332,6 +385,7 @@ class SkinList:
                     else np.array(far, dtype=np.uint8, copy=True))
         self._key = (surface, node_key, topology)
         self._version = surface.version
+        self._followed = False
         self._xb = np.array(x, copy=True)
         self._pad_b = float(pad_b)
         self._h_max = float(h_max)
@@ -358,16 +412,27 @@ class SkinList:
             if self._pos[t].shape[0] < n:
                 self._pos[t] = np.zeros(int(n * 1.25) + 16, np.int64)
         k = self.pairs.shape[0]
-        q_map = np.empty(nq_rows if not same else ne_rows, np.int64)
-        e_map = np.empty(ne_rows, np.int64)
-        self.local = np.empty((k, 2), np.int64)
+        q_map = self._buffer("q_map", nq_rows)
+        e_map = self._buffer("e_map", ne_rows)
+        self.local = self._buffer("local", (k, 2))
+        e_rows, q_rows = sides[0][0], sides[-1][0]
+        e_ent = self._buffer("e_ent", (ne_rows if k else 0, e_rows.shape[1]), e_rows.dtype)
+        q_ent = e_ent if same else self._buffer("q_ent", (nq_rows if k else 0,
+                                                          q_rows.shape[1]), q_rows.dtype)
         nq, ne = pair_maps(self.pairs, same, self._pos[0][:nq_rows], self._pos[1][:ne_rows],
-                           q_map, e_map, self.local)
+                           q_map, e_map, self.local, e_rows, q_rows, e_ent, q_ent)
         self.e_map = e_map[:ne]
         self.q_map = self.e_map if same else q_map[:nq]
-        self.e_ent = np.ascontiguousarray(sides[0][0][self.e_map])
-        self.q_ent = self.e_ent if same else np.ascontiguousarray(sides[-1][0][self.q_map])
+        self.e_ent = e_ent[:ne]
+        self.q_ent = self.e_ent if same else q_ent[:nq]
         self.version += 1
+
+    def build_skin(self) -> float:
+        """The skin (a fraction of h) of the next build: SKIN_CHANGING (at least skin_rel)
+        when the list being replaced followed surface changes, else skin_rel."""
+        if self.pairs is not None and self._followed:
+            return max(self.skin_rel, self.skin_change)
+        return self.skin_rel
 
     def new_record(self) -> BuildRecord:
         return BuildRecord(self._drop)
@@ -394,21 +459,19 @@ class SkinList:
             old_ident = self._sides[t]
             if ident is None or old_ident is None:
                 return False  # identities out of order
-            remap = np.empty(old_ident.shape[0], np.int64)
-            fresh = np.empty(ident.shape[0], np.int64)
-            nf = match_rows(old_ident, ident, remap, fresh)
-            fresh = fresh[:nf]
+            remap = self._buffer(f"remap{t}", old_ident.shape[0])
+            fresh = self._buffer(f"fresh{t}", ident.shape[0])
+            m = ident.shape[0]  # room for every row (only the joined ones are written)
+            lo = self._buffer(f"lo{t}", (m, 3), np.float64)
+            hi = self._buffer(f"hi{t}", (m, 3), np.float64)
+            keys = self._buffer(f"keys{t}", (m, key.shape[1]))
+            bodies = self._buffer(f"bodies{t}", m, body.dtype)
+            nf = joined_boxes(old_ident, ident, ent, body, key,
+                              _NO_KEY if node_key is None else node_key, self._xb,
+                              self._pad_b, remap, fresh, lo, hi, keys, bodies)
             remaps.append(remap)
-            lo = np.empty((nf, 3))
-            hi = np.empty((nf, 3))
-            b = np.ascontiguousarray(body[fresh])
-            k = key[fresh]
-            if node_key is not None:
-                k = node_key[k]
-            select_boxes(self._xb, self._xb, 0.0, np.ascontiguousarray(ent[fresh]),
-                         self._pad_b, b, _NO_BOUNDS, _NO_BOUNDS, True, _NO_SKIP,
-                         np.empty(nf, np.int64), lo, hi)
-            new.append((fresh, lo, hi, np.ascontiguousarray(k, np.int64), b))
+            new.append((fresh[:nf].copy(), lo[:nf].copy(), hi[:nf].copy(), keys[:nf].copy(),
+                        bodies[:nf].copy()))
         for t in range(len(sides)):  # a new entity meets the other side's rows
             if new[t][0].shape[0] and not self._covers(0 if same else 1 - t, new[t][1],
                                                        new[t][2], new[t][4]):
@@ -416,8 +479,8 @@ class SkinList:
                 return False
         re = remaps[0]
         rq = re if same else remaps[1]
-        out = np.empty_like(self.pairs)
-        out_far = np.empty(self.pairs.shape[0], np.uint8)
+        out = self._buffer("kept", self.pairs.shape)
+        out_far = self._buffer("kept_far", self.pairs.shape[0], np.uint8)
         n = remap_pairs(self.pairs, self.far, rq, re, out, out_far)
         kept, kept_far = out[:n], out_far[:n]
         for t in range(len(sides)):
@@ -470,6 +533,7 @@ class SkinList:
             self.far = np.ascontiguousarray(kept_far)
         self._sides = [s[3] for s in sides]
         self._version = surface.version
+        self._followed = True
         self.follows += 1
         self._index(sides)
         return True
@@ -551,8 +615,7 @@ class _Added:
         return out[:m, 0].copy(), self.rows[out[:m, 1]]
 
 
-_NO_SKIP = np.zeros(0, np.uint8)
-_NO_BOUNDS = np.zeros((0, 3))
+_NO_KEY = np.zeros(0, np.int64)
 _ZERO3 = np.zeros(3)
 _ONES3 = np.ones(3, np.int64)
 _NO_GEN = np.zeros(0, np.int32)
