@@ -701,7 +701,9 @@ class ContactPass(Pass):
                "impulse": float(t["impulse"]), "sweeps": int(t["sweeps"]),
                "projected_rounds": int(t["rounds"]),
                "steps_in_contact": int(t["steps_in_contact"]), "hash_grows": int(self.hash.grows),
-               "candidate_list_builds": int(self.skin.builds)}
+               "candidate_list_builds": int(self.skin.builds),
+               "candidate_list_follows": int(self.skin.follows),
+               "candidate_list_uncovered": int(self.skin.uncovered)}
         if self.reports_history:
             out["max_penetration_seen"] = float(self.max_penetration_seen)
             out["unconverged_steps"] = int(self.ctx.unconverged)
