@@ -29,6 +29,9 @@ def test_warmup_scenes_cover_the_pipeline_and_leave_a_cache_a_later_process_uses
     for name in ("contact.node-face", "contact.edge-edge"):
         assert 0 < contact[name]["candidate_list_builds"] < contact["steps"], name
     frac = s["fracture"]
+    # the kept candidate lists followed the erosion (contact/skin.py, SkinList.follow)
+    for name in ("contact.node-face", "contact.edge-edge"):
+        assert frac[name]["candidate_list_follows"] > 0, name
     assert frac["particles"] > 0 and frac["fracture"]["eroded"] > 0
     assert frac["fracture.particles"]["particle_face_impacts"] > 0
     assert frac["fracture.particles"]["particle_collisions"] > 0
