@@ -152,3 +152,41 @@ def test_a_new_entity_outside_the_builds_selection_rebuilds_the_list():
     kept, _, pairs = _run(False, steps=9, hook=mark_all)
     assert pairs > 0
     assert all(p.skin.uncovered > state[p.name] for p in kept)
+
+
+def test_hex_surface_identities_increase_through_erosion():
+    """The kept list follows a surface by the identities of its entities, increasing in the
+    compact arrays' order (``ContactContext.identities``): also for a hex surface, whose two
+    triangles of a quad share element and local face, before and after hexes erode; an
+    entity that stays keeps its identity and its nodes."""
+    from test_contact_hexes import _model
+
+    from impactsim.contact.hexes import HexSurface
+    from impactsim.contact.skin import match_rows
+    from impactsim.mesh.hexes import box_hexes, fix_hex_orientation
+
+    pts, hexes = box_hexes((0.4, 0.3, 0.3), 0.1)
+    hexes, _ = fix_hex_orientation(pts, hexes)
+    m = _model((pts, hexes))
+    ctx = make_contact_passes(case_with(self_contact=True), m)[0].ctx
+    assert isinstance(ctx.surface, HexSurface)
+    s = ctx.surface
+    before = ctx.identities()
+    rows = (s.faces, s.edges, s.nodes.reshape(-1, 1))
+    assert all(i is not None for i in before)
+    status = m.blocks[0].status
+    status[[0, 5, 17]] = 3  # a corner hex, and hexes on faces of the box
+    ctx.prepare(m)
+    after = ctx.identities()
+    assert s.version > 0 and all(i is not None for i in after)
+    new_rows = (s.faces, s.edges, s.nodes.reshape(-1, 1))
+    joined = 0
+    for old, new, r0, r1 in zip(before, after, rows, new_rows):
+        remap = np.empty(old.shape[0], np.int64)
+        fresh = np.empty(new.shape[0], np.int64)
+        joined += match_rows(old, new, remap, fresh)
+        kept = remap >= 0
+        assert np.all(np.diff(remap[kept]) > 0)
+        assert np.array_equal(r0[kept], r1[remap[kept]])
+        assert kept.sum() < old.shape[0]  # some left
+    assert joined > 0  # the hexes beneath joined the surface
