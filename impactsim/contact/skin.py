@@ -37,8 +37,8 @@ build records what it selected against (``BuildRecord``: the bodies' boxes and t
 rows the occupancy grid left out, per side), and a joining entity whose box leaves its body's
 box of the build, or touches a cell of a left-out row of another body, has the list built afresh
 instead (``_covers``; counted as ``uncovered``). Erosion exposes material inside a body, so its
-new entities lie within the body's box and, in oblique-sphere, next to rows the grid kept: 1 to
-3 % of the follows end in a build. A list built after one that followed changes has the larger
+new entities lie within the body's box and, in oblique-sphere, next to rows the grid kept: 0.2
+to 4 % of the follows end in a build. A list built after one that followed changes has the larger
 skin SKIN_CHANGING (fewer builds while erosion goes on).
 """
 
