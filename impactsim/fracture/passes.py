@@ -357,7 +357,8 @@ class ParticlePass(Pass):
             work += float(particle_walls(pa.x, pa.v, pa.m, pa.radius, n, model.walls, dt))
         model.energy_terms["contact_dissipated"] -= work
         move_particles(pa.x, pa.v, n, dt)
-        s.update_particle_energy(model)
+        # the particles' energy is booked at the end of the step, by the fracture pass (which
+        # runs in every step beside this one, after the particles made that step)
 
     def summary(self, model):
         return {"fracture.particles": {"particle_face_impacts": self.impacts,
