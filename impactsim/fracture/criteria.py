@@ -60,6 +60,7 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 
 from impactsim.fracture.ductile import damage_increment, ductile, fracture_strain, triaxiality
 from impactsim.fracture.principal import max_principal, max_principal_stretch
@@ -163,6 +164,12 @@ def guard_clear(x, i0, i1, i2, i3, reach, inv, lim):
     cx = x[i3, 0] - x[i0, 0]
     cy = x[i3, 1] - x[i0, 1]
     cz = x[i3, 2] - x[i0, 2]
+    return _clear_bound(ax, ay, az, bx, by, bz, cx, cy, cz, reach, inv, lim)
+
+
+@numba.njit(cache=True, inline="always")
+def _clear_bound(ax, ay, az, bx, by, bz, cx, cy, cz, reach, inv, lim):
+    """``guard_clear`` on the edges a, b, c of a tet from its first corner (no branch)."""
     bcx = by * cz - bz * cy
     bcy = bz * cx - bx * cz
     bcz = bx * cy - by * cx
@@ -182,7 +189,7 @@ def guard_clear(x, i0, i1, i2, i3, reach, inv, lim):
     rest = (r * r * (e2 * inv + 1.5 * k) + r * r * r
             + GUARD_ROUND_SLACK * g2 * (g2 * inv + 0.5 * k))
     d = v6 - lim - rest
-    return d > 0.0 and d * d > 3.0000001 * r * r * f2
+    return (d > 0.0) & (d * d > 3.0000001 * r * r * f2)
 
 
 @numba.njit(cache=True, inline="always")
@@ -292,6 +299,139 @@ def element_action(e, mk, st, on_surface, lone, surface_only, eps_p, damage, tem
     return act
 
 
+# Elements per chunk of ``fracture_criteria``: its screen's flags and gathered corners for one
+# chunk stay in the first-level cache (13 x 256 x 8 bytes)
+SCREEN_CHUNK = 256
+SCREEN_GROUP = 16  # chunks per task of the threads (one allocation of the buffers each)
+
+
+@numba.njit(cache=True, inline="always")
+def _screen_chunk(lo, hi, x, v, conn, elem_mat, status, sdev, pressure, eps_p, eps_p_prev,
+                  damage, vol0, face_flag, spall_mode, pnode, m_spall, m_fail, m_duct, m_ero,
+                  m_val, pretest, reach, inv, h1, h2, use_damage, quiet, buf):
+    """Set quiet[e - lo] for the elements lo..hi-1 of ``fracture_criteria``: True only for a
+    cell on which the full criteria (``_criteria_one``) would change nothing and take no action:
+    intact, no face on the surface, its plastic strain unchanged since the last call (no
+    damage increment; eps_p_prev already equal), Gershgorin's spall bound not above the spall
+    strength, no interior erosion criterion met, for the ductile criterion damage below 1, and
+    for a material with failure data a guard that does not flag it (the pre-test
+    ``guard_clear`` when ``pretest``, else the full test). Two loops without branches that
+    depend on the data: the corners gathered into ``buf`` (12 x chunk), then the flags from
+    contiguous arrays, which the compiler turns into packed (SIMD) arithmetic."""
+    n = hi - lo
+    for j in range(n):
+        e = lo + j
+        i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
+        if pretest:
+            for k in range(3):
+                o = x[i0, k]
+                buf[k, j] = x[i1, k] - o
+                buf[3 + k, j] = x[i2, k] - o
+                buf[6 + k, j] = x[i3, k] - o
+        else:
+            for k in range(3):
+                buf[k, j] = x[i0, k]
+                buf[3 + k, j] = x[i1, k]
+                buf[6 + k, j] = x[i2, k]
+                buf[9 + k, j] = x[i3, k]
+                buf[12 + k, j] = v[i0, k]
+                buf[15 + k, j] = v[i1, k]
+                buf[18 + k, j] = v[i2, k]
+                buf[21 + k, j] = v[i3, k]
+        if spall_mode != SPALL_CELL:
+            buf[24, j] = spall_pressure(spall_mode, pressure[e], 0.25 * (
+                pnode[i0] + pnode[i1] + pnode[i2] + pnode[i3]))
+        else:
+            buf[24, j] = pressure[e]
+    for j in range(n):
+        e = lo + j
+        mk = elem_mat[e]
+        p = buf[24, j]
+        sxx, syy, szz = sdev[e, 0], sdev[e, 1], sdev[e, 2]
+        sxy, syz, szx = sdev[e, 3], sdev[e, 4], sdev[e, 5]
+        g = max(sxx + abs(sxy) + abs(szx), max(syy + abs(sxy) + abs(syz),
+                                               szz + abs(syz) + abs(szx))) - p
+        q = ((status[e] == INTACT) & (not (g > m_spall[mk])) & (eps_p[e] == eps_p_prev[e])
+             & (not (face_flag[4 * e] | face_flag[4 * e + 1] | face_flag[4 * e + 2]
+                     | face_flag[4 * e + 3])))
+        ero = m_ero[mk]  # an interior erosion criterion: 0 none or fractured, 1, 2, 3
+        q = q & ((ero == 0) | (ero == 2) | ((ero == 1) & (not (eps_p[e] >= m_val[mk]))))
+        if use_damage:  # else no material reads damage here (ero is never 2)
+            d = damage[e]
+            q = q & ((ero != 2) | (not (d >= m_val[mk]))) & ((not m_duct[mk]) | (not (d >= 1.0)))
+        lim = 6.0 * GUARD_FRACTION * vol0[e]
+        if pretest:
+            ax, ay, az = buf[0, j], buf[1, j], buf[2, j]
+            bx, by, bz = buf[3, j], buf[4, j], buf[5, j]
+            cx, cy, cz = buf[6, j], buf[7, j], buf[8, j]
+            ok = _clear_bound(ax, ay, az, bx, by, bz, cx, cy, cz, reach, inv, lim)
+        else:
+            ok = ((not (_volume6_rows(buf, j, h1) < lim))
+                  & (not (_volume6_rows(buf, j, h2) < lim)))
+        quiet[j] = q & ((not m_fail[mk]) | ok)
+
+
+@numba.njit(cache=True, inline="always")
+def _volume6_rows(buf, j, h):
+    """``_volume6`` on the corners gathered in buf[0:24, j] (x of the four corners, then v):
+    the same operations in the same order, so the same bits."""
+    ax = buf[3, j] + h * buf[15, j] - buf[0, j] - h * buf[12, j]
+    ay = buf[4, j] + h * buf[16, j] - buf[1, j] - h * buf[13, j]
+    az = buf[5, j] + h * buf[17, j] - buf[2, j] - h * buf[14, j]
+    bx = buf[6, j] + h * buf[18, j] - buf[0, j] - h * buf[12, j]
+    by = buf[7, j] + h * buf[19, j] - buf[1, j] - h * buf[13, j]
+    bz = buf[8, j] + h * buf[20, j] - buf[2, j] - h * buf[14, j]
+    cx = buf[9, j] + h * buf[21, j] - buf[0, j] - h * buf[12, j]
+    cy = buf[10, j] + h * buf[22, j] - buf[1, j] - h * buf[13, j]
+    cz = buf[11, j] + h * buf[23, j] - buf[2, j] - h * buf[14, j]
+    return ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
+
+
+@numba.njit(cache=True, inline="always")
+def _criteria_one(e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p,
+                  eps_p_prev, damage, eps_rate, temperature, mat_params, face_flag, adj,
+                  surface_only, dt, action, spall_mode, pnode, spall_k, integrate, pretest,
+                  reach, inv):
+    """The full criteria on element e (module docstring): sets status[e] and action[e];
+    returns (newly damaged 0/1, by the ductile criterion 0/1, newly fractured 0/1, guard
+    tested 0/1, cleared by the pre-test 0/1)."""
+    action[e] = NONE
+    st = status[e]
+    if st == ERODED:
+        return 0, 0, 0, 0, 0
+    mk = elem_mat[e]
+    i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
+    p = pressure[e]
+    if spall_mode != SPALL_CELL:
+        p = spall_pressure(spall_mode, p, 0.25 * (pnode[i0] + pnode[i1] + pnode[i2]
+                                                 + pnode[i3]))
+    st, dam, frac = element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev, damage,
+                                  eps_rate, temperature, mat_params, dt, spall_k, integrate)
+    status[e] = st
+    on_surface = (face_flag[4 * e] or face_flag[4 * e + 1] or face_flag[4 * e + 2]
+                  or face_flag[4 * e + 3])
+    lone = (face_flag[4 * e] and face_flag[4 * e + 1] and face_flag[4 * e + 2]
+            and face_flag[4 * e + 3] and (adj[e, 0] >= 0 or adj[e, 1] >= 0
+                                          or adj[e, 2] >= 0 or adj[e, 3] >= 0))
+    stretch = 1.0
+    if int(mat_params[mk, P.EROSION]) == 3:
+        stretch = max_principal_stretch(x, x0, i0, i1, i2, i3)
+    act = element_action(e, mk, st, on_surface, lone, surface_only, eps_p, damage,
+                         temperature, mat_params, stretch)
+    tested = 0
+    cleared = 0
+    if act == NONE and failing_material(mat_params, mk):
+        lim = 6.0 * GUARD_FRACTION * vol0[e]
+        tested = 1
+        if pretest and guard_clear(x, i0, i1, i2, i3, reach, inv, lim):
+            cleared = 1
+        elif (_volume6(x, v, 1.1 * dt, i0, i1, i2, i3) < lim
+              or _volume6(x, v, 2.2 * dt, i0, i1, i2, i3) < lim):
+            act = GUARD
+    action[e] = act
+    return 1 if dam > 0 else 0, 1 if dam == 2 else 0, frac, tested, cleared
+
+
 @numba.njit(cache=True, parallel=True)
 def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p,
                       eps_p_prev, damage, eps_rate, temperature, mat_params, face_flag, adj,
@@ -307,58 +447,78 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
     eps_p_prev (e,) plastic strain at the previous call (updated here). ``reach``: the guard's
     pre-test reach (``guard_reach`` for h = 2.2 dt), or inf to run the full guard alone.
     Returns (newly damaged, newly fractured, elements with an action, newly damaged by the
-    ductile criterion, cells the guard tested, of them cleared by the pre-test). The
-    pointwise steps
-    (``element_state``, ``element_action``) are shared with the hexes' kernel
-    (impactsim.fracture.hexes).
+    ductile criterion, cells the guard tested, of them cleared by the pre-test).
+
+    Per chunk of SCREEN_CHUNK elements, a screen (``_screen_chunk``) first marks the quiet
+    cells, on which the full criteria would change nothing and take no action (far from the
+    impact, nearly all); only the others run the full criteria (``_criteria_one``), whose
+    pointwise steps (``element_state``, ``element_action``) are shared with the hexes' kernel
+    (impactsim.fracture.hexes). The same statuses, actions, accumulators and counts as the full
+    criteria on every cell (tests/unit/test_fracture_screen.py).
     """
     n_elem = conn.shape[0]
+    n_mat = mat_params.shape[0]
+    m_spall = np.empty(n_mat)
+    m_val = np.empty(n_mat)
+    m_fail = np.empty(n_mat, np.bool_)
+    m_duct = np.empty(n_mat, np.bool_)
+    m_ero = np.empty(n_mat, np.int64)
+    use_damage = False
+    for m in range(n_mat):
+        code = int(mat_params[m, P.EROSION])
+        m_spall[m] = mat_params[m, P.SPALL]
+        m_val[m] = mat_params[m, P.EROSION_VALUE]
+        m_fail[m] = failing_material(mat_params, m)
+        m_duct[m] = ductile(mat_params, m)
+        # the interior erosion criteria the screen reads (an intact cell is never fractured,
+        # code 4); 3 (principal strain) goes to the full criteria
+        m_ero[m] = 0 if code == 4 or surface_only else code
+        use_damage = use_damage or m_duct[m] or m_ero[m] == 2
+    pretest = reach < math.inf  # the guard's pre-test (guard_clear); nan: it clears nothing
+    inv = 1.0 / (2.0 * GUARD_K * reach) if reach > 0.0 else math.inf
+    h1, h2 = 1.1 * dt, 2.2 * dt
     n_dam = 0
     n_frac = 0
     n_act = 0
     n_duct = 0
     n_guard = 0
     n_clear = 0
-    pretest = reach < math.inf  # the guard's pre-test (guard_clear); nan: it clears nothing
-    inv = 1.0 / (2.0 * GUARD_K * reach) if reach > 0.0 else math.inf
-    for e in numba.prange(n_elem):
-        action[e] = NONE
-        st = status[e]
-        if st == ERODED:
-            continue
-        mk = elem_mat[e]
-        i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
-        p = pressure[e]
-        if spall_mode != SPALL_CELL:
-            p = spall_pressure(spall_mode, p, 0.25 * (pnode[i0] + pnode[i1] + pnode[i2]
-                                                     + pnode[i3]))
-        st, dam, frac = element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev, damage,
-                                      eps_rate, temperature, mat_params, dt, spall_k, integrate)
-        n_dam += 1 if dam > 0 else 0
-        n_duct += 1 if dam == 2 else 0
-        n_frac += frac
-        status[e] = st
-        on_surface = (face_flag[4 * e] or face_flag[4 * e + 1] or face_flag[4 * e + 2]
-                      or face_flag[4 * e + 3])
-        lone = (face_flag[4 * e] and face_flag[4 * e + 1] and face_flag[4 * e + 2]
-                and face_flag[4 * e + 3] and (adj[e, 0] >= 0 or adj[e, 1] >= 0
-                                              or adj[e, 2] >= 0 or adj[e, 3] >= 0))
-        stretch = 1.0
-        if int(mat_params[mk, P.EROSION]) == 3:
-            stretch = max_principal_stretch(x, x0, i0, i1, i2, i3)
-        act = element_action(e, mk, st, on_surface, lone, surface_only, eps_p, damage,
-                             temperature, mat_params, stretch)
-        if act == NONE and failing_material(mat_params, mk):
-            lim = 6.0 * GUARD_FRACTION * vol0[e]
-            n_guard += 1
-            if pretest and guard_clear(x, i0, i1, i2, i3, reach, inv, lim):
-                n_clear += 1
-            elif (_volume6(x, v, 1.1 * dt, i0, i1, i2, i3) < lim
-                  or _volume6(x, v, 2.2 * dt, i0, i1, i2, i3) < lim):
-                act = GUARD
-        action[e] = act
-        if act != NONE:
-            n_act += 1
+    n_ch = (n_elem + SCREEN_CHUNK - 1) // SCREEN_CHUNK
+    n_grp = (n_ch + SCREEN_GROUP - 1) // SCREEN_GROUP
+    for grp in numba.prange(n_grp):
+        quiet = np.empty(SCREEN_CHUNK, np.bool_)
+        buf = np.empty((25, SCREEN_CHUNK))
+        for c in range(grp * SCREEN_GROUP, min(n_ch, (grp + 1) * SCREEN_GROUP)):
+            lo = c * SCREEN_CHUNK
+            hi = min(n_elem, lo + SCREEN_CHUNK)
+            if use_damage:
+                _screen_chunk(lo, hi, x, v, conn, elem_mat, status, sdev, pressure, eps_p,
+                              eps_p_prev, damage, vol0, face_flag, spall_mode, pnode, m_spall,
+                              m_fail, m_duct, m_ero, m_val, pretest, reach, inv, h1, h2, True,
+                              quiet, buf)
+            else:
+                _screen_chunk(lo, hi, x, v, conn, elem_mat, status, sdev, pressure, eps_p,
+                              eps_p_prev, damage, vol0, face_flag, spall_mode, pnode, m_spall,
+                              m_fail, m_duct, m_ero, m_val, pretest, reach, inv, h1, h2, False,
+                              quiet, buf)
+            for e in range(lo, hi):
+                if quiet[e - lo]:
+                    action[e] = NONE
+                    if m_fail[elem_mat[e]]:
+                        n_guard += 1
+                        n_clear += 1 if pretest else 0
+                    continue
+                dam, duct, frac, tested, cleared = _criteria_one(
+                    e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p,
+                    eps_p_prev, damage, eps_rate, temperature, mat_params, face_flag, adj,
+                    surface_only, dt, action, spall_mode, pnode, spall_k, integrate, pretest,
+                    reach, inv)
+                n_dam += dam
+                n_duct += duct
+                n_frac += frac
+                n_guard += tested
+                n_clear += cleared
+                n_act += 1 if action[e] != NONE else 0
     return n_dam, n_frac, n_act, n_duct, n_guard, n_clear
 
 
