@@ -81,15 +81,25 @@ MELT_SHARE = 0.99
 @numba.njit(cache=True, inline="always")
 def _volume6(x, v, h, i0, i1, i2, i3):
     """Six times the volume of the tet at positions x + h v."""
-    ax = x[i1, 0] + h * v[i1, 0] - x[i0, 0] - h * v[i0, 0]
-    ay = x[i1, 1] + h * v[i1, 1] - x[i0, 1] - h * v[i0, 1]
-    az = x[i1, 2] + h * v[i1, 2] - x[i0, 2] - h * v[i0, 2]
-    bx = x[i2, 0] + h * v[i2, 0] - x[i0, 0] - h * v[i0, 0]
-    by = x[i2, 1] + h * v[i2, 1] - x[i0, 1] - h * v[i0, 1]
-    bz = x[i2, 2] + h * v[i2, 2] - x[i0, 2] - h * v[i0, 2]
-    cx = x[i3, 0] + h * v[i3, 0] - x[i0, 0] - h * v[i0, 0]
-    cy = x[i3, 1] + h * v[i3, 1] - x[i0, 1] - h * v[i0, 1]
-    cz = x[i3, 2] + h * v[i3, 2] - x[i0, 2] - h * v[i0, 2]
+    return _volume6_of(x[i0, 0], x[i0, 1], x[i0, 2], x[i1, 0], x[i1, 1], x[i1, 2],
+                       x[i2, 0], x[i2, 1], x[i2, 2], x[i3, 0], x[i3, 1], x[i3, 2],
+                       v[i0, 0], v[i0, 1], v[i0, 2], v[i1, 0], v[i1, 1], v[i1, 2],
+                       v[i2, 0], v[i2, 1], v[i2, 2], v[i3, 0], v[i3, 1], v[i3, 2], h)
+
+
+@numba.njit(cache=True, inline="always")
+def _volume6_of(x0x, x0y, x0z, x1x, x1y, x1z, x2x, x2y, x2z, x3x, x3y, x3z,
+                v0x, v0y, v0z, v1x, v1y, v1z, v2x, v2y, v2z, v3x, v3y, v3z, h):
+    """``_volume6`` on the corners' coordinates and velocities."""
+    ax = x1x + h * v1x - x0x - h * v0x
+    ay = x1y + h * v1y - x0y - h * v0y
+    az = x1z + h * v1z - x0z - h * v0z
+    bx = x2x + h * v2x - x0x - h * v0x
+    by = x2y + h * v2y - x0y - h * v0y
+    bz = x2z + h * v2z - x0z - h * v0z
+    cx = x3x + h * v3x - x0x - h * v0x
+    cy = x3y + h * v3y - x0y - h * v0y
+    cz = x3z + h * v3z - x0z - h * v0z
     return ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
 
 
@@ -299,102 +309,148 @@ def element_action(e, mk, st, on_surface, lone, surface_only, eps_p, damage, tem
     return act
 
 
-# Elements per chunk of ``fracture_criteria``: its screen's flags and gathered corners for one
-# chunk stay in the first-level cache (13 x 256 x 8 bytes)
-SCREEN_CHUNK = 256
-SCREEN_GROUP = 16  # chunks per task of the threads (one allocation of the buffers each)
+# The guard of ``fracture_criteria`` runs on blocks of GB cells: their corners are copied into a
+# buffer of GUARD_ROWS x GB doubles (6.6 kB, in the first-level cache), on which one loop
+# evaluates the guard for every lane in SIMD instructions (``_guard_clear_block``,
+# ``_guard_full_block``: separate kernels, since LLVM vectorises a loop whose only memory is
+# the buffer and whose trip count is a constant, as in solver/element.py)
+GB = 32
+R_LIM = 24  # row of 6 GUARD_FRACTION V0
+R_OK = 25  # row of the verdict: 1.0 the guard cannot flag the cell, else 0.0
+GUARD_ROWS = 26
+GROUP_BLOCKS = 64  # blocks per task of the threads (one buffer each)
 
 
 @numba.njit(cache=True, inline="always")
-def _screen_chunk(lo, hi, x, v, conn, elem_mat, status, sdev, pressure, eps_p, eps_p_prev,
-                  damage, vol0, face_flag, spall_mode, pnode, m_spall, m_fail, m_duct, m_ero,
-                  m_val, pretest, reach, inv, h1, h2, use_damage, quiet, buf):
-    """Set quiet[e - lo] for the elements lo..hi-1 of ``fracture_criteria``: True only for a
-    cell on which the full criteria (``_criteria_one``) would change nothing and take no action:
-    intact, no face on the surface, its plastic strain unchanged since the last call (no
-    damage increment; eps_p_prev already equal), Gershgorin's spall bound not above the spall
-    strength, no interior erosion criterion met, for the ductile criterion damage below 1, and
-    for a material with failure data a guard that does not flag it (the pre-test
-    ``guard_clear`` when ``pretest``, else the full test). Two loops without branches that
-    depend on the data: the corners gathered into ``buf`` (12 x chunk), then the flags from
-    contiguous arrays, which the compiler turns into packed (SIMD) arithmetic."""
-    n = hi - lo
-    for j in range(n):
-        e = lo + j
-        i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
-        if pretest:
-            for k in range(3):
-                o = x[i0, k]
-                buf[k, j] = x[i1, k] - o
-                buf[3 + k, j] = x[i2, k] - o
-                buf[6 + k, j] = x[i3, k] - o
-        else:
-            for k in range(3):
-                buf[k, j] = x[i0, k]
-                buf[3 + k, j] = x[i1, k]
-                buf[6 + k, j] = x[i2, k]
-                buf[9 + k, j] = x[i3, k]
-                buf[12 + k, j] = v[i0, k]
-                buf[15 + k, j] = v[i1, k]
-                buf[18 + k, j] = v[i2, k]
-                buf[21 + k, j] = v[i3, k]
-        if spall_mode != SPALL_CELL:
-            buf[24, j] = spall_pressure(spall_mode, pressure[e], 0.25 * (
-                pnode[i0] + pnode[i1] + pnode[i2] + pnode[i3]))
-        else:
-            buf[24, j] = pressure[e]
-    for j in range(n):
-        e = lo + j
-        mk = elem_mat[e]
-        p = buf[24, j]
-        sxx, syy, szz = sdev[e, 0], sdev[e, 1], sdev[e, 2]
-        sxy, syz, szx = sdev[e, 3], sdev[e, 4], sdev[e, 5]
-        g = max(sxx + abs(sxy) + abs(szx), max(syy + abs(sxy) + abs(syz),
-                                               szz + abs(syz) + abs(szx))) - p
-        q = ((status[e] == INTACT) & (not (g > m_spall[mk])) & (eps_p[e] == eps_p_prev[e])
-             & (not (face_flag[4 * e] | face_flag[4 * e + 1] | face_flag[4 * e + 2]
-                     | face_flag[4 * e + 3])))
-        ero = m_ero[mk]  # an interior erosion criterion: 0 none or fractured, 1, 2, 3
-        q = q & ((ero == 0) | (ero == 2) | ((ero == 1) & (not (eps_p[e] >= m_val[mk]))))
-        if use_damage:  # else no material reads damage here (ero is never 2)
-            d = damage[e]
-            q = q & ((ero != 2) | (not (d >= m_val[mk]))) & ((not m_duct[mk]) | (not (d >= 1.0)))
-        lim = 6.0 * GUARD_FRACTION * vol0[e]
-        if pretest:
-            ax, ay, az = buf[0, j], buf[1, j], buf[2, j]
-            bx, by, bz = buf[3, j], buf[4, j], buf[5, j]
-            cx, cy, cz = buf[6, j], buf[7, j], buf[8, j]
-            ok = _clear_bound(ax, ay, az, bx, by, bz, cx, cy, cz, reach, inv, lim)
-        else:
-            ok = ((not (_volume6_rows(buf, j, h1) < lim))
-                  & (not (_volume6_rows(buf, j, h2) < lim)))
-        quiet[j] = q & ((not m_fail[mk]) | ok)
+def _gather_block(x, v, conn, vol0, e0, buf, with_v):
+    """Copy the corners (and with_v their velocities) of the cells e0 .. e0 + GB - 1 into buf:
+    row 3k + d the coordinate d of corner k, row 12 + 3k + d its velocity. Through views of
+    the block and unsigned node indices (no negative-index wraparound: solver/element.py's
+    _load_block)."""
+    cn = conn[e0:e0 + GB]
+    v0 = vol0[e0:e0 + GB]
+    for i in range(GB):
+        buf[R_LIM * GB + i] = 6.0 * GUARD_FRACTION * v0[i]
+        for k in range(4):
+            n = np.uint64(cn[i, k])
+            for d in range(3):
+                buf[(3 * k + d) * GB + i] = x[n, d]
+                if with_v:
+                    buf[(12 + 3 * k + d) * GB + i] = v[n, d]
+
+
+@numba.njit(cache=True)
+def _guard_clear_block(buf, reach, inv):
+    """The pre-test ``guard_clear`` on every lane of buf (same operations, same bits): R_OK
+    1.0 where it clears the cell."""
+    for i in range(GB):
+        x0x, x0y, x0z = buf[0 * GB + i], buf[1 * GB + i], buf[2 * GB + i]
+        ok = _clear_bound(buf[3 * GB + i] - x0x, buf[4 * GB + i] - x0y, buf[5 * GB + i] - x0z,
+                          buf[6 * GB + i] - x0x, buf[7 * GB + i] - x0y, buf[8 * GB + i] - x0z,
+                          buf[9 * GB + i] - x0x, buf[10 * GB + i] - x0y,
+                          buf[11 * GB + i] - x0z, reach, inv, buf[R_LIM * GB + i])
+        buf[R_OK * GB + i] = 1.0 if ok else 0.0
+
+
+@numba.njit(cache=True)
+def _guard_full_block(buf, h1, h2):
+    """The full guard (``_volume6`` at h1 = 1.1 dt and h2 = 2.2 dt against the limit) on every
+    lane of buf: R_OK 1.0 where it does not flag the cell."""
+    for i in range(GB):
+        lim = buf[R_LIM * GB + i]
+        ok = ((not (_volume6_lane(buf, i, h1) < lim))
+              & (not (_volume6_lane(buf, i, h2) < lim)))
+        buf[R_OK * GB + i] = 1.0 if ok else 0.0
 
 
 @numba.njit(cache=True, inline="always")
-def _volume6_rows(buf, j, h):
-    """``_volume6`` on the corners gathered in buf[0:24, j] (x of the four corners, then v):
-    the same operations in the same order, so the same bits."""
-    ax = buf[3, j] + h * buf[15, j] - buf[0, j] - h * buf[12, j]
-    ay = buf[4, j] + h * buf[16, j] - buf[1, j] - h * buf[13, j]
-    az = buf[5, j] + h * buf[17, j] - buf[2, j] - h * buf[14, j]
-    bx = buf[6, j] + h * buf[18, j] - buf[0, j] - h * buf[12, j]
-    by = buf[7, j] + h * buf[19, j] - buf[1, j] - h * buf[13, j]
-    bz = buf[8, j] + h * buf[20, j] - buf[2, j] - h * buf[14, j]
-    cx = buf[9, j] + h * buf[21, j] - buf[0, j] - h * buf[12, j]
-    cy = buf[10, j] + h * buf[22, j] - buf[1, j] - h * buf[13, j]
-    cz = buf[11, j] + h * buf[23, j] - buf[2, j] - h * buf[14, j]
-    return ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
+def _volume6_lane(buf, i, h):
+    """``_volume6`` of lane i of a guard block (``_volume6_of``: the same bits)."""
+    return _volume6_of(
+        buf[0 * GB + i], buf[1 * GB + i], buf[2 * GB + i], buf[3 * GB + i], buf[4 * GB + i],
+        buf[5 * GB + i], buf[6 * GB + i], buf[7 * GB + i], buf[8 * GB + i], buf[9 * GB + i],
+        buf[10 * GB + i], buf[11 * GB + i], buf[12 * GB + i], buf[13 * GB + i],
+        buf[14 * GB + i], buf[15 * GB + i], buf[16 * GB + i], buf[17 * GB + i],
+        buf[18 * GB + i], buf[19 * GB + i], buf[20 * GB + i], buf[21 * GB + i],
+        buf[22 * GB + i], buf[23 * GB + i], h)
+
+
+# columns of the per-material table of ``_quiet`` (``_quiet_table``)
+Q_SPALL, Q_VAL, Q_FAIL, Q_DUCT, Q_ERO_IN, Q_ERO_SURF, Q_MELT = 0, 1, 2, 3, 4, 5, 6
+Q_COLS = 7
+
+
+@numba.njit(cache=True, inline="always")
+def _quiet_table(mat_params, surface_only, mq):
+    """Fill mq (n_mat, Q_COLS): spall strength, erosion value, failure data (1.0/0.0), ductile
+    criterion (1.0/0.0), the erosion criterion's code inside the body and on its surface (0
+    where it cannot hold for an intact cell: none, or "fractured"), the melt temperature of
+    step 3b (as ``element_action`` computes it)."""
+    for m in range(mat_params.shape[0]):
+        code = int(mat_params[m, P.EROSION])
+        code = 0 if code == 4 else code
+        mq[m, Q_SPALL] = mat_params[m, P.SPALL]
+        mq[m, Q_VAL] = mat_params[m, P.EROSION_VALUE]
+        mq[m, Q_FAIL] = 1.0 if failing_material(mat_params, m) else 0.0
+        mq[m, Q_DUCT] = 1.0 if ductile(mat_params, m) else 0.0
+        mq[m, Q_ERO_IN] = 0.0 if surface_only else code
+        mq[m, Q_ERO_SURF] = code
+        mq[m, Q_MELT] = mat_params[m, P.T_ROOM] + MELT_SHARE * (
+            mat_params[m, P.T_MELT] - mat_params[m, P.T_ROOM])
+
+
+@numba.njit(cache=True, inline="always")
+def _quiet(e, mk, status, sdev, p, eps_p, eps_p_prev, damage, temperature, face_flag, mq,
+           guard_ok):
+    """True only for a cell on which the full criteria (``_criteria_one``) change nothing and
+    take no action: intact, its plastic strain unchanged since the last call (no damage
+    increment; eps_p_prev already equal), Gershgorin's spall bound (with the pressure p spall
+    reads) not above the spall strength, no erosion criterion met where it applies, for the
+    ductile criterion damage below 1, and for a material with failure data a guard that does
+    not flag it (guard_ok: the block's verdict) and, on the surface, neither molten nor
+    strained beyond MAX_PLASTIC_STRAIN nor with all four faces free (a possible one-cell
+    fragment: the full criteria decide). mq: ``_quiet_table``. The tests in the order that
+    rejects a cell soonest."""
+    if status[e] != INTACT:
+        return False
+    ep = eps_p[e]
+    if not ep == eps_p_prev[e]:
+        return False
+    fail = mq[mk, Q_FAIL] != 0.0
+    if fail and not guard_ok:
+        return False
+    sxx, syy, szz = sdev[e, 0], sdev[e, 1], sdev[e, 2]
+    sxy, syz, szx = sdev[e, 3], sdev[e, 4], sdev[e, 5]
+    if max(sxx + abs(sxy) + abs(szx), syy + abs(sxy) + abs(syz),
+           szz + abs(syz) + abs(szx)) - p > mq[mk, Q_SPALL]:
+        return False
+    f0, f1 = face_flag[4 * e], face_flag[4 * e + 1]
+    f2, f3 = face_flag[4 * e + 2], face_flag[4 * e + 3]
+    surf = f0 or f1 or f2 or f3
+    ero = mq[mk, Q_ERO_SURF] if surf else mq[mk, Q_ERO_IN]
+    if ero == 3.0 or (ero == 1.0 and ep >= mq[mk, Q_VAL]):
+        return False
+    duct = mq[mk, Q_DUCT] != 0.0
+    if ero == 2.0 or duct:
+        d = damage[e]
+        if (ero == 2.0 and d >= mq[mk, Q_VAL]) or (duct and d >= 1.0):
+            return False
+    if surf and fail:
+        if temperature[e] >= mq[mk, Q_MELT] or ep > MAX_PLASTIC_STRAIN or (f0 and f1 and f2
+                                                                           and f3):
+            return False
+    return True
 
 
 @numba.njit(cache=True, inline="always")
 def _criteria_one(e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p,
                   eps_p_prev, damage, eps_rate, temperature, mat_params, face_flag, adj,
                   surface_only, dt, action, spall_mode, pnode, spall_k, integrate, pretest,
-                  reach, inv):
+                  reach, inv, verdict):
     """The full criteria on element e (module docstring): sets status[e] and action[e];
     returns (newly damaged 0/1, by the ductile criterion 0/1, newly fractured 0/1, guard
-    tested 0/1, cleared by the pre-test 0/1)."""
+    tested 0/1, cleared by the pre-test 0/1). verdict: the guard's (``_guard_clear_block``
+    with the pre-test, else ``_guard_full_block``) when known, 1 or 0, else -1."""
     action[e] = NONE
     st = status[e]
     if st == ERODED:
@@ -423,10 +479,12 @@ def _criteria_one(e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0
     if act == NONE and failing_material(mat_params, mk):
         lim = 6.0 * GUARD_FRACTION * vol0[e]
         tested = 1
-        if pretest and guard_clear(x, i0, i1, i2, i3, reach, inv, lim):
+        if pretest and (verdict == 1 if verdict >= 0
+                        else guard_clear(x, i0, i1, i2, i3, reach, inv, lim)):
             cleared = 1
-        elif (_volume6(x, v, 1.1 * dt, i0, i1, i2, i3) < lim
-              or _volume6(x, v, 2.2 * dt, i0, i1, i2, i3) < lim):
+        elif (verdict == 0 if verdict >= 0 and not pretest
+              else (_volume6(x, v, 1.1 * dt, i0, i1, i2, i3) < lim
+                    or _volume6(x, v, 2.2 * dt, i0, i1, i2, i3) < lim)):
             act = GUARD
     action[e] = act
     return 1 if dam > 0 else 0, 1 if dam == 2 else 0, frac, tested, cleared
@@ -441,7 +499,7 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
 
     face_flag (4e,) bool free faces and adj (e,4) face neighbours at t = 0 (-1: none)
     (impactsim.fracture.boundary.Boundary). spall_mode (spall.PRESSURE_CODES): the pressure
-    spall reads, from the element's own and p_patch from pnode, the nodal means of
+    spall reads, from the element's own and p_patch from pnode (n_node,), the nodal means of
     `patch_fields` (not read for "cell"; jnode is not read). spall_k (e,) the Tuler-Butcher
     accumulators, integrate: `[fracture] spall_criterion = "tuler-butcher"` (spall.py).
     eps_p_prev (e,) plastic strain at the previous call (updated here). ``reach``: the guard's
@@ -449,31 +507,18 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
     Returns (newly damaged, newly fractured, elements with an action, newly damaged by the
     ductile criterion, cells the guard tested, of them cleared by the pre-test).
 
-    Per chunk of SCREEN_CHUNK elements, a screen (``_screen_chunk``) first marks the quiet
-    cells, on which the full criteria would change nothing and take no action (far from the
-    impact, nearly all); only the others run the full criteria (``_criteria_one``), whose
+    Per block of GB elements the guard runs first on every cell in SIMD instructions
+    (``_gather_block``, then ``_guard_clear_block`` or ``_guard_full_block``); a cell on which
+    the full criteria would then change nothing and take no action (``_quiet``: far from the
+    impact, nearly all) costs a few tests; only the others run the full criteria
+    (``_criteria_one``), whose
     pointwise steps (``element_state``, ``element_action``) are shared with the hexes' kernel
     (impactsim.fracture.hexes). The same statuses, actions, accumulators and counts as the full
     criteria on every cell (tests/unit/test_fracture_screen.py).
     """
     n_elem = conn.shape[0]
-    n_mat = mat_params.shape[0]
-    m_spall = np.empty(n_mat)
-    m_val = np.empty(n_mat)
-    m_fail = np.empty(n_mat, np.bool_)
-    m_duct = np.empty(n_mat, np.bool_)
-    m_ero = np.empty(n_mat, np.int64)
-    use_damage = False
-    for m in range(n_mat):
-        code = int(mat_params[m, P.EROSION])
-        m_spall[m] = mat_params[m, P.SPALL]
-        m_val[m] = mat_params[m, P.EROSION_VALUE]
-        m_fail[m] = failing_material(mat_params, m)
-        m_duct[m] = ductile(mat_params, m)
-        # the interior erosion criteria the screen reads (an intact cell is never fractured,
-        # code 4); 3 (principal strain) goes to the full criteria
-        m_ero[m] = 0 if code == 4 or surface_only else code
-        use_damage = use_damage or m_duct[m] or m_ero[m] == 2
+    mq = np.empty((mat_params.shape[0], Q_COLS))
+    _quiet_table(mat_params, surface_only, mq)
     pretest = reach < math.inf  # the guard's pre-test (guard_clear); nan: it clears nothing
     inv = 1.0 / (2.0 * GUARD_K * reach) if reach > 0.0 else math.inf
     h1, h2 = 1.1 * dt, 2.2 * dt
@@ -483,42 +528,49 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
     n_duct = 0
     n_guard = 0
     n_clear = 0
-    n_ch = (n_elem + SCREEN_CHUNK - 1) // SCREEN_CHUNK
-    n_grp = (n_ch + SCREEN_GROUP - 1) // SCREEN_GROUP
+    # first the guard's verdict on every cell of the full blocks, in SIMD instructions, kept in
+    # action until the cell's own action replaces it (-1: not known, the mesh's last block)
+    n_blk = n_elem // GB
+    n_grp = (n_blk + GROUP_BLOCKS - 1) // GROUP_BLOCKS
     for grp in numba.prange(n_grp):
-        quiet = np.empty(SCREEN_CHUNK, np.bool_)
-        buf = np.empty((25, SCREEN_CHUNK))
-        for c in range(grp * SCREEN_GROUP, min(n_ch, (grp + 1) * SCREEN_GROUP)):
-            lo = c * SCREEN_CHUNK
-            hi = min(n_elem, lo + SCREEN_CHUNK)
-            if use_damage:
-                _screen_chunk(lo, hi, x, v, conn, elem_mat, status, sdev, pressure, eps_p,
-                              eps_p_prev, damage, vol0, face_flag, spall_mode, pnode, m_spall,
-                              m_fail, m_duct, m_ero, m_val, pretest, reach, inv, h1, h2, True,
-                              quiet, buf)
+        buf = np.empty(GUARD_ROWS * GB)
+        for blk in range(grp * GROUP_BLOCKS, min(n_blk, (grp + 1) * GROUP_BLOCKS)):
+            e0 = blk * GB
+            if pretest:
+                _gather_block(x, v, conn, vol0, e0, buf, False)
+                _guard_clear_block(buf, reach, inv)
             else:
-                _screen_chunk(lo, hi, x, v, conn, elem_mat, status, sdev, pressure, eps_p,
-                              eps_p_prev, damage, vol0, face_flag, spall_mode, pnode, m_spall,
-                              m_fail, m_duct, m_ero, m_val, pretest, reach, inv, h1, h2, False,
-                              quiet, buf)
-            for e in range(lo, hi):
-                if quiet[e - lo]:
-                    action[e] = NONE
-                    if m_fail[elem_mat[e]]:
-                        n_guard += 1
-                        n_clear += 1 if pretest else 0
-                    continue
-                dam, duct, frac, tested, cleared = _criteria_one(
-                    e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p,
-                    eps_p_prev, damage, eps_rate, temperature, mat_params, face_flag, adj,
-                    surface_only, dt, action, spall_mode, pnode, spall_k, integrate, pretest,
-                    reach, inv)
-                n_dam += dam
-                n_duct += duct
-                n_frac += frac
-                n_guard += tested
-                n_clear += cleared
-                n_act += 1 if action[e] != NONE else 0
+                _gather_block(x, v, conn, vol0, e0, buf, True)
+                _guard_full_block(buf, h1, h2)
+            out = action[e0:e0 + GB]
+            for i in range(GB):
+                out[i] = 1 if buf[R_OK * GB + i] != 0.0 else 0
+    for e in range(n_blk * GB, n_elem):
+        action[e] = -1
+    for e in numba.prange(n_elem):
+        verdict = int(action[e])
+        mk = elem_mat[e]
+        p = pressure[e]
+        if spall_mode != SPALL_CELL:
+            p = spall_pressure(spall_mode, p, 0.25 * (
+                pnode[conn[e, 0]] + pnode[conn[e, 1]] + pnode[conn[e, 2]] + pnode[conn[e, 3]]))
+        if verdict >= 0 and _quiet(e, mk, status, sdev, p, eps_p, eps_p_prev, damage,
+                                   temperature, face_flag, mq, verdict == 1):
+            action[e] = NONE
+            if mq[mk, Q_FAIL] != 0.0:
+                n_guard += 1
+                n_clear += 1 if pretest else 0
+            continue
+        dam, duct, frac, tested, cleared = _criteria_one(
+            e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p, eps_p_prev,
+            damage, eps_rate, temperature, mat_params, face_flag, adj, surface_only, dt, action,
+            spall_mode, pnode, spall_k, integrate, pretest, reach, inv, verdict)
+        n_dam += dam
+        n_duct += duct
+        n_frac += frac
+        n_guard += tested
+        n_clear += cleared
+        n_act += 1 if action[e] != NONE else 0
     return n_dam, n_frac, n_act, n_duct, n_guard, n_clear
 
 

@@ -34,7 +34,7 @@ def _reference(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_
         dam, duct, frac, tested, cleared = _criteria_one(
             e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p, eps_p_prev,
             damage, eps_rate, temperature, mat_params, face_flag, adj, surface_only, dt, action,
-            spall_mode, pnode, spall_k, integrate, pretest, reach, inv)
+            spall_mode, pnode, spall_k, integrate, pretest, reach, inv, -1)
         n_dam += dam
         n_duct += duct
         n_frac += frac
