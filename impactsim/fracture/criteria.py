@@ -316,33 +316,72 @@ def element_action(e, mk, st, on_surface, lone, surface_only, eps_p, damage, tem
 # the buffer and whose trip count is a constant, as in solver/element.py)
 GB = 32
 R_LIM = 24  # row of 6 GUARD_FRACTION V0
-R_OK = 25  # row of the verdict: 1.0 the guard cannot flag the cell, else 0.0
-GUARD_ROWS = 26
+R_OK = 25  # row of a block kernel's verdict: 1.0 it clears (passes) the cell, else 0.0
+R_CLEAR = 26  # the pre-test's verdict, kept while the full test runs on the block
+GUARD_ROWS = 27
 GROUP_BLOCKS = 64  # blocks per task of the threads (one buffer each)
 
 
 @numba.njit(cache=True, inline="always")
-def _gather_block(x, v, conn, vol0, e0, buf, with_v):
-    """Copy the corners (and with_v their velocities) of the cells e0 .. e0 + GB - 1 into buf:
-    row 3k + d the coordinate d of corner k, row 12 + 3k + d its velocity. Through views of
-    the block and unsigned node indices (no negative-index wraparound: solver/element.py's
-    _load_block)."""
+def _gather_block(x, v, conn, vol0, e0, buf, with_x, with_v):
+    """Copy the corners' positions (with_x, and the limit row R_LIM) and velocities (with_v) of
+    the cells e0 .. e0 + GB - 1 into buf: row 3k + d the coordinate d of corner k, row
+    12 + 3k + d its velocity. Through views of the block and unsigned node indices (no
+    negative-index wraparound: solver/element.py's _load_block)."""
     cn = conn[e0:e0 + GB]
-    v0 = vol0[e0:e0 + GB]
-    for i in range(GB):
-        buf[R_LIM * GB + i] = 6.0 * GUARD_FRACTION * v0[i]
-        for k in range(4):
-            n = np.uint64(cn[i, k])
-            for d in range(3):
-                buf[(3 * k + d) * GB + i] = x[n, d]
-                if with_v:
+    if with_x:
+        v0 = vol0[e0:e0 + GB]
+        for i in range(GB):
+            buf[R_LIM * GB + i] = 6.0 * GUARD_FRACTION * v0[i]
+            for k in range(4):
+                n = np.uint64(cn[i, k])
+                for d in range(3):
+                    buf[(3 * k + d) * GB + i] = x[n, d]
+    if with_v:
+        for i in range(GB):
+            for k in range(4):
+                n = np.uint64(cn[i, k])
+                for d in range(3):
                     buf[(12 + 3 * k + d) * GB + i] = v[n, d]
+
+
+# the guard's verdict on a cell, as ``fracture_criteria`` keeps it in ``action`` for
+# ``_criteria_one`` (-1: not known, the full criteria work it out)
+CLEARED = 1  # the pre-test clears the cell
+PASSED = 2  # the full test does not flag it (the pre-test, if it ran, did not clear it)
+FLAGGED = 3  # the full test flags it
+
+
+@numba.njit(cache=True, inline="always")
+def _guard_verdicts(x, v, conn, vol0, e0, buf, pretest, reach, inv, h1, h2, out):
+    """The guard's verdicts (CLEARED, PASSED, FLAGGED) on the cells e0 .. e0 + GB - 1 into out:
+    with the pre-test, on the positions alone, and where it leaves a lane the full test on the
+    whole block; without, the full test."""
+    left = GB
+    if not pretest:
+        _gather_block(x, v, conn, vol0, e0, buf, True, True)
+    else:
+        _gather_block(x, v, conn, vol0, e0, buf, True, False)
+        left = _guard_clear_block(buf, reach, inv)
+        if left:
+            for i in range(GB):
+                buf[R_CLEAR * GB + i] = buf[R_OK * GB + i]
+            _gather_block(x, v, conn, vol0, e0, buf, False, True)
+        else:
+            for i in range(GB):
+                out[i] = CLEARED
+    if left:
+        _guard_full_block(buf, h1, h2)
+        for i in range(GB):
+            full = PASSED if buf[R_OK * GB + i] != 0.0 else FLAGGED
+            out[i] = CLEARED if pretest and buf[R_CLEAR * GB + i] != 0.0 else full
 
 
 @numba.njit(cache=True)
 def _guard_clear_block(buf, reach, inv):
     """The pre-test ``guard_clear`` on every lane of buf (same operations, same bits): R_OK
-    1.0 where it clears the cell."""
+    1.0 where it clears the cell. Returns how many lanes it does not clear."""
+    left = 0
     for i in range(GB):
         x0x, x0y, x0z = buf[0 * GB + i], buf[1 * GB + i], buf[2 * GB + i]
         ok = _clear_bound(buf[3 * GB + i] - x0x, buf[4 * GB + i] - x0y, buf[5 * GB + i] - x0z,
@@ -350,6 +389,8 @@ def _guard_clear_block(buf, reach, inv):
                           buf[9 * GB + i] - x0x, buf[10 * GB + i] - x0y,
                           buf[11 * GB + i] - x0z, reach, inv, buf[R_LIM * GB + i])
         buf[R_OK * GB + i] = 1.0 if ok else 0.0
+        left += 0 if ok else 1
+    return left
 
 
 @numba.njit(cache=True)
@@ -449,8 +490,8 @@ def _criteria_one(e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0
                   reach, inv, verdict):
     """The full criteria on element e (module docstring): sets status[e] and action[e];
     returns (newly damaged 0/1, by the ductile criterion 0/1, newly fractured 0/1, guard
-    tested 0/1, cleared by the pre-test 0/1). verdict: the guard's (``_guard_clear_block``
-    with the pre-test, else ``_guard_full_block``) when known, 1 or 0, else -1."""
+    tested 0/1, cleared by the pre-test 0/1). verdict: the guard's (``_guard_verdicts``:
+    CLEARED, PASSED or FLAGGED) when known, else -1."""
     action[e] = NONE
     st = status[e]
     if st == ERODED:
@@ -479,10 +520,10 @@ def _criteria_one(e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0
     if act == NONE and failing_material(mat_params, mk):
         lim = 6.0 * GUARD_FRACTION * vol0[e]
         tested = 1
-        if pretest and (verdict == 1 if verdict >= 0
+        if pretest and (verdict == CLEARED if verdict >= 0
                         else guard_clear(x, i0, i1, i2, i3, reach, inv, lim)):
             cleared = 1
-        elif (verdict == 0 if verdict >= 0 and not pretest
+        elif (verdict == FLAGGED if verdict >= 0
               else (_volume6(x, v, 1.1 * dt, i0, i1, i2, i3) < lim
                     or _volume6(x, v, 2.2 * dt, i0, i1, i2, i3) < lim)):
             act = GUARD
@@ -536,15 +577,8 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
         buf = np.empty(GUARD_ROWS * GB)
         for blk in range(grp * GROUP_BLOCKS, min(n_blk, (grp + 1) * GROUP_BLOCKS)):
             e0 = blk * GB
-            if pretest:
-                _gather_block(x, v, conn, vol0, e0, buf, False)
-                _guard_clear_block(buf, reach, inv)
-            else:
-                _gather_block(x, v, conn, vol0, e0, buf, True)
-                _guard_full_block(buf, h1, h2)
-            out = action[e0:e0 + GB]
-            for i in range(GB):
-                out[i] = 1 if buf[R_OK * GB + i] != 0.0 else 0
+            _guard_verdicts(x, v, conn, vol0, e0, buf, pretest, reach, inv, h1, h2,
+                            action[e0:e0 + GB])
     for e in range(n_blk * GB, n_elem):
         action[e] = -1
     for e in numba.prange(n_elem):
@@ -555,11 +589,11 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
             p = spall_pressure(spall_mode, p, 0.25 * (
                 pnode[conn[e, 0]] + pnode[conn[e, 1]] + pnode[conn[e, 2]] + pnode[conn[e, 3]]))
         if verdict >= 0 and _quiet(e, mk, status, sdev, p, eps_p, eps_p_prev, damage,
-                                   temperature, face_flag, mq, verdict == 1):
+                                   temperature, face_flag, mq, verdict != FLAGGED):
             action[e] = NONE
             if mq[mk, Q_FAIL] != 0.0:
                 n_guard += 1
-                n_clear += 1 if pretest else 0
+                n_clear += 1 if verdict == CLEARED else 0
             continue
         dam, duct, frac, tested, cleared = _criteria_one(
             e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p, eps_p_prev,
