@@ -548,11 +548,11 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
     Returns (newly damaged, newly fractured, elements with an action, newly damaged by the
     ductile criterion, cells the guard tested, of them cleared by the pre-test).
 
-    Per block of GB elements the guard runs first on every cell in SIMD instructions
-    (``_gather_block``, then ``_guard_clear_block`` or ``_guard_full_block``); a cell on which
-    the full criteria would then change nothing and take no action (``_quiet``: far from the
-    impact, nearly all) costs a few tests; only the others run the full criteria
-    (``_criteria_one``), whose
+    Two passes. Per block of GB elements the guard's verdict on every cell in SIMD
+    instructions (``_guard_verdicts``: the pre-test, and where it leaves a lane or rests the
+    full test on the whole block); then per cell: one on which the full criteria would change
+    nothing and take no action (``_quiet``: far from the impact, nearly all) costs a few
+    tests, the others run the full criteria with the verdict (``_criteria_one``), whose
     pointwise steps (``element_state``, ``element_action``) are shared with the hexes' kernel
     (impactsim.fracture.hexes). The same statuses, actions, accumulators and counts as the full
     criteria on every cell (tests/unit/test_fracture_screen.py).
