@@ -60,6 +60,7 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 
 from impactsim.fracture.ductile import damage_increment, ductile, fracture_strain, triaxiality
 from impactsim.fracture.principal import max_principal, max_principal_stretch
@@ -80,15 +81,25 @@ MELT_SHARE = 0.99
 @numba.njit(cache=True, inline="always")
 def _volume6(x, v, h, i0, i1, i2, i3):
     """Six times the volume of the tet at positions x + h v."""
-    ax = x[i1, 0] + h * v[i1, 0] - x[i0, 0] - h * v[i0, 0]
-    ay = x[i1, 1] + h * v[i1, 1] - x[i0, 1] - h * v[i0, 1]
-    az = x[i1, 2] + h * v[i1, 2] - x[i0, 2] - h * v[i0, 2]
-    bx = x[i2, 0] + h * v[i2, 0] - x[i0, 0] - h * v[i0, 0]
-    by = x[i2, 1] + h * v[i2, 1] - x[i0, 1] - h * v[i0, 1]
-    bz = x[i2, 2] + h * v[i2, 2] - x[i0, 2] - h * v[i0, 2]
-    cx = x[i3, 0] + h * v[i3, 0] - x[i0, 0] - h * v[i0, 0]
-    cy = x[i3, 1] + h * v[i3, 1] - x[i0, 1] - h * v[i0, 1]
-    cz = x[i3, 2] + h * v[i3, 2] - x[i0, 2] - h * v[i0, 2]
+    return _volume6_of(x[i0, 0], x[i0, 1], x[i0, 2], x[i1, 0], x[i1, 1], x[i1, 2],
+                       x[i2, 0], x[i2, 1], x[i2, 2], x[i3, 0], x[i3, 1], x[i3, 2],
+                       v[i0, 0], v[i0, 1], v[i0, 2], v[i1, 0], v[i1, 1], v[i1, 2],
+                       v[i2, 0], v[i2, 1], v[i2, 2], v[i3, 0], v[i3, 1], v[i3, 2], h)
+
+
+@numba.njit(cache=True, inline="always")
+def _volume6_of(x0x, x0y, x0z, x1x, x1y, x1z, x2x, x2y, x2z, x3x, x3y, x3z,
+                v0x, v0y, v0z, v1x, v1y, v1z, v2x, v2y, v2z, v3x, v3y, v3z, h):
+    """``_volume6`` on the corners' coordinates and velocities."""
+    ax = x1x + h * v1x - x0x - h * v0x
+    ay = x1y + h * v1y - x0y - h * v0y
+    az = x1z + h * v1z - x0z - h * v0z
+    bx = x2x + h * v2x - x0x - h * v0x
+    by = x2y + h * v2y - x0y - h * v0y
+    bz = x2z + h * v2z - x0z - h * v0z
+    cx = x3x + h * v3x - x0x - h * v0x
+    cy = x3y + h * v3y - x0y - h * v0y
+    cz = x3z + h * v3z - x0z - h * v0z
     return ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
 
 
@@ -163,6 +174,12 @@ def guard_clear(x, i0, i1, i2, i3, reach, inv, lim):
     cx = x[i3, 0] - x[i0, 0]
     cy = x[i3, 1] - x[i0, 1]
     cz = x[i3, 2] - x[i0, 2]
+    return _clear_bound(ax, ay, az, bx, by, bz, cx, cy, cz, reach, inv, lim)
+
+
+@numba.njit(cache=True, inline="always")
+def _clear_bound(ax, ay, az, bx, by, bz, cx, cy, cz, reach, inv, lim):
+    """``guard_clear`` on the edges a, b, c of a tet from its first corner (no branch)."""
     bcx = by * cz - bz * cy
     bcy = bz * cx - bx * cz
     bcz = bx * cy - by * cx
@@ -182,7 +199,7 @@ def guard_clear(x, i0, i1, i2, i3, reach, inv, lim):
     rest = (r * r * (e2 * inv + 1.5 * k) + r * r * r
             + GUARD_ROUND_SLACK * g2 * (g2 * inv + 0.5 * k))
     d = v6 - lim - rest
-    return d > 0.0 and d * d > 3.0000001 * r * r * f2
+    return (d > 0.0) & (d * d > 3.0000001 * r * r * f2)
 
 
 @numba.njit(cache=True, inline="always")
@@ -292,6 +309,228 @@ def element_action(e, mk, st, on_surface, lone, surface_only, eps_p, damage, tem
     return act
 
 
+# The guard of ``fracture_criteria`` runs on blocks of GB cells: their corners are copied into a
+# buffer of GUARD_ROWS x GB doubles (6.6 kB, in the first-level cache), on which one loop
+# evaluates the guard for every lane in SIMD instructions (``_guard_clear_block``,
+# ``_guard_full_block``: separate kernels, since LLVM vectorises a loop whose only memory is
+# the buffer and whose trip count is a constant, as in solver/element.py)
+GB = 32
+R_LIM = 24  # row of 6 GUARD_FRACTION V0
+R_OK = 25  # row of a block kernel's verdict: 1.0 it clears (passes) the cell, else 0.0
+R_CLEAR = 26  # the pre-test's verdict, kept while the full test runs on the block
+GUARD_ROWS = 27
+GROUP_BLOCKS = 64  # blocks per task of the threads (one buffer each)
+
+
+@numba.njit(cache=True, inline="always")
+def _gather_block(x, v, conn, vol0, e0, buf, with_x, with_v):
+    """Copy the corners' positions (with_x, and the limit row R_LIM) and velocities (with_v) of
+    the cells e0 .. e0 + GB - 1 into buf: row 3k + d the coordinate d of corner k, row
+    12 + 3k + d its velocity. Through views of the block and unsigned node indices (no
+    negative-index wraparound: solver/element.py's _load_block)."""
+    cn = conn[e0:e0 + GB]
+    if with_x:
+        v0 = vol0[e0:e0 + GB]
+        for i in range(GB):
+            buf[R_LIM * GB + i] = 6.0 * GUARD_FRACTION * v0[i]
+            for k in range(4):
+                n = np.uint64(cn[i, k])
+                for d in range(3):
+                    buf[(3 * k + d) * GB + i] = x[n, d]
+    if with_v:
+        for i in range(GB):
+            for k in range(4):
+                n = np.uint64(cn[i, k])
+                for d in range(3):
+                    buf[(12 + 3 * k + d) * GB + i] = v[n, d]
+
+
+# the guard's verdict on a cell, as ``fracture_criteria`` keeps it in ``action`` for
+# ``_criteria_one`` (-1: not known, the full criteria work it out)
+CLEARED = 1  # the pre-test clears the cell
+PASSED = 2  # the full test does not flag it (the pre-test, if it ran, did not clear it)
+FLAGGED = 3  # the full test flags it
+
+
+@numba.njit(cache=True, inline="always")
+def _guard_verdicts(x, v, conn, vol0, e0, buf, pretest, reach, inv, h1, h2, out):
+    """The guard's verdicts (CLEARED, PASSED, FLAGGED) on the cells e0 .. e0 + GB - 1 into out:
+    with the pre-test, on the positions alone, and where it leaves a lane the full test on the
+    whole block; without, the full test."""
+    left = GB
+    if not pretest:
+        _gather_block(x, v, conn, vol0, e0, buf, True, True)
+    else:
+        _gather_block(x, v, conn, vol0, e0, buf, True, False)
+        left = _guard_clear_block(buf, reach, inv)
+        if left:
+            for i in range(GB):
+                buf[R_CLEAR * GB + i] = buf[R_OK * GB + i]
+            _gather_block(x, v, conn, vol0, e0, buf, False, True)
+        else:
+            for i in range(GB):
+                out[i] = CLEARED
+    if left:
+        _guard_full_block(buf, h1, h2)
+        for i in range(GB):
+            full = PASSED if buf[R_OK * GB + i] != 0.0 else FLAGGED
+            out[i] = CLEARED if pretest and buf[R_CLEAR * GB + i] != 0.0 else full
+
+
+@numba.njit(cache=True)
+def _guard_clear_block(buf, reach, inv):
+    """The pre-test ``guard_clear`` on every lane of buf (same operations, same bits): R_OK
+    1.0 where it clears the cell. Returns how many lanes it does not clear."""
+    left = 0
+    for i in range(GB):
+        x0x, x0y, x0z = buf[0 * GB + i], buf[1 * GB + i], buf[2 * GB + i]
+        ok = _clear_bound(buf[3 * GB + i] - x0x, buf[4 * GB + i] - x0y, buf[5 * GB + i] - x0z,
+                          buf[6 * GB + i] - x0x, buf[7 * GB + i] - x0y, buf[8 * GB + i] - x0z,
+                          buf[9 * GB + i] - x0x, buf[10 * GB + i] - x0y,
+                          buf[11 * GB + i] - x0z, reach, inv, buf[R_LIM * GB + i])
+        buf[R_OK * GB + i] = 1.0 if ok else 0.0
+        left += 0 if ok else 1
+    return left
+
+
+@numba.njit(cache=True)
+def _guard_full_block(buf, h1, h2):
+    """The full guard (``_volume6`` at h1 = 1.1 dt and h2 = 2.2 dt against the limit) on every
+    lane of buf: R_OK 1.0 where it does not flag the cell."""
+    for i in range(GB):
+        lim = buf[R_LIM * GB + i]
+        ok = ((not (_volume6_lane(buf, i, h1) < lim))
+              & (not (_volume6_lane(buf, i, h2) < lim)))
+        buf[R_OK * GB + i] = 1.0 if ok else 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def _volume6_lane(buf, i, h):
+    """``_volume6`` of lane i of a guard block (``_volume6_of``: the same bits)."""
+    return _volume6_of(
+        buf[0 * GB + i], buf[1 * GB + i], buf[2 * GB + i], buf[3 * GB + i], buf[4 * GB + i],
+        buf[5 * GB + i], buf[6 * GB + i], buf[7 * GB + i], buf[8 * GB + i], buf[9 * GB + i],
+        buf[10 * GB + i], buf[11 * GB + i], buf[12 * GB + i], buf[13 * GB + i],
+        buf[14 * GB + i], buf[15 * GB + i], buf[16 * GB + i], buf[17 * GB + i],
+        buf[18 * GB + i], buf[19 * GB + i], buf[20 * GB + i], buf[21 * GB + i],
+        buf[22 * GB + i], buf[23 * GB + i], h)
+
+
+# columns of the per-material table of ``_quiet`` (``_quiet_table``)
+Q_SPALL, Q_VAL, Q_FAIL, Q_DUCT, Q_ERO_IN, Q_ERO_SURF, Q_MELT = 0, 1, 2, 3, 4, 5, 6
+Q_COLS = 7
+
+
+@numba.njit(cache=True, inline="always")
+def _quiet_table(mat_params, surface_only, mq):
+    """Fill mq (n_mat, Q_COLS): spall strength, erosion value, failure data (1.0/0.0), ductile
+    criterion (1.0/0.0), the erosion criterion's code inside the body and on its surface (0
+    where it cannot hold for an intact cell: none, or "fractured"), the melt temperature of
+    step 3b (as ``element_action`` computes it)."""
+    for m in range(mat_params.shape[0]):
+        code = int(mat_params[m, P.EROSION])
+        code = 0 if code == 4 else code
+        mq[m, Q_SPALL] = mat_params[m, P.SPALL]
+        mq[m, Q_VAL] = mat_params[m, P.EROSION_VALUE]
+        mq[m, Q_FAIL] = 1.0 if failing_material(mat_params, m) else 0.0
+        mq[m, Q_DUCT] = 1.0 if ductile(mat_params, m) else 0.0
+        mq[m, Q_ERO_IN] = 0.0 if surface_only else code
+        mq[m, Q_ERO_SURF] = code
+        mq[m, Q_MELT] = mat_params[m, P.T_ROOM] + MELT_SHARE * (
+            mat_params[m, P.T_MELT] - mat_params[m, P.T_ROOM])
+
+
+@numba.njit(cache=True, inline="always")
+def _quiet(e, mk, status, sdev, p, eps_p, eps_p_prev, damage, temperature, face_flag, mq,
+           guard_ok):
+    """True only for a cell on which the full criteria (``_criteria_one``) change nothing and
+    take no action: intact, its plastic strain unchanged since the last call (no damage
+    increment; eps_p_prev already equal), Gershgorin's spall bound (with the pressure p spall
+    reads) not above the spall strength, no erosion criterion met where it applies, for the
+    ductile criterion damage below 1, and for a material with failure data a guard that does
+    not flag it (guard_ok: the block's verdict) and, on the surface, neither molten nor
+    strained beyond MAX_PLASTIC_STRAIN nor with all four faces free (a possible one-cell
+    fragment: the full criteria decide). mq: ``_quiet_table``. The tests in the order that
+    rejects a cell soonest."""
+    if status[e] != INTACT:
+        return False
+    ep = eps_p[e]
+    if not ep == eps_p_prev[e]:
+        return False
+    fail = mq[mk, Q_FAIL] != 0.0
+    if fail and not guard_ok:
+        return False
+    sxx, syy, szz = sdev[e, 0], sdev[e, 1], sdev[e, 2]
+    sxy, syz, szx = sdev[e, 3], sdev[e, 4], sdev[e, 5]
+    if max(sxx + abs(sxy) + abs(szx), syy + abs(sxy) + abs(syz),
+           szz + abs(syz) + abs(szx)) - p > mq[mk, Q_SPALL]:
+        return False
+    f0, f1 = face_flag[4 * e], face_flag[4 * e + 1]
+    f2, f3 = face_flag[4 * e + 2], face_flag[4 * e + 3]
+    surf = f0 or f1 or f2 or f3
+    ero = mq[mk, Q_ERO_SURF] if surf else mq[mk, Q_ERO_IN]
+    if ero == 3.0 or (ero == 1.0 and ep >= mq[mk, Q_VAL]):
+        return False
+    duct = mq[mk, Q_DUCT] != 0.0
+    if ero == 2.0 or duct:
+        d = damage[e]
+        if (ero == 2.0 and d >= mq[mk, Q_VAL]) or (duct and d >= 1.0):
+            return False
+    if surf and fail:
+        if temperature[e] >= mq[mk, Q_MELT] or ep > MAX_PLASTIC_STRAIN or (f0 and f1 and f2
+                                                                           and f3):
+            return False
+    return True
+
+
+@numba.njit(cache=True, inline="always")
+def _criteria_one(e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p,
+                  eps_p_prev, damage, eps_rate, temperature, mat_params, face_flag, adj,
+                  surface_only, dt, action, spall_mode, pnode, spall_k, integrate, pretest,
+                  reach, inv, verdict):
+    """The full criteria on element e (module docstring): sets status[e] and action[e];
+    returns (newly damaged 0/1, by the ductile criterion 0/1, newly fractured 0/1, guard
+    tested 0/1, cleared by the pre-test 0/1). verdict: the guard's (``_guard_verdicts``:
+    CLEARED, PASSED or FLAGGED) when known, else -1."""
+    action[e] = NONE
+    st = status[e]
+    if st == ERODED:
+        return 0, 0, 0, 0, 0
+    mk = elem_mat[e]
+    i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
+    p = pressure[e]
+    if spall_mode != SPALL_CELL:
+        p = spall_pressure(spall_mode, p, 0.25 * (pnode[i0] + pnode[i1] + pnode[i2]
+                                                 + pnode[i3]))
+    st, dam, frac = element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev, damage,
+                                  eps_rate, temperature, mat_params, dt, spall_k, integrate)
+    status[e] = st
+    on_surface = (face_flag[4 * e] or face_flag[4 * e + 1] or face_flag[4 * e + 2]
+                  or face_flag[4 * e + 3])
+    lone = (face_flag[4 * e] and face_flag[4 * e + 1] and face_flag[4 * e + 2]
+            and face_flag[4 * e + 3] and (adj[e, 0] >= 0 or adj[e, 1] >= 0
+                                          or adj[e, 2] >= 0 or adj[e, 3] >= 0))
+    stretch = 1.0
+    if int(mat_params[mk, P.EROSION]) == 3:
+        stretch = max_principal_stretch(x, x0, i0, i1, i2, i3)
+    act = element_action(e, mk, st, on_surface, lone, surface_only, eps_p, damage,
+                         temperature, mat_params, stretch)
+    tested = 0
+    cleared = 0
+    if act == NONE and failing_material(mat_params, mk):
+        lim = 6.0 * GUARD_FRACTION * vol0[e]
+        tested = 1
+        if pretest and (verdict == CLEARED if verdict >= 0
+                        else guard_clear(x, i0, i1, i2, i3, reach, inv, lim)):
+            cleared = 1
+        elif (verdict == FLAGGED if verdict >= 0
+              else (_volume6(x, v, 1.1 * dt, i0, i1, i2, i3) < lim
+                    or _volume6(x, v, 2.2 * dt, i0, i1, i2, i3) < lim)):
+            act = GUARD
+    action[e] = act
+    return 1 if dam > 0 else 0, 1 if dam == 2 else 0, frac, tested, cleared
+
+
 @numba.njit(cache=True, parallel=True)
 def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p,
                       eps_p_prev, damage, eps_rate, temperature, mat_params, face_flag, adj,
@@ -301,64 +540,71 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
 
     face_flag (4e,) bool free faces and adj (e,4) face neighbours at t = 0 (-1: none)
     (impactsim.fracture.boundary.Boundary). spall_mode (spall.PRESSURE_CODES): the pressure
-    spall reads, from the element's own and p_patch from pnode, the nodal means of
+    spall reads, from the element's own and p_patch from pnode (n_node,), the nodal means of
     `patch_fields` (not read for "cell"; jnode is not read). spall_k (e,) the Tuler-Butcher
     accumulators, integrate: `[fracture] spall_criterion = "tuler-butcher"` (spall.py).
     eps_p_prev (e,) plastic strain at the previous call (updated here). ``reach``: the guard's
     pre-test reach (``guard_reach`` for h = 2.2 dt), or inf to run the full guard alone.
     Returns (newly damaged, newly fractured, elements with an action, newly damaged by the
-    ductile criterion, cells the guard tested, of them cleared by the pre-test). The
-    pointwise steps
-    (``element_state``, ``element_action``) are shared with the hexes' kernel
-    (impactsim.fracture.hexes).
+    ductile criterion, cells the guard tested, of them cleared by the pre-test).
+
+    Two passes. Per block of GB elements the guard's verdict on every cell in SIMD
+    instructions (``_guard_verdicts``: the pre-test, and where it leaves a lane or rests the
+    full test on the whole block); then per cell: one on which the full criteria would change
+    nothing and take no action (``_quiet``: far from the impact, nearly all) costs a few
+    tests, the others run the full criteria with the verdict (``_criteria_one``), whose
+    pointwise steps (``element_state``, ``element_action``) are shared with the hexes' kernel
+    (impactsim.fracture.hexes). The same statuses, actions, accumulators and counts as the full
+    criteria on every cell (tests/unit/test_fracture_screen.py).
     """
     n_elem = conn.shape[0]
+    mq = np.empty((mat_params.shape[0], Q_COLS))
+    _quiet_table(mat_params, surface_only, mq)
+    pretest = reach < math.inf  # the guard's pre-test (guard_clear); nan: it clears nothing
+    inv = 1.0 / (2.0 * GUARD_K * reach) if reach > 0.0 else math.inf
+    h1, h2 = 1.1 * dt, 2.2 * dt
     n_dam = 0
     n_frac = 0
     n_act = 0
     n_duct = 0
     n_guard = 0
     n_clear = 0
-    pretest = reach < math.inf  # the guard's pre-test (guard_clear); nan: it clears nothing
-    inv = 1.0 / (2.0 * GUARD_K * reach) if reach > 0.0 else math.inf
+    # first the guard's verdict on every cell of the full blocks, in SIMD instructions, kept in
+    # action until the cell's own action replaces it (-1: not known, the mesh's last block)
+    n_blk = n_elem // GB
+    n_grp = (n_blk + GROUP_BLOCKS - 1) // GROUP_BLOCKS
+    for grp in numba.prange(n_grp):
+        buf = np.empty(GUARD_ROWS * GB)
+        for blk in range(grp * GROUP_BLOCKS, min(n_blk, (grp + 1) * GROUP_BLOCKS)):
+            e0 = blk * GB
+            _guard_verdicts(x, v, conn, vol0, e0, buf, pretest, reach, inv, h1, h2,
+                            action[e0:e0 + GB])
+    for e in range(n_blk * GB, n_elem):
+        action[e] = -1
     for e in numba.prange(n_elem):
-        action[e] = NONE
-        st = status[e]
-        if st == ERODED:
-            continue
+        verdict = int(action[e])
         mk = elem_mat[e]
-        i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
         p = pressure[e]
         if spall_mode != SPALL_CELL:
-            p = spall_pressure(spall_mode, p, 0.25 * (pnode[i0] + pnode[i1] + pnode[i2]
-                                                     + pnode[i3]))
-        st, dam, frac = element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev, damage,
-                                      eps_rate, temperature, mat_params, dt, spall_k, integrate)
-        n_dam += 1 if dam > 0 else 0
-        n_duct += 1 if dam == 2 else 0
+            p = spall_pressure(spall_mode, p, 0.25 * (
+                pnode[conn[e, 0]] + pnode[conn[e, 1]] + pnode[conn[e, 2]] + pnode[conn[e, 3]]))
+        if verdict >= 0 and _quiet(e, mk, status, sdev, p, eps_p, eps_p_prev, damage,
+                                   temperature, face_flag, mq, verdict != FLAGGED):
+            action[e] = NONE
+            if mq[mk, Q_FAIL] != 0.0:
+                n_guard += 1
+                n_clear += 1 if verdict == CLEARED else 0
+            continue
+        dam, duct, frac, tested, cleared = _criteria_one(
+            e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p, eps_p_prev,
+            damage, eps_rate, temperature, mat_params, face_flag, adj, surface_only, dt, action,
+            spall_mode, pnode, spall_k, integrate, pretest, reach, inv, verdict)
+        n_dam += dam
+        n_duct += duct
         n_frac += frac
-        status[e] = st
-        on_surface = (face_flag[4 * e] or face_flag[4 * e + 1] or face_flag[4 * e + 2]
-                      or face_flag[4 * e + 3])
-        lone = (face_flag[4 * e] and face_flag[4 * e + 1] and face_flag[4 * e + 2]
-                and face_flag[4 * e + 3] and (adj[e, 0] >= 0 or adj[e, 1] >= 0
-                                              or adj[e, 2] >= 0 or adj[e, 3] >= 0))
-        stretch = 1.0
-        if int(mat_params[mk, P.EROSION]) == 3:
-            stretch = max_principal_stretch(x, x0, i0, i1, i2, i3)
-        act = element_action(e, mk, st, on_surface, lone, surface_only, eps_p, damage,
-                             temperature, mat_params, stretch)
-        if act == NONE and failing_material(mat_params, mk):
-            lim = 6.0 * GUARD_FRACTION * vol0[e]
-            n_guard += 1
-            if pretest and guard_clear(x, i0, i1, i2, i3, reach, inv, lim):
-                n_clear += 1
-            elif (_volume6(x, v, 1.1 * dt, i0, i1, i2, i3) < lim
-                  or _volume6(x, v, 2.2 * dt, i0, i1, i2, i3) < lim):
-                act = GUARD
-        action[e] = act
-        if act != NONE:
-            n_act += 1
+        n_guard += tested
+        n_clear += cleared
+        n_act += 1 if action[e] != NONE else 0
     return n_dam, n_frac, n_act, n_duct, n_guard, n_clear
 
 

@@ -145,7 +145,7 @@ def _end_of_step(xv, tau, i):
 def particle_face_sweep_packed(pairs, px, pv, pm, pr, faces, xv, v, mass, force, dtv, tau,
                                eps_bary, lock):
     """``particle_face_sweep`` reading the face nodes' positions, predicted velocities and
-    masses from the table ``xv`` of ``pack_face_nodes`` (rows of every node of the faces the
+    masses from the table ``xv`` of ``pack_face_nodes`` or ``faces_near`` (rows of every node of the faces the
     pairs name), the same arithmetic: the same impulses bit for bit. An impulse writes the
     nodes' new velocities to ``v`` and to their rows of the table."""
     applied = 0
@@ -275,11 +275,14 @@ def particle_boxes(px, pv, pr, n, tau, pad, lo, hi, bounds):
 
 
 @numba.njit(cache=True)
-def faces_near(x, v, tau, faces, face_body, n_faces, pad, cloud, lo, hi, sel, sel_body, bounds):
+def faces_near(x, v, mass, tau, faces, face_body, n_faces, pad, cloud, lo, hi, sel, sel_body,
+               bounds, xv):
     """The faces whose swept, padded boxes meet the box ``cloud (2, 3)`` of all particle boxes:
     only they can meet a particle this step. Writes their rows (in order) to ``sel (k, 3)``,
-    bodies to ``sel_body``, boxes to ``lo, hi`` and widens ``bounds (2, 3)`` to cover them;
-    returns k. Linear in the number of faces, no allocation."""
+    bodies to ``sel_body``, boxes to ``lo, hi``, widens ``bounds (2, 3)`` to cover them and
+    packs their nodes into the sweep's table ``xv`` (``pack_face_nodes``, here while the
+    nodes are at hand: a second pass over the selected faces cost 0.36 ms a step in
+    oblique-sphere); returns k. Linear in the number of faces, no allocation."""
     k = 0
     for f in range(n_faces):
         inside = True
@@ -298,7 +301,15 @@ def faces_near(x, v, tau, faces, face_body, n_faces, pad, cloud, lo, hi, sel, se
         if not inside:
             continue
         for j in range(3):
-            sel[k, j] = faces[f, j]
+            i = faces[f, j]
+            sel[k, j] = i
+            xv[i, 0] = x[i, 0]
+            xv[i, 1] = x[i, 1]
+            xv[i, 2] = x[i, 2]
+            xv[i, 3] = v[i, 0]
+            xv[i, 4] = v[i, 1]
+            xv[i, 5] = v[i, 2]
+            xv[i, 6] = mass[i]
         sel_body[k] = face_body[f]
         for d in range(3):
             bounds[0, d] = min(bounds[0, d], lo[k, d])

@@ -41,7 +41,7 @@ from impactsim.solver.blocks import hex_corner_forces
 from impactsim.fracture.hexes import HexFracture, pass_orphan_forces
 from impactsim.fracture.measures import body_measures, shield_summary
 from impactsim.fracture.particles import (NODE_COLS, Particles, faces_near, move_particles,
-                                          pack_face_nodes, particle_boxes,
+                                          particle_boxes,
                                           particle_face_sweep_packed, particle_particle_sweep,
                                           particle_walls)
 from impactsim.fracture.removal import remove_elements
@@ -295,7 +295,7 @@ class ParticlePass(Pass):
         self.bounds = np.zeros((2, 3))  # ... and of the faces near them
         self.locks = PrescribedLock()  # prescribed velocity components of face nodes
         self._buf = {}
-        self.nodes = np.zeros((0, NODE_COLS))  # the sweep's face-node table (pack_face_nodes)
+        self.nodes = np.zeros((0, NODE_COLS))  # the sweep's face-node table (faces_near)
 
     def _buffer(self, name, rows, dtype=np.float64, cols=3):
         """Reusable scratch rows (grows by half when short): no allocation in the time loop."""
@@ -325,20 +325,20 @@ class ParticlePass(Pass):
             sel_body = self._buffer("sel_body", n_faces, np.int32, None)
             bounds = self.bounds
             bounds[:] = cloud
+            if self.nodes.shape[0] != model.n_node:
+                self.nodes = np.zeros((model.n_node, NODE_COLS))
             k = 0
-            for b in lists:  # the faces near the particles, list after list
+            for b in lists:  # the faces near the particles, list after list, their nodes packed
                 if b.n:
-                    k += faces_near(model.x, model.v, dt, b.faces, b.face_body, b.n, pad,
-                                    cloud, flo[k:], fhi[k:], sel[k:], sel_body[k:], bounds)
+                    k += faces_near(model.x, model.v, model.mass, dt, b.faces, b.face_body, b.n,
+                                    pad, cloud, flo[k:], fhi[k:], sel[k:], sel_body[k:], bounds,
+                                    self.nodes)
             if k:
                 origin, cell = grid_for([(bounds[:1], bounds[1:])], max(s.h_face, 2.0 * r_max))
                 self.hash.build(flo[:k], fhi[:k], origin, cell)
                 pairs = self.hash.query(plo, phi, pa.ids[:n], pa.no_body[:n], sel[:k],
                                         sel_body[:k], False, False)
                 if pairs.shape[0]:
-                    if self.nodes.shape[0] != model.n_node:
-                        self.nodes = np.zeros((model.n_node, NODE_COLS))
-                    pack_face_nodes(sel, k, model.x, model.v, model.mass, self.nodes)
                     applied, w = particle_face_sweep_packed(
                         pairs, pa.x, pa.v, pa.m, pa.radius, sel, self.nodes, model.v,
                         model.mass, model.force, model.dtv, dt, EPS_BARY, self.locks.get(model))
@@ -357,7 +357,8 @@ class ParticlePass(Pass):
             work += float(particle_walls(pa.x, pa.v, pa.m, pa.radius, n, model.walls, dt))
         model.energy_terms["contact_dissipated"] -= work
         move_particles(pa.x, pa.v, n, dt)
-        s.update_particle_energy(model)
+        # the particles' energy is booked at the end of the step, by the fracture pass (which
+        # runs in every step beside this one, after the particles made that step)
 
     def summary(self, model):
         return {"fracture.particles": {"particle_face_impacts": self.impacts,

@@ -88,7 +88,10 @@ def test_broad_phase_keeps_exactly_the_faces_near_the_particles():
     assert np.array_equal(cloud, [plo.min(axis=0), phi.max(axis=0)])
     flo, fhi = np.empty((nf, 3)), np.empty((nf, 3))
     sel, sel_body, bounds = np.empty((nf, 3), np.int32), np.empty(nf, np.int32), cloud.copy()
-    k = faces_near(x, v, TAU, faces, body, nf, 1e-7, cloud, flo, fhi, sel, sel_body, bounds)
+    mass = rng.uniform(1e-9, 2e-9, x.shape[0])
+    table = np.full((x.shape[0], 8), np.nan)
+    k = faces_near(x, v, mass, TAU, faces, body, nf, 1e-7, cloud, flo, fhi, sel, sel_body,
+                   bounds, table)
     ends = np.stack([x[faces], x[faces] + TAU * v[faces]], axis=1).reshape(nf, 6, 3)
     lo, hi = ends.min(axis=1) - 1e-7, ends.max(axis=1) + 1e-7
     near = np.flatnonzero(np.all((lo <= cloud[1]) & (hi >= cloud[0]), axis=1))
@@ -97,6 +100,12 @@ def test_broad_phase_keeps_exactly_the_faces_near_the_particles():
     assert np.allclose(flo[:k], lo[near]) and np.allclose(fhi[:k], hi[near])
     assert np.allclose(bounds, [np.minimum(cloud[0], lo[near].min(axis=0)),
                                 np.maximum(cloud[1], hi[near].max(axis=0))])
+    # the sweep's table holds the selected faces' nodes (position, velocity, mass), no other
+    nodes = np.unique(faces[near])
+    assert np.array_equal(table[nodes, :3], x[nodes]) and np.array_equal(table[nodes, 3:6],
+                                                                          v[nodes])
+    assert np.array_equal(table[nodes, 6], mass[nodes])
+    assert np.isnan(np.delete(table, nodes, axis=0)[:, :7]).all()
 
 
 def test_particle_sums():
@@ -173,8 +182,8 @@ def test_particle_pass_equals_the_sweeps_over_brute_force_pairs(monkeypatch, col
     particle_boxes(rpa.x, rpa.v, rpa.radius, n, dt, pad, plo, phi, cloud)
     flo, fhi = np.empty((b.n, 3)), np.empty((b.n, 3))
     sel, sel_body, bounds = np.empty((b.n, 3), np.int32), np.empty(b.n, np.int32), cloud.copy()
-    k = faces_near(ref_model.x, ref_model.v, dt, b.faces, b.face_body, b.n, pad, cloud, flo,
-                   fhi, sel, sel_body, bounds)
+    k = faces_near(ref_model.x, ref_model.v, ref_model.mass, dt, b.faces, b.face_body, b.n, pad,
+                   cloud, flo, fhi, sel, sel_body, bounds, np.empty((ref_model.n_node, 8)))
     pairs = _brute_pairs(plo, phi, flo[:k], fhi[:k], False)
     applied, work = particle_face_sweep(pairs, rpa.x, rpa.v, rpa.m, rpa.radius, sel,
                                         ref_model.x, ref_model.v, ref_model.mass,
@@ -204,13 +213,12 @@ def test_particle_pass_equals_the_sweeps_over_brute_force_pairs(monkeypatch, col
 
 
 def test_the_sweeps_node_table_follows_the_impulses():
-    """The sweep reads the face nodes from its table (particles.pack_face_nodes): after a sweep
+    """The sweep reads the face nodes from its table (packed by particles.faces_near): after a sweep
     with many impulses, every face node's row still holds its position, mass and current
     velocity (a later pair reads the velocity an earlier impulse left), and the sweep over the
     table gives what it gives on the arrays, node by node and particle by particle."""
     from impactsim.fracture import passes as FPass
-    from impactsim.fracture.particles import (NODE_COLS, pack_face_nodes,
-                                              particle_face_sweep_packed)
+    from impactsim.fracture.particles import NODE_COLS, particle_face_sweep_packed
 
     dt = 2e-9
     n = 1500
@@ -222,12 +230,11 @@ def test_the_sweeps_node_table_follows_the_impulses():
     particle_boxes(pa.x, pa.v, pa.radius, n, dt, pad, plo, phi, cloud)
     flo, fhi = np.empty((b.n, 3)), np.empty((b.n, 3))
     sel, sel_body, bounds = np.empty((b.n, 3), np.int32), np.empty(b.n, np.int32), cloud.copy()
-    k = faces_near(model.x, model.v, dt, b.faces, b.face_body, b.n, pad, cloud, flo, fhi, sel,
-                   sel_body, bounds)
+    table = np.full((model.n_node, NODE_COLS), np.nan)
+    k = faces_near(model.x, model.v, model.mass, dt, b.faces, b.face_body, b.n, pad, cloud, flo,
+                   fhi, sel, sel_body, bounds, table)
     pairs = _brute_pairs(plo, phi, flo[:k], fhi[:k], False)
     v0, pv0 = model.v.copy(), pa.v.copy()
-    table = np.full((model.n_node, NODE_COLS), np.nan)
-    pack_face_nodes(sel, k, model.x, model.v, model.mass, table)
     applied, work = particle_face_sweep_packed(pairs, pa.x, pa.v, pa.m, pa.radius, sel, table,
                                                model.v, model.mass, model.force, model.dtv, dt,
                                                FPass.EPS_BARY, np.ones((0, 3)))
