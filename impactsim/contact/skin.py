@@ -341,6 +341,11 @@ class BuildRecord:
 class SkinList:
     """The kept candidate pairs of one contact pass (module docstring)."""
 
+    # what following a surface change needs of the build (solver/checkpoint.py leaves it out:
+    # a resumed run builds the list at its first surface change instead of following it, which
+    # gives the same pairs)
+    CHECKPOINT_TRANSIENT = ("_record", "_added")
+
     def __init__(self, skin: float = SKIN):
         """``skin`` a fraction of h; 0: no list kept (the broad phase runs afresh every
         step)."""

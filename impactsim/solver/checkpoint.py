@@ -7,7 +7,9 @@ that a new array in the model or a pass is saved without being listed here. Leav
 arrays (saved as they are), Python and numpy scalars, strings and None (0-d arrays with a type
 tag), and lists, tuples, deques and dicts of them (recursively). Objects are entered when their
 class is impactsim's own; other objects (thread pools, numba dispatchers, paths, dtypes, the case) are
-configuration rebuilt from the case: they are not saved and keep the value the fresh state has. An array reached twice (the same object
+configuration rebuilt from the case: they are not saved and keep the value the fresh state has; so
+do the attributes a class names in ``CHECKPOINT_TRANSIENT`` (what a pass rebuilds when it needs
+it, e.g. contact.skin.SkinList's record of its build). An array reached twice (the same object
 under two names, e.g. the ANP volume that is the model's volume) is saved once and restored as
 the same object. The run's own bookkeeping (next frame, writers' positions, the history file's
 length) is saved with it under `run/`.
@@ -132,7 +134,11 @@ def collect(roots: dict[str, object]) -> tuple[dict[str, np.ndarray], list[str]]
                 queue.append((item, f"{path}/{i}"))
         elif _is_ours(v):
             out[f"{path}|obj"] = np.array(0)
+            transient = getattr(type(v), "CHECKPOINT_TRANSIENT", ())
             for k, item in vars(v).items():
+                if k in transient:  # rebuilt when needed: the fresh state's value stays
+                    out[f"{path}/{_esc(k)}|skip"] = np.array(0)
+                    continue
                 queue.append((item, f"{path}/{_esc(k)}"))
         elif callable(v):
             out[f"{path}|skip"] = np.array(0)  # functions, dispatchers: code, rebuilt

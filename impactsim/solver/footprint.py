@@ -39,6 +39,12 @@ ANP_ELEMENT = 8  # vol_eos (float64)
 # element), elem_edges (6 int64), face adjacency (4 int64), alive and face flags, and the
 # per-face and per-edge rows of the boundary (counted per element: a bulk bound)
 CONTACT_ELEMENT = 16 + 4 + 1.2 * 16 + 48 + 32 + 1 + 4 + 16
+# the kept candidate lists (contact/skin.py) that follow the surface through erosion: per pass
+# the build positions of every node (3 float64; two passes), and the identities, pair maps,
+# row positions and left-out-row occupancy of the surface's entities (counted per element: a
+# bulk bound, measured 66 bytes at 48k elements)
+CONTACT_NODE = 2 * 24
+CONTACT_FOLLOW_ELEMENT = 64
 # the fracture state: Boundary (conn, elem_body copies, adjacency 4 int64, face flags, face
 # positions 4 int64, alive), action (int8), ids (int64), eps_p_prev and the Tuler-Butcher
 # accumulator spall_k (float64)
@@ -57,7 +63,8 @@ def run_bytes(n_elem: int, n_node: int, contact: bool = False, fracture: bool = 
     per_elem = sum(ELEMENT.values()) + (ANP_ELEMENT if anp else 0)
     per_node = sum(NODE.values())
     if contact:
-        per_elem += CONTACT_ELEMENT
+        per_elem += CONTACT_ELEMENT + CONTACT_FOLLOW_ELEMENT
+        per_node += CONTACT_NODE
     if fracture:
         per_elem += FRACTURE_ELEMENT
         per_node += FRACTURE_NODE
