@@ -124,14 +124,19 @@ def pack_face_nodes(faces, k, x, v, mass, xv):
     other nodes are left as they are."""
     for f in range(k):
         for j in range(3):
-            i = faces[f, j]
-            xv[i, 0] = x[i, 0]
-            xv[i, 1] = x[i, 1]
-            xv[i, 2] = x[i, 2]
-            xv[i, 3] = v[i, 0]
-            xv[i, 4] = v[i, 1]
-            xv[i, 5] = v[i, 2]
-            xv[i, 6] = mass[i]
+            _pack_node(faces[f, j], x, v, mass, xv)
+
+
+@numba.njit(cache=True, inline="always")
+def _pack_node(i, x, v, mass, xv):
+    """Node i's row of the sweep's table: position, predicted velocity, mass."""
+    xv[i, 0] = x[i, 0]
+    xv[i, 1] = x[i, 1]
+    xv[i, 2] = x[i, 2]
+    xv[i, 3] = v[i, 0]
+    xv[i, 4] = v[i, 1]
+    xv[i, 5] = v[i, 2]
+    xv[i, 6] = mass[i]
 
 
 @numba.njit(cache=True, inline="always")
@@ -301,15 +306,8 @@ def faces_near(x, v, mass, tau, faces, face_body, n_faces, pad, cloud, lo, hi, s
         if not inside:
             continue
         for j in range(3):
-            i = faces[f, j]
-            sel[k, j] = i
-            xv[i, 0] = x[i, 0]
-            xv[i, 1] = x[i, 1]
-            xv[i, 2] = x[i, 2]
-            xv[i, 3] = v[i, 0]
-            xv[i, 4] = v[i, 1]
-            xv[i, 5] = v[i, 2]
-            xv[i, 6] = mass[i]
+            sel[k, j] = faces[f, j]
+            _pack_node(faces[f, j], x, v, mass, xv)
         sel_body[k] = face_body[f]
         for d in range(3):
             bounds[0, d] = min(bounds[0, d], lo[k, d])
