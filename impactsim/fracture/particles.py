@@ -150,9 +150,9 @@ def _end_of_step(xv, tau, i):
 def particle_face_sweep_packed(pairs, px, pv, pm, pr, faces, xv, v, mass, force, dtv, tau,
                                eps_bary, lock):
     """``particle_face_sweep`` reading the face nodes' positions, predicted velocities and
-    masses from the table ``xv`` of ``pack_face_nodes`` or ``faces_near`` (rows of every node of the faces the
-    pairs name), the same arithmetic: the same impulses bit for bit. An impulse writes the
-    nodes' new velocities to ``v`` and to their rows of the table."""
+    masses from the table ``xv`` of ``pack_face_nodes`` or ``faces_near`` (rows of every node
+    of the faces the pairs name), the same arithmetic: the same impulses bit for bit. An
+    impulse writes the nodes' new velocities to ``v`` and to their rows of the table."""
     applied = 0
     work = 0.0
     for k in range(pairs.shape[0]):
