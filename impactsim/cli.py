@@ -157,11 +157,13 @@ def render(run_dir: str, field: str, every: int, out_dir, cut, view, no_particle
 
 
 @main.command()
-def warmup() -> None:
+@click.option("--workers", type=int, default=None,
+              help="Processes compiling at once (default: the cores, at most 2).")
+def warmup(workers: int | None) -> None:
     """Compile every numba kernel into the on-disk cache (make setup runs this once)."""
     from impactsim.warmup import main as warm
 
-    warm()
+    warm([] if workers is None else ["--workers", str(workers)])
 
 
 @main.command()

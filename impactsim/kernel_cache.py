@@ -88,3 +88,44 @@ def refresh(package: Path = PACKAGE) -> int:
     except OSError:  # a read-only installation: nothing is cached there either
         return removed
     return removed
+
+
+def serialize_cache_files(lock_path: Path) -> None:
+    """Make numba's reads and writes of its cache files in this process wait for those of the
+    other processes that call this with the same ``lock_path`` (an advisory file lock).
+
+    numba writes each file atomically (a temporary file renamed over it), but a new entry is
+    a read-modify-write of the function's index followed by a write of the data file it names:
+    two processes adding different signatures of one function can both take the data file
+    number 1, and one index can end up naming the other's code. The parallel warm-up
+    (impactsim/warmup.py) compiles in several processes at once, so it holds this lock over
+    every `save` and `load`; loads take milliseconds, and compiling, the long part, is outside.
+    A platform without `fcntl` is not served: the warm-up then compiles in one process.
+    """
+    import contextlib
+    import fcntl
+
+    from numba.core.caching import IndexDataCacheFile
+
+    if getattr(IndexDataCacheFile, "_impactsim_lock", None) is not None:
+        IndexDataCacheFile._impactsim_lock = lock_path
+        return
+
+    @contextlib.contextmanager
+    def held():
+        with open(IndexDataCacheFile._impactsim_lock, "a") as f:
+            fcntl.flock(f, fcntl.LOCK_EX)
+            try:
+                yield
+            finally:
+                fcntl.flock(f, fcntl.LOCK_UN)
+
+    def locked(method):
+        def call(self, *args):
+            with held():
+                return method(self, *args)
+        return call
+
+    IndexDataCacheFile.save = locked(IndexDataCacheFile.save)
+    IndexDataCacheFile.load = locked(IndexDataCacheFile.load)
+    IndexDataCacheFile._impactsim_lock = lock_path

@@ -21,6 +21,7 @@ compiled with exactly those types, so the cache serves the real runs
 
 from __future__ import annotations
 
+import os
 import sys
 import tempfile
 import time
@@ -199,9 +200,10 @@ class CompileCounter:
         return False
 
 
-def warm_up(verbose: bool = True) -> dict[str, dict]:
-    """Run the warm-up scenes; returns per scene the kernels it compiled ("compiled", none
-    when the cache was already warm) and the run's summary ("summary")."""
+def warm_up(verbose: bool = True, names=None) -> dict[str, dict]:
+    """Run the warm-up scenes (those of ``names``, in that order; default all of them);
+    returns per scene the kernels it compiled ("compiled", none when the cache was already
+    warm) and the run's summary ("summary")."""
     import contextlib
     import io
 
@@ -211,7 +213,9 @@ def warm_up(verbose: bool = True) -> dict[str, dict]:
     from impactsim.solver.run import run_case
 
     counts = {}
-    for name, text, steps in scenes():
+    table = {name: (text, steps) for name, text, steps in scenes()}
+    for name in names if names is not None else list(table):
+        text, steps = table[name]
         t0 = time.perf_counter()
         sets = [f"run.max_steps={steps}", "output.frames=1"]
         if name in PARALLEL_SCENES:  # on every thread, small as they are (run.thread_count)
@@ -236,12 +240,70 @@ def warm_up(verbose: bool = True) -> dict[str, dict]:
     return counts
 
 
-def main() -> int:
+# The scenes for two processes on two cores, in two stages, each of two groups of about equal
+# compile time (cold cache, AMD EPYC, session 14; docs/performance.md "First run"). First tets
+# with walls, hexes and node separation (66 s) beside contact and fracture (83 s); then the
+# two scenes that need the fracture kernels: hex fracture, and fracture on threads. A kernel
+# two groups of a stage reach (the tet element kernel, for one) is compiled in both.
+STAGES = (
+    (("elastic-wall", "elastic-wall-threads", "jc-wall", "jc-wall-anp", "hex", "separation",
+      "separation-contact", "separation-hex"),
+     ("contact", "fracture")),
+    (("hex-fracture",), ("fracture-threads",)),
+)
+
+
+def _warm_group(names, lock_path, verbose):
+    """One worker process of `warm_up_parallel`."""
+    from impactsim.kernel_cache import serialize_cache_files
+
+    serialize_cache_files(lock_path)
+    return warm_up(verbose, names)
+
+
+def warm_up_parallel(workers: int, verbose: bool = True, stages=STAGES) -> dict[str, dict]:
+    """`warm_up` with the groups of scenes of each stage (STAGES) in ``workers`` processes at
+    once (numba compiles one kernel at a time per process); their cache files are written
+    under a common lock (kernel_cache.serialize_cache_files). One worker runs the scenes
+    here, in order."""
+    names = {name for stage in stages for group in stage for name in group}
+    if workers <= 1 or sys.platform == "win32":
+        return warm_up(verbose, [name for name, _, _ in scenes() if name in names])
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    with tempfile.TemporaryDirectory(prefix="impactsim-warmup-") as tmp:
+        lock = Path(tmp) / "numba-cache.lock"
+        done = []
+        with ProcessPoolExecutor(min(workers, max(len(s) for s in stages)),
+                                 mp_context=multiprocessing.get_context("spawn")) as pool:
+            for stage in stages:
+                jobs = [pool.submit(_warm_group, g, lock, verbose) for g in stage]
+                done += [j.result() for j in jobs]
+    merged = {k: v for d in done for k, v in d.items()}
+    return {name: merged[name] for name, _, _ in scenes() if name in merged}
+
+
+def _cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
+
+
+def main(argv=None) -> int:
+    import argparse
+
     from impactsim.kernel_cache import refresh
 
+    ap = argparse.ArgumentParser(prog="python -m impactsim.warmup", description=__doc__.split(
+        "\n")[0])
+    ap.add_argument("--workers", type=int, default=min(_cores(), 2),
+                    help="processes compiling at once (default: the cores, at most 2)")
+    args = ap.parse_args(argv)
     t0 = time.perf_counter()
     refresh()  # kernels cached from older sources would be kept by numba: they go first
-    counts = warm_up()
+    counts = warm_up_parallel(args.workers)
     n = sum(len(c["compiled"]) for c in counts.values())
     print(f"numba cache warm: {n} kernels compiled in "
           f"{time.perf_counter() - t0:.1f} s", flush=True)

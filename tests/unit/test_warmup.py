@@ -58,3 +58,59 @@ def test_warmup_scenes_cover_the_pipeline_and_leave_a_cache_a_later_process_uses
                        capture_output=True, text=True)
     compiled = json.loads(p.stdout.strip().splitlines()[-1])
     assert compiled == {name: [] for name in scenes}
+
+
+def test_the_parallel_warmup_takes_every_scene_and_merges_the_workers_results():
+    from impactsim.warmup import STAGES, scenes, warm_up_parallel
+
+    staged = [name for stage in STAGES for group in stage for name in group]
+    assert sorted(staged) == sorted(name for name, _, _ in scenes())  # each scene once
+    # two worker processes on a warm cache (the test above filled it): nothing to compile,
+    # and each scene's summary comes back under its name, in the scenes' order
+    out = warm_up_parallel(2, verbose=False, stages=((("jc-wall",), ("elastic-wall",)),))
+    assert list(out) == ["elastic-wall", "jc-wall"]
+    assert all(v["compiled"] == [] for v in out.values())
+    assert out["jc-wall"]["summary"]["steps"] == 4
+
+
+_LOCKED_COMPILE = """
+import sys
+from pathlib import Path
+import numba
+from impactsim.kernel_cache import serialize_cache_files
+
+serialize_cache_files(Path(sys.argv[1]))
+
+@numba.njit(cache=True)
+def twice(x):
+    return 2 * x
+
+print("compiling", flush=True)
+print(twice(21), flush=True)
+"""
+
+
+def test_cache_writes_wait_for_the_warmup_lock(tmp_path):
+    """kernel_cache.serialize_cache_files: while another process holds the lock, a compiled
+    kernel is not written to numba's cache; once it is released, it is."""
+    import fcntl
+    import time
+
+    lock = tmp_path / "cache.lock"
+    script = tmp_path / "kernel.py"
+    script.write_text(_LOCKED_COMPILE)
+    cache = tmp_path / "numba-cache"
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache),
+               PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    with open(lock, "a") as held:
+        fcntl.flock(held, fcntl.LOCK_EX)
+        p = subprocess.Popen([sys.executable, str(script), str(lock)], env=env,
+                             stdout=subprocess.PIPE, text=True)
+        assert p.stdout.readline().strip() == "compiling"
+        time.sleep(3.0)  # the compile of `twice` takes well under a second
+        assert p.poll() is None  # waiting for the lock to save its kernel
+        assert not list(cache.rglob("*.nbi"))
+        fcntl.flock(held, fcntl.LOCK_UN)
+    out, _ = p.communicate(timeout=60)
+    assert p.returncode == 0 and out.strip() == "42"
+    assert len(list(cache.rglob("*.nbi"))) == 1
