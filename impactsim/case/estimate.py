@@ -682,7 +682,8 @@ def estimate_cost(case: Case, speed: dict | None = None, meshes: list | None = N
     if fracture > 0.0:
         parts["fracture"] = fracture * t_elem
     per_frame = FRAME_TE_PER_ELEMENT[case.output.compression] * t_elem
-    parts["output"] = frames * (elements * per_frame + FRAME_SECONDS)
+    # at most a frame a step: the run stops at max_steps, before the frames beyond it
+    parts["output"] = min(frames, steps + 1) * (elements * per_frame + FRAME_SECONDS)
     rows = steps / max(case.output.history_every, 1)
     # the history row's max_penetration measure costs where bodies crush into each other
     # (none in the elastic contacts, 2-4 t_e per face in the crushing ones)

@@ -137,15 +137,15 @@ def convert(value: object, spec: Key, path: KeyPath, kind: str):
         return tuple(_list(value, path, 3, "length", one_length))
     if kind == "int":
         if isinstance(value, float) and value.is_integer():
-            return int(value)
+            return _int64(int(value), path)
         if isinstance(value, bool) or not isinstance(value, int):
             raise path.error(f"expected an integer, got {type_name(value)} {_show(value)}")
-        return value
+        return _int64(value, path)
     if kind == "steps-or-time":  # an int counts steps; a float or "<t> <unit>" is a time
         if isinstance(value, int) and not isinstance(value, bool):
             if value < 0:
                 raise path.error(f"expected a number of steps >= 0, got {value}")
-            return value
+            return _int64(value, path)
         t = parse_quantity(value, "time", str(path))
         if t < 0:
             raise path.error(f"expected a time >= 0, got {_show(value)}")
@@ -214,6 +214,15 @@ def unit_vector(v: tuple[float, float, float], path: KeyPath) -> tuple[float, fl
     if abs(norm - 1.0) <= 1e-14:
         return tuple(float(c) for c in v)
     return tuple(c / norm for c in v)
+
+
+def _int64(value: int, path: KeyPath) -> int:
+    """An integer of the case: TOML's integers are 64-bit (a larger one cannot be represented
+    losslessly, the TOML spec says, and the solver counts in 64 bits)."""
+    if not -2**63 <= value < 2**63:
+        raise path.error(f"expected an integer of at most 19 digits (TOML's 64 bits), got one "
+                         f"of {len(str(abs(value)))} digits")
+    return value
 
 
 def positive(value: float, path: KeyPath, what: str = "", unit: str = "") -> float:

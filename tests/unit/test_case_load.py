@@ -440,6 +440,10 @@ ERRORS = [
     ('size = ["10 mm", "10 mm", "2 mm"]', 'size = ["10 mm", "10 mm"]', 'body[0].size (body "plate")',
      "expected 3 values, got 2"),
     ("", '[output]\nframes = "many"\n', "output.frames", "expected an integer"),
+    # beyond TOML's 64-bit integers (the fuzzer's: an OverflowError in the estimate before)
+    ("", "[output]\nframes = " + "9" * 80 + "\n", "output.frames",
+     "expected an integer of at most 19 digits (TOML's 64 bits), got one of 80 digits"),
+    ("", "[output]\nhistory_every = 1e300\n", "output.history_every", "got one of 301 digits"),
     ("", "[contact]\nself_contact = \"yes\"\n", "contact.self_contact", "expected true or false"),
     ("", "[output]\nfields = \"pressure\"\n", "output.fields", "expected an array"),
     ('end_time = "10 us"', 'end_time = "10 GPa"', "run.end_time", "is a stress, but this key expects a time"),

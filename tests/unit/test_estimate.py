@@ -159,6 +159,16 @@ def test_estimate_uses_the_thread_count_of_the_run_and_warns_of_max_steps():
                for line in est.detail_lines())
 
 
+def test_the_output_estimate_counts_at_most_a_frame_a_step():
+    """More frames than steps: the run writes at most one a step and stops at max_steps (the
+    estimate of frames = 2**63 - 1 was 10^12 days of output)."""
+    capped = BAR.format(end="1 ms").replace("cfl = 0.6", "cfl = 0.6\nmax_steps = 100")
+    est = {n: estimate_cost(load_case_text(capped.replace("frames = 4", f"frames = {n}")))
+           for n in (100, 2**63 - 1)}
+    assert est[100].steps == est[2**63 - 1].steps == 100
+    assert est[2**63 - 1].seconds["output"] == est[100].seconds["output"] > 0.0
+
+
 def test_contact_fracture_and_output_are_in_the_wall_time():
     two = load_case_text((Path(__file__).resolve().parents[2] / "cases" /
                           "elastic-bars.toml").read_text())
