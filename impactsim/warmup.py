@@ -14,9 +14,11 @@ impacts, hexahedra with stiffness hourglass control in contact with tets, fractu
 self-contact of hexes, node separation and distortion erosion, and the history and frame
 outputs. A kernel reached with the types of a real run is
 compiled with exactly those types, so the cache serves the real runs
-(tests/unit/test_warmup.py checks that a second process compiles nothing).
+(tests/unit/test_warmup.py checks that a second process compiles nothing). The scenes run in
+two processes at once where there are two cores (STAGES, `warm_up_parallel`): numba compiles
+one kernel at a time per process.
 
-    python -m impactsim.warmup      (or: impactsim warmup)
+    python -m impactsim.warmup [--workers N]      (or: impactsim warmup [--workers N])
 """
 
 from __future__ import annotations
