@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 from impactsim.case.errors import KeyPath, suggest
 from impactsim.case.read import Reader, in_range, non_negative, positive, type_name
 from impactsim.case.schema import EOS, Failure, Material, Strength
@@ -74,6 +76,11 @@ def read_material(raw: dict, path: KeyPath) -> Material:
     density = positive(r.get("density"), r.at("density"))
     eos = _eos(r)
     shear, bulk = _elastic(r, density, eos)
+    wave = math.sqrt((bulk + 4.0 * shear / 3.0) / density)
+    if not 0.0 < wave < math.inf:  # a density off by hundreds of decades (units)
+        raise r.error("density", f"{density:g} kg/m^3 with these elastic constants (or eos.c0) "
+                                 f"gives a wave speed of {wave:g} m/s: no time step can be "
+                                 "taken")
     return Material(
         name=name,
         density=density,
@@ -113,7 +120,7 @@ def _elastic(r: Reader, density: float, eos: EOS) -> tuple[float, float]:
             positive(v, r.at(k))
         values[k] = v
     if len(given) == 1 and given[0] == "shear_modulus" and eos.c0 > 0.0:
-        return values["shear_modulus"], density * eos.c0**2
+        return values["shear_modulus"], density * eos.c0 * eos.c0  # inf, not OverflowError
     if len(given) < 2:
         where = given[0] if given else "shear_modulus"
         raise r.error(where, f"missing elastic constants: {two}")

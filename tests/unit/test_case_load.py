@@ -462,6 +462,9 @@ ERRORS = [
     ("", '[[material]]\nname = "x"\nlibrary = "al-2042-t3"\n', 'material[1].library (material "x")',
      "unknown library material 'al-2042-t3'; did you mean 'al-2024-t3'?"),
     ('density = "2700 kg/m^3"', "density = 0", 'material[0].density (material "al")', "> 0, got 0"),
+    # a wave speed beyond the floats (the fuzzer's: a ZeroDivisionError in the estimate before)
+    ('density = "2700 kg/m^3"', 'density = "1.4e-303 kg/m^3"',
+     'material[0].density (material "al")', "gives a wave speed of inf m/s"),
     ('youngs_modulus = "70 GPa"', 'youngs_modulus = "-70 GPa"', 'material[0].youngs_modulus (material "al")', "> 0"),
     ('poisson_ratio = 0.25', "poisson_ratio = 0.5", 'material[0].poisson_ratio (material "al")',
      "must be in (-1, 0.5), got 0.5"),
