@@ -21,7 +21,8 @@ table in impactsim/case/spec.py. Do not edit by hand: tests/unit/test_case_load.
 A case is a TOML file. Table and key names are as below; an unknown key is an error with a
 suggestion. Quantities are plain numbers in SI units or strings `"<number> <unit>"`
 (`"2 km/s"`, `"7.9 mm"`, `"293 K"`); each key accepts units of its own dimension only.
-Integers are TOML's, 64-bit (at most 19 digits). Arrays of tables (`[[body]]`) are numbered from 0 in messages and in `--set` paths.
+Integers are TOML's, 64-bit (at most 19 digits). Arrays of tables (`[[body]]`) are numbered
+from 0 in messages and in `--set` paths.
 
 `--set KEY=VALUE` (on `check`, `mesh`, `run`) overrides a key before validation. The value is
 read as TOML (`--set run.cfl=0.5`, `--set 'body.0.velocity=[0, 0, -100]'`), else as a bare
