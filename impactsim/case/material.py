@@ -9,6 +9,7 @@ from impactsim.case.read import Reader, in_range, non_negative, positive, type_n
 from impactsim.case.schema import EOS, Failure, Material, Strength
 from impactsim.case.spec import ELASTIC_CONSTANTS, EOS_KEYS, MATERIAL, STRENGTH_KEYS
 from impactsim.materials import library
+from impactsim.materials.params import longitudinal_wave_speed
 
 
 def library_names() -> list[str]:
@@ -76,12 +77,7 @@ def read_material(raw: dict, path: KeyPath) -> Material:
     density = positive(r.get("density"), r.at("density"))
     eos = _eos(r)
     shear, bulk = _elastic(r, density, eos)
-    wave = math.sqrt((bulk + 4.0 * shear / 3.0) / density)
-    if not 0.0 < wave < math.inf:  # a density off by hundreds of decades (units)
-        raise r.error("density", f"{density:g} kg/m^3 with these elastic constants (or eos.c0) "
-                                 f"gives a wave speed of {wave:g} m/s: no time step can be "
-                                 "taken")
-    return Material(
+    mat = Material(
         name=name,
         density=density,
         shear_modulus=shear,
@@ -95,6 +91,12 @@ def read_material(raw: dict, path: KeyPath) -> Material:
         failure=_failure(r),
         source=r.get("source"),
     )
+    wave = longitudinal_wave_speed(mat)
+    if not 0.0 < wave < math.inf:  # a density off by hundreds of decades (units)
+        raise r.error("density", f"{density:g} kg/m^3 with these elastic constants (or eos.c0) "
+                                 f"gives a wave speed of {wave:g} m/s: no time step can be "
+                                 "taken")
+    return mat
 
 
 def library_material(name: str) -> Material:
