@@ -20,7 +20,7 @@ import numpy as np
 
 from impactsim.mesh import MeshError
 from impactsim.mesh.orient import degenerate_tets, fix_orientation, signed_volumes
-from impactsim.mesh.topology import all_faces
+from impactsim.mesh.topology import face_adjacency
 
 
 MAX_COORDINATE = 1e6  # [m] a body larger than 1000 km is a wrong scale or a corrupt file
@@ -76,12 +76,10 @@ def read_tets(path: Path, scale: float = 1.0) -> tuple[np.ndarray, np.ndarray, i
         dup = int(np.sort(first[counts > 1])[0])
         raise MeshError(f"{path}: {int((counts - 1).sum())} tetrahedra listed more than once "
                         f"(the same four nodes), first cell {dup}")
-    faces = np.sort(all_faces(tets), axis=1)
-    _, where, counts = np.unique(faces, axis=0, return_inverse=True, return_counts=True)
-    if (counts > 2).any():  # every solver pass assumes a face has one or two sides
-        cell = int(np.flatnonzero(counts[where.reshape(-1)] > 2)[0] // 4)
-        raise MeshError(f"{path}: {int((counts > 2).sum())} face(s) shared by more than two "
-                        f"tetrahedra (a non-manifold mesh), first in cell {cell}")
+    try:  # every solver pass assumes a face has one or two sides
+        face_adjacency(tets)
+    except ValueError as err:  # "non-manifold mesh: a face is shared by more than two ..."
+        raise MeshError(f"{path}: {err}") from None
 
     bad = degenerate_tets(points, tets)
     if len(bad):

@@ -132,7 +132,7 @@ def test_fuzzed_mesh_files_end_clean_many(tmp_path, sample):
     ("empty-msh", "part.msh"),
     ("nan-node", "non-finite coordinates"),
     ("duplicate", "listed more than once"),
-    ("non-manifold", "face(s) shared by more than two tetrahedra"),
+    ("non-manifold", "non-manifold mesh: a face is shared by more than two tetrahedra"),
 ])
 def test_mesh_reproducers_of_issue_16(tmp_path, damage, fragment):
     """A corrupt .vtu made meshio exit the process; an empty .msh passed `check` with 0
