@@ -7,10 +7,12 @@ Kernels cannot take dataclasses, so each resolved `Material` becomes a float64 r
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from impactsim.case.schema import Material
+if TYPE_CHECKING:  # annotations only: case/material.py imports this module
+    from impactsim.case.schema import Material
 
 # strength model codes
 ELASTIC, IDEAL_PLASTIC, JOHNSON_COOK = 0, 1, 2
