@@ -10,7 +10,7 @@ the contact surface, with the compact arrays merged from the changes
 (``Surface.incremental``, contact/surface.py) and regenerated from every flag (the revision's
 way), and checks both give the same arrays.
 
-    NUMBA_NUM_THREADS=1 python benchmarks/bench_step_costs.py REV cases/oblique-sphere.toml
+    NUMBA_NUM_THREADS=1 python benchmarks/step_costs.py REV cases/oblique-sphere.toml
         [--calls 150,450,900,1800] [--reps 8]
 """
 
@@ -66,7 +66,7 @@ def states(case: str, calls: list[int]):
 
     C.fracture_criteria = wrapped
     try:
-        cli(["run", case, "-o", str(Path("/tmp") / "bench_step_costs"), "--overwrite", "-q"])
+        cli(["run", case, "-o", str(Path("/tmp") / "step_costs"), "--overwrite", "-q"])
     except (_Enough, SystemExit):
         pass
     finally:
