@@ -69,12 +69,12 @@ def main(argv=None) -> list[tuple]:
     def sampled(sim, dt):
         update(sim, dt)
         if dt > 0.0 and sim.model.step % args.every == args.every - 1:
-            every = sim.chunk_out[:, E.OUT_DT]
-            d = every[np.isfinite(every) & (every > 0.0)]
+            part_dt = sim.chunk_out[:, E.OUT_DT]
+            d = part_dt[np.isfinite(part_dt) & (part_dt > 0.0)]
             m = d.min()
             rows.append((sim.model.step + 1, m, d.shape[0], int((d < 1.5 * m).sum()),
                          int((d < 2 * m).sum()), int((d < 3 * m).sum()), np.median(d) / m,
-                         *work(np.where(every > 0.0, every, np.inf), m)))
+                         *work(np.where(part_dt > 0.0, part_dt, np.inf), m)))
 
     Simulation._update_elements = sampled
     try:

@@ -23,11 +23,12 @@ def test_the_suite_is_found():
 def test_a_bench_needs_no_argument(name):
     text = (BENCH / f"{name}.py").read_text()
     assert not POSITIONAL.search(text), f"{name}.py declares a positional argument"
+    saved = list(sys.path)  # (bench modules put their folder on the path when imported)
     sys.path.insert(0, str(BENCH.parent))
     try:
         mod = importlib.import_module(f"benchmarks.{name}")
     finally:
-        sys.path.remove(str(BENCH.parent))
+        sys.path[:] = saved
     params = inspect.signature(mod.main).parameters.values()
     assert all(p.default is not inspect.Parameter.empty for p in params), \
         f"{name}.main() has a parameter without a default"
