@@ -20,6 +20,7 @@ from impactsim.output.series import read_collection
 from impactsim.solver import checkpoint as ckpt
 from impactsim.solver.run import SimulationError, run_case
 from tests.cli.test_run import BAR
+from tests.killed import whole_history
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -180,13 +181,8 @@ def _whole_files(out: Path) -> None:
             for _, frame in read_collection(f):
                 assert frame.exists()
         elif f.name == "history.csv":
-            text = f.read_text()
-            if text and not text.endswith("\n"):
-                # SIGKILL tore the last write: Linux stops copying at a page boundary
-                # (output/history.py; a resumed run cuts the file back to its checkpoint)
-                assert len(text.encode()) % 4096 == 0, f"{f}: a torn line off a page boundary"
-                text = text[:text.rfind("\n") + 1]
-            lines = text.splitlines()
+            # (a resumed run cuts a torn last line away with the rows after its checkpoint)
+            lines = whole_history(f.read_text()).splitlines()
             n = lines[0].count(",")
             assert all(line.count(",") == n for line in lines)
         elif f.suffix == ".json":
