@@ -23,7 +23,6 @@ one kernel at a time per process.
 
 from __future__ import annotations
 
-import os
 import sys
 import tempfile
 import time
@@ -286,21 +285,15 @@ def warm_up_parallel(workers: int, verbose: bool = True, stages=STAGES) -> dict[
     return {name: merged[name] for name, _, _ in scenes() if name in merged}
 
 
-def _cores() -> int:
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not Linux
-        return os.cpu_count() or 1
-
-
 def main(argv=None) -> int:
     import argparse
 
     from impactsim.kernel_cache import refresh
+    from impactsim.studies.cluster import default_workers  # the cores this process may use
 
     ap = argparse.ArgumentParser(prog="python -m impactsim.warmup", description=__doc__.split(
         "\n")[0])
-    ap.add_argument("--workers", type=int, default=min(_cores(), 2),
+    ap.add_argument("--workers", type=int, default=min(default_workers(), 2),
                     help="processes compiling at once (default: the cores, at most 2)")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
