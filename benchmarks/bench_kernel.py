@@ -10,6 +10,9 @@ disturbed by other work on the machine.
 
     python benchmarks/bench_kernel.py [--warm 20] [--reps 15] [--erode] [--rev REV]
 
+It also times the Johnson-Cook kernel giving the distortion guard's verdicts (solver/guard.py,
+as in a scene with fracture criteria): "JC + guard".
+
 --erode erodes one tet of every block of 32 (status ERODED), the case of sphere-plate's mixed
 blocks. --rev REV times the revision's kernel (its package exported as compare.py does) against
 the working tree's instead, alternating on the same frozen state, with Johnson-Cook, and prints
@@ -59,6 +62,8 @@ def main(argv=None) -> dict:
     frozen["hard"], frozen["thermal"] = sim.hardening.copy(), sim.thermal.copy()
     params = {"JC": model.mat_params.copy(), "elastic": model.mat_params.copy()}
     params["elastic"][:, P.STRENGTH] = P.ELASTIC
+    params["JC + guard"] = params["JC"]
+    guard = np.zeros(model.n_elem, dtype=np.int8)
     times = {k: [] for k in params}
     yielding = 0
     for rep in range(args.reps + 1):
@@ -70,7 +75,8 @@ def main(argv=None) -> dict:
                              a["hard"], a["thermal"], a["energy"], a["vol"], a["vol"], model.vol0,
                              model.elem_mass, mp, sim.jnode, False, dt, sim.cq, sim.cl,
                              model.force, fr.rows, sim.fext, fr.extra_ptr, fr.extra_rows,
-                             fr.part_size // E.CHUNK, sim.chunk_out, 1, sim.plastic)
+                             fr.part_size // E.CHUNK, sim.chunk_out, 1, sim.plastic,
+                             guard if label == "JC + guard" else None)
             if rep:  # the first round compiles nothing but warms the caches
                 times[label].append(1e9 * (time.process_time() - c0) / model.n_elem)
             if label == "JC":
@@ -80,7 +86,7 @@ def main(argv=None) -> dict:
     out = {}
     for label, t in times.items():
         out[label] = (min(t), float(np.median(t)))
-        print(f"  {label:8s} min {min(t):7.1f}   median {np.median(t):7.1f}")
+        print(f"  {label:10s} min {min(t):7.1f}   median {np.median(t):7.1f}")
     return out
 
 

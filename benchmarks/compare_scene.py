@@ -5,13 +5,13 @@ This runs `impactsim run CASE` with the revision's package (exported with `git a
 folder of its own, whose numba cache `python -m impactsim.warmup` fills first, as `make setup`
 does; minutes with a cold cache, skipped with --no-warmup or when the folder is already there)
 and with the working tree's, one after the other, REPS times, each in a fresh process with
-NUMBA_NUM_THREADS=1, and prints per run the process CPU seconds (user + system, from
+NUMBA_NUM_THREADS=1 (--threads), and prints per run the process CPU seconds (user + system, from
 getrusage of the child), the wall seconds, the steps and summary.json's seconds per pass; then
 whether the two sides' history.csv are byte-identical. Compare the CPU seconds: on one thread
 they are the work done, whatever else holds the cores.
 
     python benchmarks/compare_scene.py REV cases/sphere-plate.toml [--reps 2] [--base DIR]
-        [--no-warmup] [--set KEY=VALUE ...]
+        [--no-warmup] [--threads N] [--set KEY=VALUE ...]
 """
 
 from __future__ import annotations
@@ -44,14 +44,14 @@ def export(rev: str, base: Path, warmup: bool) -> Path:
     return base
 
 
-def _env(tree: Path) -> dict:
+def _env(tree: Path, threads: int = 1) -> dict:
     env = dict(os.environ)
     env["PYTHONPATH"] = str(tree)
-    env["NUMBA_NUM_THREADS"] = "1"
+    env["NUMBA_NUM_THREADS"] = str(threads)
     return env
 
 
-def run_once(tree: Path, case: Path, out: Path, sets: list[str]) -> dict:
+def run_once(tree: Path, case: Path, out: Path, sets: list[str], threads: int = 1) -> dict:
     """One run of ``case`` with the package of ``tree`` in a fresh process."""
     cmd = [sys.executable, "-c", "from impactsim.cli import main; main()", "run", str(case),
            "-o", str(out), "--overwrite", "-q"]
@@ -59,7 +59,7 @@ def run_once(tree: Path, case: Path, out: Path, sets: list[str]) -> dict:
         cmd += ["--set", s]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    subprocess.run(cmd, cwd=tree, env=_env(tree), check=True)
+    subprocess.run(cmd, cwd=tree, env=_env(tree, threads), check=True)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
@@ -78,6 +78,8 @@ def main(argv=None) -> int:
                          "named after it, kept for later calls)")
     ap.add_argument("--no-warmup", action="store_true")
     ap.add_argument("--set", action="append", default=[], dest="sets")
+    ap.add_argument("--threads", type=int, default=1,
+                    help="NUMBA_NUM_THREADS of the runs (then compare the wall seconds)")
     a = ap.parse_args(argv)
     rev = subprocess.run(["git", "rev-parse", "--short", a.rev], cwd=ROOT, check=True,
                          capture_output=True, text=True).stdout.strip()
@@ -90,7 +92,7 @@ def main(argv=None) -> int:
     for i in range(a.reps):
         for side, tree in (("old", base), ("new", ROOT)):
             r = run_once(tree, tree / rel if not rel.is_absolute() else rel,
-                         outs / f"{side}-{i}", a.sets)
+                         outs / f"{side}-{i}", a.sets, a.threads)
             runs[side].append(r)
             passes = ", ".join(f"{k} {v:.1f}" for k, v in sorted(
                 r["passes"].items(), key=lambda kv: -kv[1]) if v >= 0.5)

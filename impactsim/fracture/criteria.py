@@ -67,9 +67,10 @@ from impactsim.fracture.principal import max_principal, max_principal_stretch
 from impactsim.fracture.spall import SPALL_CELL, spall_pressure, spalls
 from impactsim.materials import params as P
 from impactsim.model import DAMAGED, ERODED, FRACTURED, INTACT
+from impactsim.solver.guard import (CLEARED, FLAGGED, GUARD_FRACTION, LANES, PASSED, UNKNOWN,
+                                    volume6_lane, volume6_of)
 
 NONE, PARTICLE, ERODE, GUARD, MELT = 0, 1, 2, 3, 4
-GUARD_FRACTION = 0.01  # [-] predicted V / V0 below which the distortion guard removes a cell
 MAX_PLASTIC_STRAIN = 200.0  # [-] a cell strained beyond this leaves the mesh (3b)
 # [-] homologous temperature T* at which a cell counts as molten (3b): adiabatic heating is
 # beta sigma_y d eps_p and sigma_y vanishes as T* -> 1, so the melt temperature is approached,
@@ -81,26 +82,10 @@ MELT_SHARE = 0.99
 @numba.njit(cache=True, inline="always")
 def _volume6(x, v, h, i0, i1, i2, i3):
     """Six times the volume of the tet at positions x + h v."""
-    return _volume6_of(x[i0, 0], x[i0, 1], x[i0, 2], x[i1, 0], x[i1, 1], x[i1, 2],
+    return volume6_of(x[i0, 0], x[i0, 1], x[i0, 2], x[i1, 0], x[i1, 1], x[i1, 2],
                        x[i2, 0], x[i2, 1], x[i2, 2], x[i3, 0], x[i3, 1], x[i3, 2],
                        v[i0, 0], v[i0, 1], v[i0, 2], v[i1, 0], v[i1, 1], v[i1, 2],
                        v[i2, 0], v[i2, 1], v[i2, 2], v[i3, 0], v[i3, 1], v[i3, 2], h)
-
-
-@numba.njit(cache=True, inline="always")
-def _volume6_of(x0x, x0y, x0z, x1x, x1y, x1z, x2x, x2y, x2z, x3x, x3y, x3z,
-                v0x, v0y, v0z, v1x, v1y, v1z, v2x, v2y, v2z, v3x, v3y, v3z, h):
-    """``_volume6`` on the corners' coordinates and velocities."""
-    ax = x1x + h * v1x - x0x - h * v0x
-    ay = x1y + h * v1y - x0y - h * v0y
-    az = x1z + h * v1z - x0z - h * v0z
-    bx = x2x + h * v2x - x0x - h * v0x
-    by = x2y + h * v2y - x0y - h * v0y
-    bz = x2z + h * v2z - x0z - h * v0z
-    cx = x3x + h * v3x - x0x - h * v0x
-    cy = x3y + h * v3y - x0y - h * v0y
-    cz = x3z + h * v3z - x0z - h * v0z
-    return ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
 
 
 # Margins of the guard's pre-test (``guard_clear``) over the rounding of the full test: the
@@ -314,7 +299,7 @@ def element_action(e, mk, st, on_surface, lone, surface_only, eps_p, damage, tem
 # evaluates the guard for every lane in SIMD instructions (``_guard_clear_block``,
 # ``_guard_full_block``: separate kernels, since LLVM vectorises a loop whose only memory is
 # the buffer and whose trip count is a constant, as in solver/element.py)
-GB = 32
+GB = LANES  # the tet kernel's blocks (solver/guard.py gives its verdicts on them)
 R_LIM = 24  # row of 6 GUARD_FRACTION V0
 R_OK = 25  # row of a block kernel's verdict: 1.0 it clears (passes) the cell, else 0.0
 R_CLEAR = 26  # the pre-test's verdict, kept while the full test runs on the block
@@ -345,11 +330,18 @@ def _gather_block(x, v, conn, vol0, e0, buf, with_x, with_v):
                     buf[(12 + 3 * k + d) * GB + i] = v[n, d]
 
 
-# the guard's verdict on a cell, as ``fracture_criteria`` keeps it in ``action`` for
-# ``_criteria_one`` (-1: not known, the full criteria work it out)
-CLEARED = 1  # the pre-test clears the cell
-PASSED = 2  # the full test does not flag it (the pre-test, if it ran, did not clear it)
-FLAGGED = 3  # the full test flags it
+# the guard's verdict on a cell (solver/guard.py: UNKNOWN, CLEARED, PASSED, FLAGGED), as
+# ``fracture_criteria`` keeps it in ``action`` for ``_criteria_one`` (UNKNOWN: the full
+# criteria work it out)
+
+
+@numba.njit(cache=True, inline="always")
+def _all_given(given, e0):
+    """True when the kernel gave the guard's verdict on every cell of block e0."""
+    known = True
+    for i in range(GB):
+        known &= given[e0 + i] != UNKNOWN
+    return known
 
 
 @numba.njit(cache=True, inline="always")
@@ -399,21 +391,9 @@ def _guard_full_block(buf, h1, h2):
     lane of buf: R_OK 1.0 where it does not flag the cell."""
     for i in range(GB):
         lim = buf[R_LIM * GB + i]
-        ok = ((not (_volume6_lane(buf, i, h1) < lim))
-              & (not (_volume6_lane(buf, i, h2) < lim)))
+        ok = ((not (volume6_lane(buf, i, h1) < lim))
+              & (not (volume6_lane(buf, i, h2) < lim)))
         buf[R_OK * GB + i] = 1.0 if ok else 0.0
-
-
-@numba.njit(cache=True, inline="always")
-def _volume6_lane(buf, i, h):
-    """``_volume6`` of lane i of a guard block (``_volume6_of``: the same bits)."""
-    return _volume6_of(
-        buf[0 * GB + i], buf[1 * GB + i], buf[2 * GB + i], buf[3 * GB + i], buf[4 * GB + i],
-        buf[5 * GB + i], buf[6 * GB + i], buf[7 * GB + i], buf[8 * GB + i], buf[9 * GB + i],
-        buf[10 * GB + i], buf[11 * GB + i], buf[12 * GB + i], buf[13 * GB + i],
-        buf[14 * GB + i], buf[15 * GB + i], buf[16 * GB + i], buf[17 * GB + i],
-        buf[18 * GB + i], buf[19 * GB + i], buf[20 * GB + i], buf[21 * GB + i],
-        buf[22 * GB + i], buf[23 * GB + i], h)
 
 
 # columns of the per-material table of ``_quiet`` (``_quiet_table``)
@@ -535,7 +515,7 @@ def _criteria_one(e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0
 def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p,
                       eps_p_prev, damage, eps_rate, temperature, mat_params, face_flag, adj,
                       surface_only, dt, action, spall_mode, pnode, jnode, spall_k, integrate,
-                      reach):
+                      reach, given):
     """Apply spall and loosening to ``status`` and decide ``action (e,) int8`` (module docstring).
 
     face_flag (4e,) bool free faces and adj (e,4) face neighbours at t = 0 (-1: none)
@@ -545,12 +525,15 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
     accumulators, integrate: `[fracture] spall_criterion = "tuler-butcher"` (spall.py).
     eps_p_prev (e,) plastic strain at the previous call (updated here). ``reach``: the guard's
     pre-test reach (``guard_reach`` for h = 2.2 dt), or inf to run the full guard alone.
+    ``given`` (e,) int8, or empty: the guard's verdicts the tet kernel gave in this step's
+    element update (solver/guard.py, on the same x, v and dt), UNKNOWN where it gave none.
     Returns (newly damaged, newly fractured, elements with an action, newly damaged by the
     ductile criterion, cells the guard tested, of them cleared by the pre-test).
 
-    Two passes. Per block of GB elements the guard's verdict on every cell in SIMD
-    instructions (``_guard_verdicts``: the pre-test, and where it leaves a lane or rests the
-    full test on the whole block); then per cell: one on which the full criteria would change
+    Two passes. Per block of GB elements the guard's verdict on every cell: the kernel's, where
+    it gave them for the whole block, else in SIMD instructions here (``_guard_verdicts``: the
+    pre-test, and where it leaves a lane or rests the full test on the whole block); then per
+    cell: one on which the full criteria would change
     nothing and take no action (``_quiet``: far from the impact, nearly all) costs a few
     tests, the others run the full criteria with the verdict (``_criteria_one``), whose
     pointwise steps (``element_state``, ``element_action``) are shared with the hexes' kernel
@@ -573,14 +556,19 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
     # action until the cell's own action replaces it (-1: not known, the mesh's last block)
     n_blk = n_elem // GB
     n_grp = (n_blk + GROUP_BLOCKS - 1) // GROUP_BLOCKS
+    has_given = given.shape[0] != 0
     for grp in numba.prange(n_grp):
         buf = np.empty(GUARD_ROWS * GB)
         for blk in range(grp * GROUP_BLOCKS, min(n_blk, (grp + 1) * GROUP_BLOCKS)):
             e0 = blk * GB
-            _guard_verdicts(x, v, conn, vol0, e0, buf, pretest, reach, inv, h1, h2,
-                            action[e0:e0 + GB])
+            if has_given and _all_given(given, e0):
+                for i in range(GB):
+                    action[e0 + i] = given[e0 + i]
+            else:
+                _guard_verdicts(x, v, conn, vol0, e0, buf, pretest, reach, inv, h1, h2,
+                                action[e0:e0 + GB])
     for e in range(n_blk * GB, n_elem):
-        action[e] = -1
+        action[e] = UNKNOWN
     for e in numba.prange(n_elem):
         verdict = int(action[e])
         mk = elem_mat[e]

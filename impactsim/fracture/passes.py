@@ -29,6 +29,8 @@ mass_final (elements plus particles), particles, eroded_elements, and per body r
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from impactsim.contact.broadphase import SpatialHash, grid_for
@@ -48,9 +50,11 @@ from impactsim.fracture.removal import remove_elements
 from impactsim.fracture.spall import PRESSURE_CODES, SPALL_CELL
 from impactsim.materials import params as P
 from impactsim.model import DAMAGED, ERODED, FRACTURED
+from impactsim.solver.guard import UNKNOWN
 from impactsim.solver.passes import Pass
 
 EPS_BARY = 1e-6
+NO_VERDICTS = np.empty(0, dtype=np.int8)  # fracture_criteria's given: none, it gives its own
 PAD = 1e-3  # box padding of the particle broad phase, a fraction of the mean face edge length
 
 
@@ -128,10 +132,16 @@ class FracturePass(Pass):
 
     def attach(self, sim) -> None:
         """Bind the integrator: the nodal forces of a removed element's nodes are recomputed
-        without it, so it no longer acts on them at the next predictor."""
+        without it, so it no longer acts on them at the next predictor; and where the criteria
+        run on tets, have its tet kernel give the distortion guard's verdicts
+        (solver/guard.py)."""
         self.sim = sim
+        model = sim.model
+        if model.n_elem and self._wanted(model):
+            sim.guard = np.full(model.n_elem, UNKNOWN, dtype=np.int8)
 
-    def run(self, model, dt):
+    def _wanted(self, model) -> bool:
+        """Whether the criteria run (decided once)."""
         if self.criteria is None:
             mp = model.mat_params
             # criteria.failing_material or the ductile criterion (fracture/ductile.py) of any
@@ -139,7 +149,10 @@ class FracturePass(Pass):
             self.criteria = bool(np.any((mp[:, P.EROSION] != 0) | (mp[:, P.SPALL] < np.inf)
                                         | (mp[:, P.CHI_STAR] < np.inf)
                                         | (mp[:, P.DUCTILE] > 0.0)))
-        if self.criteria:
+        return self.criteria
+
+    def run(self, model, dt):
+        if self._wanted(model):
             self._criteria(model, dt)
         s = self.s
         if s.distortion is not None and s.distortion.due(model, dt):
@@ -166,14 +179,20 @@ class FracturePass(Pass):
         if s.spall_mode != SPALL_CELL:
             C.patch_fields(model.vol, model.vol0, model.pressure, model.status, model.n2e_ptr,
                            model.n2e, s.pnode, s.jnode, 4)
-        reach = self.guard.reach(model, dt)
+        sim = self.sim
+        given = (sim.guard if sim is not None and sim.guard is not None
+                 and sim.guard_step == model.step else NO_VERDICTS)
+        # with the kernel's verdicts the blocks it left (damaged cells, mixed materials) run
+        # the full test: there the pre-test would seldom clear a cell
+        reach = self.guard.reach(model, dt) if given is NO_VERDICTS else math.inf
         n_dam, n_frac, n_act, n_duct, n_guard, n_clear = C.fracture_criteria(
             model.x, model.v, model.x0, model.conn, model.elem_mat, model.status, model.sdev,
             model.pressure, model.vol, model.vol0, model.eps_p, s.eps_p_prev, model.damage,
             model.eps_rate, model.temperature, model.mat_params, b.face_flag, b.adj,
             s.surface_only, dt, s.action, s.spall_mode, s.pnode, s.jnode, s.spall_k,
-            s.spall_integrate, reach)
-        self.guard.count(n_guard, n_clear)
+            s.spall_integrate, reach, given)
+        if given is NO_VERDICTS:  # the pre-test's share decides for the hexes otherwise
+            self.guard.count(n_guard, n_clear)
         s.counts["damaged"] += int(n_dam)
         s.counts["ductile"] += int(n_duct)
         s.counts["fractured"] += int(n_frac)

@@ -49,6 +49,7 @@ from impactsim.materials.laws import (eos_linear_part, hardening, newton_start,
                                       newton_step_converged, power_near, radial_return,
                                       rate_independent_floor, thermal_factor)
 from impactsim.model import DAMAGED, ERODED, FRACTURED
+from impactsim.solver import guard as G
 from impactsim.solver import vecmath as VM
 from impactsim.solver.scatter import take_node
 
@@ -56,10 +57,10 @@ DAMAGED_F, FRACTURED_F = float(DAMAGED), float(FRACTURED)  # as row R_STAT holds
 
 CHUNK = 512
 PART = 4 * CHUNK  # elements of a part (scatter.py), the unit of work of a thread
-B = 32  # lanes of a block; the buffer (ROWS x B doubles, 23 kB) stays in the L1 cache
+B = G.LANES  # 32 lanes of a block; the buffer (ROWS x B doubles, 23 kB) stays in the L1 cache
 # IEEE semantics are kept (no nnan/ninf: inf marks "no limit"); numpy's error model drops the
 # zero-division checks that Python semantics would put on every division.
-FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
+FAST = G.FAST  # {"nsz", "arcp", "contract", "afn", "reassoc"}
 # columns of the per-chunk reduction array
 OUT_DT, OUT_QWORK, OUT_INVERTED, OUT_WORST = 0, 1, 2, 3
 OUT_DEFERRED = 4  # the chunk's blocks left to `_deferred_chunk`, a bit mask (block b: 2^b)
@@ -1047,14 +1048,17 @@ def _lanes2(a, e0, n):
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
 def _chunk(ch0, ch1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
            temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
-           use_anp, half, dt, cq, cl, rows, fext, chunk_out, buf, plastic):
+           use_anp, half, dt, cq, cl, rows, fext, chunk_out, buf, plastic, guard):
     """The full blocks of intact elements of one material of chunks ch0 .. ch1 - 1 (the vector
     path, written out in this function: called as a function of its own, it took the kernel 62
     -> 66 ns per element); any other block is left to `_deferred_chunk`, marked in its chunk's
     OUT_DEFERRED. `buf` the block buffer (TET_ROWS * B) of the calling thread. A range of
     chunks (a part, or all of them on one thread), not one: numba increfs and decrefs every
-    array argument at each call of a function that calls others (about 70 atomic counts)."""
+    array argument at each call of a function that calls others (about 70 atomic counts).
+    ``guard`` (n_elem,) int8, or empty: the distortion guard's verdicts on the cells of each
+    full block (solver/guard.py), UNKNOWN on a block left to `_deferred_chunk`."""
     n_elem = conn.shape[0]
+    verdicts = guard.shape[0] != 0
     for ch in range(ch0, ch1):
         dt_min = math.inf
         worst = -1
@@ -1087,6 +1091,8 @@ def _chunk(ch0, ch1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
                     for i in range(B):
                         if not buf[R_DET * B + i] > 0.0:
                             mk = -1
+                    if mk >= 0 and verdicts:  # the corners at hand: the guard's verdicts
+                        G.block_verdicts(buf, vol0[e0:e0 + B], dt, guard[e0:e0 + B])
                 if mk >= 0:
                     if plastic is not None:  # `_return` written out (its inlining kept increfs)
                         code = int(mat_params[mk, P.STRENGTH])
@@ -1106,6 +1112,8 @@ def _chunk(ch0, ch1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
                     binv = 0
                 else:
                     deferred |= 1 << ((e0 - ch * CHUNK) // B)
+                    if verdicts:
+                        G.unknown(guard[e0:e0 + B])
                     continue
             else:
                 deferred |= 1 << ((e0 - ch * CHUNK) // B)
@@ -1193,12 +1201,13 @@ def _deferred_chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, 
 # a cold cache) would cost a small case more than its whole run. The warm-up sets it to 0 for
 # its PARALLEL_SCENES so that both versions are compiled.
 PARALLEL_ELEMENTS = 4 * PART
+NO_GUARD = np.empty(0, dtype=np.int8)  # element_update's guard=None: no verdicts wanted
 
 
 def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                    hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
                    use_anp, dt, cq, cl, force, rows, fext, extra_ptr, extra_rows, part_chunks,
-                   chunk_out, threads, plastic):
+                   chunk_out, threads, plastic, guard=None):
     """Advance every element from step n to n+1 and compute its nodal forces at n+1.
 
     x (n,3) positions x^{n+1}; v (n,3) velocities U^{n+1} (the step's velocity); dt the step.
@@ -1223,6 +1232,11 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     a case of elastic bodies waits that much less for its first step with a cold cache), else
     True (`plastic_kernel`).
 
+    `guard` (n_elem,) int8 or None: where given, the distortion guard's verdicts on the
+    cells of every full block of intact tets of one material, for the fracture criteria that
+    run next on the same x, v and dt (solver/guard.py); UNKNOWN on the other full blocks; the
+    mesh's last, partial block is not written.
+
     Three kernels: the full blocks of intact elements of one material (`_chunk`), then, only if
     a chunk left any (OUT_DEFERRED), the other blocks in masked passes and the mesh's last
     block (`_deferred_chunk`: after all full blocks of their part, on the same thread, so each
@@ -1238,7 +1252,8 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     parallel = conn.shape[0] >= PARALLEL_ELEMENTS
     args = (x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature, hard,
             thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp, dt, cq,
-            cl, rows, fext, part_chunks, chunk_out, threads, plastic)
+            cl, rows, fext, part_chunks, chunk_out, threads, plastic,
+            NO_GUARD if guard is None else guard)
     kernel = _update_parallel if parallel else _update_serial
     kernel(*args, None)
     if chunk_out[:, OUT_DEFERRED].any():  # blocks left: masked passes, the mesh's last block
@@ -1251,7 +1266,7 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
 def _update_parallel(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                      hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
                      use_anp, dt, cq, cl, rows, fext, part_chunks, chunk_out, threads, plastic,
-                     deferred):
+                     guard, deferred):
     """element_update's blocks on `threads` threads: parts t, t + threads, t + 2 threads, ... on
     thread t, each in chunk order; the full blocks (`_chunk`) with `deferred` None, else the
     blocks they left (`_deferred_chunk`): two specialisations, pruned at compile time."""
@@ -1266,7 +1281,7 @@ def _update_parallel(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
                 _chunk(c0, c1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                        temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass,
                        mat_params, jnode, use_anp, half, dt, cq, cl, rows, fext, chunk_out, buf,
-                       plastic)
+                       plastic, guard)
             else:
                 for ch in range(c0, c1):
                     if chunk_out[ch, OUT_DEFERRED] != 0.0:
@@ -1280,7 +1295,7 @@ def _update_parallel(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
 def _update_serial(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                    hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
                    use_anp, dt, cq, cl, rows, fext, part_chunks, chunk_out, threads, plastic,
-                   deferred):
+                   guard, deferred):
     """`_update_parallel` on one thread: the chunks in order (the parts' order), `_chunk` called
     from here directly (numba links a called kernel's code into its caller and optimises it
     again there, so every level of calls costs compile time: one more, 1.5 s)."""
@@ -1289,7 +1304,8 @@ def _update_serial(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     if deferred is None:
         _chunk(0, n_ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
-               jnode, use_anp, 0.5 * dt, dt, cq, cl, rows, fext, chunk_out, buf, plastic)
+               jnode, use_anp, 0.5 * dt, dt, cq, cl, rows, fext, chunk_out, buf, plastic,
+               guard)
         return
     for ch in range(n_ch):
         if chunk_out[ch, OUT_DEFERRED] != 0.0:

@@ -80,6 +80,12 @@ class Simulation:
         # build_model); by name: vol_eos may be model.vol itself, which must stay shared
         hugepages.pack(self, names=("fext", "chunk_out", "jnode", "vol_now", "hardening",
                                     "thermal") + (("vol_eos",) if self.use_anp else ()))
+        # the distortion guard's verdicts the tet kernel gives while it has the corners at hand
+        # (solver/guard.py), for the fracture criteria that run right after it: None unless a
+        # pass asks for them (fracture: FracturePass.attach); guard_step: the step whose
+        # element update gave them (-1: none is valid now)
+        self.guard = None
+        self.guard_step = -1
         for p in passes:  # passes that need the integrator (fracture: refresh_forces)
             if hasattr(p, "attach"):
                 p.attach(self)
@@ -192,7 +198,10 @@ class Simulation:
                 m.eps_rate, m.temperature, self.hardening, self.thermal, m.energy, m.vol,
                 self.vol_eos, m.vol0, m.elem_mass, m.mat_params, self.jnode, self.use_anp, dt,
                 self.cq, self.cl, m.force, fr.rows, self.fext, fr.extra_ptr, fr.extra_rows,
-                fr.part_size // E.CHUNK, self.chunk_out, numba.get_num_threads(), self.plastic)
+                fr.part_size // E.CHUNK, self.chunk_out, numba.get_num_threads(), self.plastic,
+                self.guard if dt > 0.0 else None)
+        # verdicts for a step taken (a zero step refreshes forces only) by the tet kernel
+        self.guard_step = m.step if dt > 0.0 and self.guard is not None and not hexes_only else -1
         out = self.chunk_out
         k = int(np.argmin(out[:, E.OUT_DT]))
         self.dt_stable = float(out[k, E.OUT_DT])
@@ -211,6 +220,7 @@ class Simulation:
             inverted += binv
         self.timings["element"] += wallclock.perf_counter() - t0
         if inverted and self.on_inverted is not None:
+            self.guard_step = -1  # the handler may change the state the verdicts were given on
             self.on_inverted(self, dt)
         elif inverted:
             raise SimulationStopped(

@@ -118,11 +118,12 @@ MUTATED = ("status", "eps_p_prev", "damage", "spall_k")
 def _run(kernel, s, surface_only, spall_mode, integrate, reach):
     s = {k: (a.copy() if isinstance(a, np.ndarray) else a) for k, a in s.items()}
     action = np.full(s["conn"].shape[0], 99, np.int8)
+    given = () if kernel is _reference else (np.empty(0, np.int8),)  # no kernel's verdicts
     counts = kernel(s["x"], s["v"], s["x0"], s["conn"], s["elem_mat"], s["status"], s["sdev"],
                     s["pressure"], s["vol"], s["vol0"], s["eps_p"], s["eps_p_prev"], s["damage"],
                     s["eps_rate"], s["temperature"], s["mat_params"], s["face_flag"], s["adj"],
                     surface_only, s["dt"], action, spall_mode, s["pnode"], s["jnode"],
-                    s["spall_k"], integrate, reach)
+                    s["spall_k"], integrate, reach, *given)
     return tuple(int(c) for c in counts), action, {k: s[k] for k in MUTATED}
 
 

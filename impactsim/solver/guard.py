@@ -1,0 +1,88 @@
+"""The distortion guard's full test, on a block of tets whose corners are already at hand.
+
+The guard (fracture/criteria.py, step 4 of its docstring) flags a cell of a failing material
+that would invert within about two steps at the current velocities: six times the volume of
+the tet at the positions x + h v, for h = 1.1 dt and 2.2 dt, below 6 GUARD_FRACTION V0. Its
+cost is the gather of the four corners' positions and velocities, which the element update
+has just made for the same cells with the same x and v (the fracture passes run right after
+it; solver/loop.py). So the tet kernel gives the verdict on each of its vector blocks while
+the corners are in its buffer (``block_verdicts``), and the criteria gather only the blocks it
+left (solver/element.py, ``_chunk``).
+
+``block_verdicts`` is the criteria' full test (``volume6_of``, the same operations), but with
+the tet kernel's fastmath flags: numba rewrites every floating-point instruction linked into a
+fastmath kernel, a callee compiled without them included (measured: the same function gave
+other bits called from the kernel than from a plain one). So its volumes may differ from the
+criteria's own in the last bits, and a verdict may differ only for a cell within that of the
+guard's threshold (1 % of V0 two steps ahead: a margin, not a physical limit). A cell's verdict
+is the same on any number of threads (each block's arithmetic is). This module is below both
+(the solver never imports the fracture passes).
+"""
+
+from __future__ import annotations
+
+import numba
+
+GUARD_FRACTION = 0.01  # [-] predicted V / V0 below which the distortion guard removes a cell
+
+# the guard's verdict on a cell (``fracture_criteria`` keeps it in its action array until the
+# cell's own action replaces it)
+UNKNOWN = -1  # not given: the criteria work it out
+CLEARED = 1  # the criteria' pre-test clears the cell
+PASSED = 2  # the full test does not flag it (the pre-test, if it ran, did not clear it)
+FLAGGED = 3  # the full test flags it
+
+LANES = 32  # lanes of a block: the tet kernel's and the criteria' (element.B, criteria.GB)
+
+
+@numba.njit(cache=True, inline="always")
+def volume6_of(x0x, x0y, x0z, x1x, x1y, x1z, x2x, x2y, x2z, x3x, x3y, x3z,
+               v0x, v0y, v0z, v1x, v1y, v1z, v2x, v2y, v2z, v3x, v3y, v3z, h):
+    """Six times the volume of the tet whose corners are at x_k + h v_k."""
+    ax = x1x + h * v1x - x0x - h * v0x
+    ay = x1y + h * v1y - x0y - h * v0y
+    az = x1z + h * v1z - x0z - h * v0z
+    bx = x2x + h * v2x - x0x - h * v0x
+    by = x2y + h * v2y - x0y - h * v0y
+    bz = x2z + h * v2z - x0z - h * v0z
+    cx = x3x + h * v3x - x0x - h * v0x
+    cy = x3y + h * v3y - x0y - h * v0y
+    cz = x3z + h * v3z - x0z - h * v0z
+    return ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
+
+
+@numba.njit(cache=True, inline="always")
+def volume6_lane(buf, i, h):
+    """``volume6_of`` of lane i of a block buffer: row 3k + d (of LANES lanes) the coordinate d
+    of corner k, row 12 + 3k + d its velocity (the layout of element.R_X and R_V)."""
+    L = LANES
+    return volume6_of(
+        buf[0 * L + i], buf[1 * L + i], buf[2 * L + i], buf[3 * L + i], buf[4 * L + i],
+        buf[5 * L + i], buf[6 * L + i], buf[7 * L + i], buf[8 * L + i], buf[9 * L + i],
+        buf[10 * L + i], buf[11 * L + i], buf[12 * L + i], buf[13 * L + i],
+        buf[14 * L + i], buf[15 * L + i], buf[16 * L + i], buf[17 * L + i],
+        buf[18 * L + i], buf[19 * L + i], buf[20 * L + i], buf[21 * L + i],
+        buf[22 * L + i], buf[23 * L + i], h)
+
+
+# the tet kernel's flags (element.FAST), under which this runs there anyway (module docstring)
+FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
+
+
+@numba.njit(cache=True, fastmath=FAST)
+def block_verdicts(buf, vol0, dt, out):
+    """The full guard on the LANES cells of a block buffer (``volume6_lane``) whose rest
+    volumes are the view ``vol0``: ``out`` (a view of LANES int8) PASSED or FLAGGED. One loop
+    over the lanes in SIMD instructions."""
+    h1, h2 = 1.1 * dt, 2.2 * dt
+    for i in range(LANES):
+        lim = 6.0 * GUARD_FRACTION * vol0[i]
+        ok = (not (volume6_lane(buf, i, h1) < lim)) & (not (volume6_lane(buf, i, h2) < lim))
+        out[i] = PASSED if ok else FLAGGED
+
+
+@numba.njit(cache=True)
+def unknown(out):
+    """Mark the LANES cells of the view ``out`` as not given (UNKNOWN)."""
+    for i in range(LANES):
+        out[i] = UNKNOWN
