@@ -1092,7 +1092,7 @@ def _chunk(ch0, ch1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
                         if not buf[R_DET * B + i] > 0.0:
                             mk = -1
                     if mk >= 0 and verdicts:  # the corners at hand: the guard's verdicts
-                        G.block_verdicts(buf, vol0[e0:e0 + B], dt, guard[e0:e0 + B])
+                        G.block_verdicts(buf, vol0, e0, dt, guard)
                 if mk >= 0:
                     if plastic is not None:  # `_return` written out (its inlining kept increfs)
                         code = int(mat_params[mk, P.STRENGTH])
@@ -1113,7 +1113,7 @@ def _chunk(ch0, ch1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
                 else:
                     deferred |= 1 << ((e0 - ch * CHUNK) // B)
                     if verdicts:
-                        G.unknown(guard[e0:e0 + B])
+                        G.unknown(guard, e0)
                     continue
             else:
                 deferred |= 1 << ((e0 - ch * CHUNK) // B)

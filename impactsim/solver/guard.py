@@ -22,6 +22,7 @@ is the same on any number of threads (each block's arithmetic is). This module i
 from __future__ import annotations
 
 import numba
+import numpy as np
 
 GUARD_FRACTION = 0.01  # [-] predicted V / V0 below which the distortion guard removes a cell
 
@@ -69,20 +70,22 @@ def volume6_lane(buf, i, h):
 FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
 
-@numba.njit(cache=True, fastmath=FAST)
-def block_verdicts(buf, vol0, dt, out):
-    """The full guard on the LANES cells of a block buffer (``volume6_lane``) whose rest
-    volumes are the view ``vol0``: ``out`` (a view of LANES int8) PASSED or FLAGGED. One loop
-    over the lanes in SIMD instructions."""
+@numba.njit(cache=True, inline="always", fastmath=FAST)
+def block_verdicts(buf, vol0, e0, dt, out):
+    """The full guard on the LANES cells e0, e0 + 1, ... of a block buffer (``volume6_lane``)
+    with rest volumes ``vol0``: ``out`` PASSED or FLAGGED. One loop over the lanes in SIMD
+    instructions, about 2 ns per tet in the kernel (bench_kernel.py, "JC + guard"): the two
+    determinants; unsigned indices, so that numba adds no negative-index wraparound."""
     h1, h2 = 1.1 * dt, 2.2 * dt
     for i in range(LANES):
-        lim = 6.0 * GUARD_FRACTION * vol0[i]
+        j = np.uint64(e0 + i)
+        lim = 6.0 * GUARD_FRACTION * vol0[j]
         ok = (not (volume6_lane(buf, i, h1) < lim)) & (not (volume6_lane(buf, i, h2) < lim))
-        out[i] = PASSED if ok else FLAGGED
+        out[j] = PASSED if ok else FLAGGED
 
 
 @numba.njit(cache=True)
-def unknown(out):
-    """Mark the LANES cells of the view ``out`` as not given (UNKNOWN)."""
+def unknown(out, e0):
+    """Mark the LANES cells e0, e0 + 1, ... of ``out`` as not given (UNKNOWN)."""
     for i in range(LANES):
-        out[i] = UNKNOWN
+        out[np.uint64(e0 + i)] = UNKNOWN
