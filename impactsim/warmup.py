@@ -151,8 +151,10 @@ distortion_interval = "20 ns"
 
 
 # scenes run with the size thresholds of the one-thread kernels at 0 (nodal.PARALLEL_NODES,
-# element.PARALLEL_FORCE_NODES, element.PARALLEL_ELEMENTS, and broadphase.QUERY_MIN_CHUNKS, the
-# chunk count from which the broad-phase query runs on the threads), so that their parallel
+# element.PARALLEL_FORCE_NODES, element.PARALLEL_ELEMENTS, broadphase.QUERY_MIN_CHUNKS, the
+# chunk count from which the broad-phase query runs on the threads, and
+# particle_faces.THREADED_FACES, the free faces from which the particle pass finds those near
+# the particles on them), so that their parallel
 # versions are compiled too (the tet kernel's with elastic and with plastic tets:
 # element.plastic_kernel); they run on every thread (run.threads), as a large scene does: the
 # threaded query is only taken with more than one
@@ -163,13 +165,14 @@ def _thresholds(values=None):
     """The size thresholds above which kernels run on all threads; with ``values``, set them
     (returns the previous ones)."""
     from impactsim.contact import broadphase
+    from impactsim.fracture import particle_faces
     from impactsim.solver import element, nodal
 
     old = (nodal.PARALLEL_NODES, element.PARALLEL_FORCE_NODES, element.PARALLEL_ELEMENTS,
-           broadphase.QUERY_MIN_CHUNKS)
+           broadphase.QUERY_MIN_CHUNKS, particle_faces.THREADED_FACES)
     if values is not None:
         (nodal.PARALLEL_NODES, element.PARALLEL_FORCE_NODES, element.PARALLEL_ELEMENTS,
-         broadphase.QUERY_MIN_CHUNKS) = values
+         broadphase.QUERY_MIN_CHUNKS, particle_faces.THREADED_FACES) = values
     return old
 
 
@@ -222,7 +225,7 @@ def warm_up(verbose: bool = True, names=None) -> dict[str, dict]:
         if name in PARALLEL_SCENES:  # on every thread, small as they are (run.thread_count)
             sets.append(f"run.threads={numba.config.NUMBA_NUM_THREADS}")
         case = load_case_text(text, overrides=sets)
-        old = _thresholds((0, 0, 0, 0) if name in PARALLEL_SCENES else None)
+        old = _thresholds((0, 0, 0, 0, 0) if name in PARALLEL_SCENES else None)
         try:
             with (CompileCounter() as compiled,
                   tempfile.TemporaryDirectory(prefix="impactsim-warmup-") as out,

@@ -46,6 +46,8 @@ from impactsim.fracture.particles import (NODE_COLS, Particles, faces_near, move
                                           particle_boxes,
                                           particle_face_sweep_packed, particle_particle_sweep,
                                           particle_walls)
+from impactsim.fracture.particle_faces import (FACE_CHUNK, faces_near_threads, pack_all_nodes,
+                                               threaded_faces_wanted)
 from impactsim.fracture.removal import remove_elements
 from impactsim.fracture.spall import PRESSURE_CODES, SPALL_CELL
 from impactsim.materials import params as P
@@ -347,8 +349,14 @@ class ParticlePass(Pass):
             if self.nodes.shape[0] != model.n_node:
                 self.nodes = np.zeros((model.n_node, NODE_COLS))
             k = 0
+            threaded = threaded_faces_wanted(n_faces)  # fracture/particle_faces.py
+            if threaded:
+                pack_all_nodes(model.x, model.v, model.mass, self.nodes)
             for b in lists:  # the faces near the particles, list after list, their nodes packed
-                if b.n:
+                if b.n and threaded:
+                    k += self._faces_near_threads(model, dt, b, pad, cloud, flo[k:], fhi[k:],
+                                                  sel[k:], sel_body[k:])
+                elif b.n:
                     k += faces_near(model.x, model.v, model.mass, dt, b.faces, b.face_body, b.n,
                                     pad, cloud, flo[k:], fhi[k:], sel[k:], sel_body[k:], bounds,
                                     self.nodes)
@@ -378,6 +386,16 @@ class ParticlePass(Pass):
         move_particles(pa.x, pa.v, n, dt)
         # the particles' energy is booked at the end of the step, by the fracture pass (which
         # runs in every step beside this one, after the particles made that step)
+
+    def _faces_near_threads(self, model, dt, b, pad, cloud, flo, fhi, sel, sel_body):
+        """``faces_near_threads`` on face list b (its scratch rows here)."""
+        n_chunk = -(-b.n // FACE_CHUNK)
+        return faces_near_threads(
+            model.x, model.v, dt, b.faces, b.face_body, b.n, pad, cloud, flo, fhi, sel,
+            sel_body, self.bounds, self._buffer("box_lo", b.n), self._buffer("box_hi", b.n),
+            self._buffer("near", b.n, np.uint8, None),
+            self._buffer("chunk_counts", n_chunk, np.int64, None),
+            self._buffer("chunk_bounds", n_chunk * 2, np.float64).reshape(n_chunk, 2, 3))
 
     def summary(self, model):
         return {"fracture.particles": {"particle_face_impacts": self.impacts,
