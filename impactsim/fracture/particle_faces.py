@@ -22,6 +22,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from impactsim.fracture.particles import face_box
+
 FACE_CHUNK = 2048  # faces per task (fixed: the chunks do not depend on the threads)
 NODE_CHUNK = 4096  # nodes per task of the table
 THREADED_FACES = 4 * FACE_CHUNK  # fewer faces: faces_near on one thread (a launch costs more)
@@ -41,19 +43,7 @@ def faces_near_threads(x, v, tau, faces, face_body, n_faces, pad, cloud, lo, hi,
             chunk_bounds[c, 0, d] = np.inf
             chunk_bounds[c, 1, d] = -np.inf
         for f in range(c * FACE_CHUNK, min(n_faces, (c + 1) * FACE_CHUNK)):
-            inside = True
-            for d in range(3):
-                a = np.inf
-                b = -np.inf
-                for j in range(3):
-                    c0 = x[faces[f, j], d]
-                    c1 = c0 + tau * v[faces[f, j], d]
-                    a = min(a, min(c0, c1))
-                    b = max(b, max(c0, c1))
-                box_lo[f, d] = a - pad
-                box_hi[f, d] = b + pad
-                if box_lo[f, d] > cloud[1, d] or box_hi[f, d] < cloud[0, d]:
-                    inside = False
+            inside = face_box(x, v, tau, faces, f, pad, cloud, box_lo, box_hi, f)
             near[f] = 1 if inside else 0
             if inside:
                 cnt += 1

@@ -290,20 +290,7 @@ def faces_near(x, v, mass, tau, faces, face_body, n_faces, pad, cloud, lo, hi, s
     oblique-sphere); returns k. Linear in the number of faces, no allocation."""
     k = 0
     for f in range(n_faces):
-        inside = True
-        for d in range(3):
-            a = np.inf
-            b = -np.inf
-            for j in range(3):
-                c0 = x[faces[f, j], d]
-                c1 = c0 + tau * v[faces[f, j], d]
-                a = min(a, min(c0, c1))
-                b = max(b, max(c0, c1))
-            lo[k, d] = a - pad
-            hi[k, d] = b + pad
-            if lo[k, d] > cloud[1, d] or hi[k, d] < cloud[0, d]:
-                inside = False
-        if not inside:
+        if not face_box(x, v, tau, faces, f, pad, cloud, lo, hi, k):
             continue
         for j in range(3):
             sel[k, j] = faces[f, j]
@@ -314,6 +301,26 @@ def faces_near(x, v, mass, tau, faces, face_body, n_faces, pad, cloud, lo, hi, s
             bounds[1, d] = max(bounds[1, d], hi[k, d])
         k += 1
     return k
+
+
+@numba.njit(cache=True, inline="always")
+def face_box(x, v, tau, faces, f, pad, cloud, lo, hi, k):
+    """Face f's box swept over the step ([x, x + tau v] of its nodes), padded, into row k of
+    lo, hi; True when it meets the box ``cloud (2, 3)``."""
+    inside = True
+    for d in range(3):
+        a = np.inf
+        b = -np.inf
+        for j in range(3):
+            c0 = x[faces[f, j], d]
+            c1 = c0 + tau * v[faces[f, j], d]
+            a = min(a, min(c0, c1))
+            b = max(b, max(c0, c1))
+        lo[k, d] = a - pad
+        hi[k, d] = b + pad
+        if lo[k, d] > cloud[1, d] or hi[k, d] < cloud[0, d]:
+            inside = False
+    return inside
 
 
 @numba.njit(cache=True)
