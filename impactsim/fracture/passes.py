@@ -136,10 +136,11 @@ class FracturePass(Pass):
         """Bind the integrator: the nodal forces of a removed element's nodes are recomputed
         without it, so it no longer acts on them at the next predictor; and where the criteria
         run on tets, have its tet kernel give the distortion guard's verdicts
-        (solver/guard.py)."""
+        (solver/guard.py; its plastic specialisation does: an elastic scene's criteria
+        gather the corners themselves)."""
         self.sim = sim
         model = sim.model
-        if model.n_elem and self._wanted(model):
+        if model.n_elem and sim.plastic is not None and self._wanted(model):
             sim.guard = np.full(model.n_elem, UNKNOWN, dtype=np.int8)
 
     def _wanted(self, model) -> bool:

@@ -1056,7 +1056,8 @@ def _chunk(ch0, ch1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
     chunks (a part, or all of them on one thread), not one: numba increfs and decrefs every
     array argument at each call of a function that calls others (about 70 atomic counts).
     ``guard`` (n_elem,) int8, or empty: the distortion guard's verdicts on the cells of each
-    full block (solver/guard.py), UNKNOWN on a block left to `_deferred_chunk`."""
+    full block (solver/guard.py), UNKNOWN on a block left to `_deferred_chunk`; only in the
+    plastic specialisation (element_update)."""
     n_elem = conn.shape[0]
     verdicts = guard.shape[0] != 0
     for ch in range(ch0, ch1):
@@ -1091,7 +1092,7 @@ def _chunk(ch0, ch1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
                     for i in range(B):
                         if not buf[R_DET * B + i] > 0.0:
                             mk = -1
-                    if mk >= 0 and verdicts:  # the corners at hand: the guard's verdicts
+                    if mk >= 0 and plastic is not None and verdicts:  # the corners at hand
                         G.block_verdicts(buf, vol0, e0, dt, guard)
                 if mk >= 0:
                     if plastic is not None:  # `_return` written out (its inlining kept increfs)
@@ -1112,7 +1113,7 @@ def _chunk(ch0, ch1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
                     binv = 0
                 else:
                     deferred |= 1 << ((e0 - ch * CHUNK) // B)
-                    if verdicts:
+                    if plastic is not None and verdicts:
                         G.unknown(guard, e0)
                     continue
             else:
@@ -1235,7 +1236,10 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     `guard` (n_elem,) int8 or None: where given, the distortion guard's verdicts on the
     cells of every full block of intact tets of one material, for the fracture criteria that
     run next on the same x, v and dt (solver/guard.py); UNKNOWN on the other full blocks; the
-    mesh's last, partial block is not written.
+    mesh's last, partial block is not written. Compiled into the plastic specialisation only
+    (`plastic` True): the elastic kernel, the demo's, would otherwise compile the guard's
+    loop too (0.5-1 s of a cold cache) for scenes that never ask for it; with plastic None the
+    array is left as it is.
 
     Three kernels: the full blocks of intact elements of one material (`_chunk`), then, only if
     a chunk left any (OUT_DEFERRED), the other blocks in masked passes and the mesh's last

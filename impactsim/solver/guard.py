@@ -9,14 +9,16 @@ it; solver/loop.py). So the tet kernel gives the verdict on each of its vector b
 the corners are in its buffer (``block_verdicts``), and the criteria gather only the blocks it
 left (solver/element.py, ``_chunk``).
 
-``block_verdicts`` is the criteria' full test (``volume6_of``, the same operations), but with
-the tet kernel's fastmath flags: numba rewrites every floating-point instruction linked into a
-fastmath kernel, a callee compiled without them included (measured: the same function gave
-other bits called from the kernel than from a plain one). So its volumes may differ from the
-criteria's own in the last bits, and a verdict may differ only for a cell within that of the
-guard's threshold (1 % of V0 two steps ahead: a margin, not a physical limit). A cell's verdict
-is the same on any number of threads (each block's arithmetic is). This module is below both
-(the solver never imports the fracture passes).
+``block_verdicts`` is the criteria' full test (``volume6_of``) with the edges and their
+velocities taken once for both steps ahead, under the tet kernel's fastmath flags, which it
+would take anyway: numba rewrites every floating-point instruction linked into a fastmath
+kernel, a callee compiled without them included (measured: the same function, written as
+``volume6_of``, gave other bits called from the kernel than from a plain one). So its volumes
+may differ from the criteria's own in the last bits, and a verdict may differ only for a cell
+within that of the guard's threshold (1 % of V0 two steps ahead: a margin, not a physical
+limit). A cell's verdict is the same on any number of threads (each block's arithmetic is).
+It is compiled into the kernel's plastic specialisation only (element.element_update). This
+module is below both (the solver never imports the fracture passes).
 """
 
 from __future__ import annotations
@@ -72,16 +74,41 @@ FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
 @numba.njit(cache=True, inline="always", fastmath=FAST)
 def block_verdicts(buf, vol0, e0, dt, out):
-    """The full guard on the LANES cells e0, e0 + 1, ... of a block buffer (``volume6_lane``)
-    with rest volumes ``vol0``: ``out`` PASSED or FLAGGED. One loop over the lanes in SIMD
-    instructions, about 2 ns per tet in the kernel (bench_kernel.py, "JC + guard"): the two
-    determinants; unsigned indices, so that numba adds no negative-index wraparound."""
+    """The full guard on the LANES cells e0, e0 + 1, ... of a block buffer (rows as
+    ``volume6_lane`` reads them) with rest volumes ``vol0``: ``out`` PASSED or FLAGGED. One
+    loop over the lanes in SIMD instructions, about 2 ns per tet in the kernel
+    (bench_kernel.py, "JC + guard"). The edges and their velocities are taken once for both
+    steps ahead (``_volume6_ahead``: the same volumes up to rounding, and a quarter less
+    compile time than ``volume6_of`` written out twice); unsigned indices, so that numba adds no
+    negative-index wraparound."""
     h1, h2 = 1.1 * dt, 2.2 * dt
+    L = LANES
     for i in range(LANES):
         j = np.uint64(e0 + i)
         lim = 6.0 * GUARD_FRACTION * vol0[j]
-        ok = (not (volume6_lane(buf, i, h1) < lim)) & (not (volume6_lane(buf, i, h2) < lim))
+        x0, y0, z0 = buf[0 * L + i], buf[1 * L + i], buf[2 * L + i]
+        u0, v0, w0 = buf[12 * L + i], buf[13 * L + i], buf[14 * L + i]
+        ax, ay, az = buf[3 * L + i] - x0, buf[4 * L + i] - y0, buf[5 * L + i] - z0
+        bx, by, bz = buf[6 * L + i] - x0, buf[7 * L + i] - y0, buf[8 * L + i] - z0
+        cx, cy, cz = buf[9 * L + i] - x0, buf[10 * L + i] - y0, buf[11 * L + i] - z0
+        dax, day, daz = buf[15 * L + i] - u0, buf[16 * L + i] - v0, buf[17 * L + i] - w0
+        dbx, dby, dbz = buf[18 * L + i] - u0, buf[19 * L + i] - v0, buf[20 * L + i] - w0
+        dcx, dcy, dcz = buf[21 * L + i] - u0, buf[22 * L + i] - v0, buf[23 * L + i] - w0
+        ok = ((not (_volume6_ahead(ax, ay, az, bx, by, bz, cx, cy, cz, dax, day, daz, dbx, dby,
+                                   dbz, dcx, dcy, dcz, h1) < lim))
+              & (not (_volume6_ahead(ax, ay, az, bx, by, bz, cx, cy, cz, dax, day, daz, dbx,
+                                     dby, dbz, dcx, dcy, dcz, h2) < lim)))
         out[j] = PASSED if ok else FLAGGED
+
+
+@numba.njit(cache=True, inline="always")
+def _volume6_ahead(ax, ay, az, bx, by, bz, cx, cy, cz, dax, day, daz, dbx, dby, dbz, dcx, dcy,
+                   dcz, h):
+    """Six times the volume of the tet with edges a + h da, b + h db, c + h dc."""
+    ax, ay, az = ax + h * dax, ay + h * day, az + h * daz
+    bx, by, bz = bx + h * dbx, by + h * dby, bz + h * dbz
+    cx, cy, cz = cx + h * dcx, cy + h * dcy, cz + h * dcz
+    return ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
 
 
 @numba.njit(cache=True)

@@ -57,8 +57,9 @@ def _on_threshold(s, rng, share=0.05):
     return pick
 
 
-def _kernel_verdicts(s):
-    """The tet kernel's step on a copy of state s (x, v, dt as given), asking for verdicts."""
+def _kernel_verdicts(s, plastic=True):
+    """The tet kernel's step on a copy of state s (x, v, dt as given), asking for verdicts;
+    with plastic False its elastic specialisation."""
     n = s["conn"].shape[0]
     n_node = s["x"].shape[0]
     mp = s["mat_params"]
@@ -78,7 +79,7 @@ def _kernel_verdicts(s):
         rho * np.abs(s["vol0"]), mp, np.ones(n_node), False, s["dt"], 1.5, 0.06,
         np.zeros((n_node, 3)), fr.rows, np.zeros((fr.n_rows, 3)), fr.extra_ptr, fr.extra_rows,
         fr.part_size // E.CHUNK, chunk_out, numba.get_num_threads(),
-        E.plastic_kernel(elem_mat, mp), guard)
+        E.plastic_kernel(elem_mat, mp) if plastic else None, guard)
     return guard
 
 
@@ -171,3 +172,14 @@ def test_the_criteria_with_the_kernels_verdicts_act_as_with_their_own(threads):
     _same(got, ref)
     counts, action, _ = got
     assert counts[2] > 0 and np.count_nonzero(action == GUARD) > 20
+
+
+def test_the_elastic_kernel_gives_no_verdicts():
+    """The guard's loop is compiled into the plastic specialisation only: the elastic kernel
+    (the demo's) leaves the array as it was, and the criteria then gather every block."""
+    rng = np.random.default_rng(7)
+    s = _state(7, n=4 * E.CHUNK)
+    _blocks_intact(s, rng)
+    assert np.all(_kernel_verdicts(s, plastic=False) == 99)
+    given = _kernel_verdicts(s)
+    assert np.count_nonzero(given == PASSED) > 0
