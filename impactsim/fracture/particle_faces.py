@@ -22,7 +22,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from impactsim.fracture.particles import face_box
+from impactsim.fracture.particles import face_box, pack_node
 
 FACE_CHUNK = 2048  # faces per task (fixed: the chunks do not depend on the threads)
 NODE_CHUNK = 4096  # nodes per task of the table
@@ -76,17 +76,11 @@ def faces_near_threads(x, v, tau, faces, face_body, n_faces, pad, cloud, lo, hi,
 @numba.njit(cache=True, parallel=True)
 def pack_all_nodes(x, v, mass, xv):
     """Every node's row of the sweep's table ``xv (n_node, NODE_COLS)``: position, predicted
-    velocity, mass (``particles._pack_node``), in chunks over the threads."""
+    velocity, mass (``particles.pack_node``), in chunks over the threads."""
     n = x.shape[0]
     for c in numba.prange((n + NODE_CHUNK - 1) // NODE_CHUNK):
         for i in range(c * NODE_CHUNK, min(n, (c + 1) * NODE_CHUNK)):
-            xv[i, 0] = x[i, 0]
-            xv[i, 1] = x[i, 1]
-            xv[i, 2] = x[i, 2]
-            xv[i, 3] = v[i, 0]
-            xv[i, 4] = v[i, 1]
-            xv[i, 5] = v[i, 2]
-            xv[i, 6] = mass[i]
+            pack_node(i, x, v, mass, xv)
 
 
 def threaded_faces_wanted(n_faces: int) -> bool:

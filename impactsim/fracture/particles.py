@@ -124,11 +124,11 @@ def pack_face_nodes(faces, k, x, v, mass, xv):
     other nodes are left as they are."""
     for f in range(k):
         for j in range(3):
-            _pack_node(faces[f, j], x, v, mass, xv)
+            pack_node(faces[f, j], x, v, mass, xv)
 
 
 @numba.njit(cache=True, inline="always")
-def _pack_node(i, x, v, mass, xv):
+def pack_node(i, x, v, mass, xv):
     """Node i's row of the sweep's table: position, predicted velocity, mass."""
     xv[i, 0] = x[i, 0]
     xv[i, 1] = x[i, 1]
@@ -294,7 +294,7 @@ def faces_near(x, v, mass, tau, faces, face_body, n_faces, pad, cloud, lo, hi, s
             continue
         for j in range(3):
             sel[k, j] = faces[f, j]
-            _pack_node(faces[f, j], x, v, mass, xv)
+            pack_node(faces[f, j], x, v, mass, xv)
         sel_body[k] = face_body[f]
         for d in range(3):
             bounds[0, d] = min(bounds[0, d], lo[k, d])
