@@ -553,7 +553,8 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
     n_guard = 0
     n_clear = 0
     # first the guard's verdict on every cell of the full blocks, in SIMD instructions, kept in
-    # action until the cell's own action replaces it (-1: not known, the mesh's last block)
+    # action until the cell's own action replaces it (UNKNOWN: the mesh's last block), the
+    # tet kernel's where it gave them for a whole block
     n_blk = n_elem // GB
     n_grp = (n_blk + GROUP_BLOCKS - 1) // GROUP_BLOCKS
     has_given = given.shape[0] != 0

@@ -52,11 +52,10 @@ from impactsim.fracture.removal import remove_elements
 from impactsim.fracture.spall import PRESSURE_CODES, SPALL_CELL
 from impactsim.materials import params as P
 from impactsim.model import DAMAGED, ERODED, FRACTURED
-from impactsim.solver.guard import UNKNOWN
+from impactsim.solver.guard import NONE_GIVEN, UNKNOWN
 from impactsim.solver.passes import Pass
 
 EPS_BARY = 1e-6
-NO_VERDICTS = np.empty(0, dtype=np.int8)  # fracture_criteria's given: none, it gives its own
 PAD = 1e-3  # box padding of the particle broad phase, a fraction of the mean face edge length
 
 
@@ -184,17 +183,17 @@ class FracturePass(Pass):
                            model.n2e, s.pnode, s.jnode, 4)
         sim = self.sim
         given = (sim.guard if sim is not None and sim.guard is not None
-                 and sim.guard_step == model.step else NO_VERDICTS)
+                 and sim.guard_step == model.step else NONE_GIVEN)
         # with the kernel's verdicts the blocks it left (damaged cells, mixed materials) run
         # the full test: there the pre-test would seldom clear a cell
-        reach = self.guard.reach(model, dt) if given is NO_VERDICTS else math.inf
+        reach = self.guard.reach(model, dt) if given is NONE_GIVEN else math.inf
         n_dam, n_frac, n_act, n_duct, n_guard, n_clear = C.fracture_criteria(
             model.x, model.v, model.x0, model.conn, model.elem_mat, model.status, model.sdev,
             model.pressure, model.vol, model.vol0, model.eps_p, s.eps_p_prev, model.damage,
             model.eps_rate, model.temperature, model.mat_params, b.face_flag, b.adj,
             s.surface_only, dt, s.action, s.spall_mode, s.pnode, s.jnode, s.spall_k,
             s.spall_integrate, reach, given)
-        if given is NO_VERDICTS:  # the pre-test's share decides for the hexes otherwise
+        if given is NONE_GIVEN:  # the pre-test's share decides for the hexes otherwise
             self.guard.count(n_guard, n_clear)
         s.counts["damaged"] += int(n_dam)
         s.counts["ductile"] += int(n_duct)

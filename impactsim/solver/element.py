@@ -1202,7 +1202,6 @@ def _deferred_chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, 
 # a cold cache) would cost a small case more than its whole run. The warm-up sets it to 0 for
 # its PARALLEL_SCENES so that both versions are compiled.
 PARALLEL_ELEMENTS = 4 * PART
-NO_GUARD = np.empty(0, dtype=np.int8)  # element_update's guard=None: no verdicts wanted
 
 
 def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
@@ -1257,7 +1256,7 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     args = (x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature, hard,
             thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp, dt, cq,
             cl, rows, fext, part_chunks, chunk_out, threads, plastic,
-            NO_GUARD if guard is None else guard)
+            G.NONE_GIVEN if guard is None else guard)
     kernel = _update_parallel if parallel else _update_serial
     kernel(*args, None)
     if chunk_out[:, OUT_DEFERRED].any():  # blocks left: masked passes, the mesh's last block

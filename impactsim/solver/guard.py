@@ -35,6 +35,9 @@ CLEARED = 1  # the criteria' pre-test clears the cell
 PASSED = 2  # the full test does not flag it (the pre-test, if it ran, did not clear it)
 FLAGGED = 3  # the full test flags it
 
+# no verdicts: element_update's guard=None, fracture_criteria's given when the kernel gave none
+NONE_GIVEN = np.empty(0, dtype=np.int8)
+
 LANES = 32  # lanes of a block: the tet kernel's and the criteria' (element.B, criteria.GB)
 
 

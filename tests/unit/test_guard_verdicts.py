@@ -24,11 +24,9 @@ from impactsim.fracture.criteria import (GUARD, GUARD_FRACTION, _volume6, fractu
 from impactsim.fracture.spall import SPALL_LESSER
 from impactsim.model import INTACT
 from impactsim.solver import element as E
-from impactsim.solver.guard import FLAGGED, PASSED, UNKNOWN
+from impactsim.solver.guard import FLAGGED, NONE_GIVEN, PASSED, UNKNOWN
 from impactsim.solver.scatter import force_rows
 from tests.unit.test_fracture_screen import MUTATED, _same, _state
-
-NO_VERDICTS = np.empty(0, dtype=np.int8)
 
 
 ROUNDING = 1e-13  # [-] of the cube of the tet's longest edge: far above a determinant's rounding
@@ -86,7 +84,7 @@ def _kernel_verdicts(s, plastic=True):
 def _criteria(s, given):
     s = {k: (a.copy() if isinstance(a, np.ndarray) else a) for k, a in s.items()}
     action = np.full(s["conn"].shape[0], 99, np.int8)
-    reach = guard_reach(s["x"], s["v"], 2.2 * s["dt"]) if given is NO_VERDICTS else math.inf
+    reach = guard_reach(s["x"], s["v"], 2.2 * s["dt"]) if given is NONE_GIVEN else math.inf
     counts = fracture_criteria(
         s["x"], s["v"], s["x0"], s["conn"], s["elem_mat"], s["status"], s["sdev"],
         s["pressure"], s["vol"], s["vol0"], s["eps_p"], s["eps_p_prev"], s["damage"],
@@ -165,7 +163,7 @@ def test_the_criteria_with_the_kernels_verdicts_act_as_with_their_own(threads):
     try:
         given = _kernel_verdicts(s)
         got = _criteria(s, given)
-        ref = _criteria(s, NO_VERDICTS)
+        ref = _criteria(s, NONE_GIVEN)
     finally:
         numba.set_num_threads(before)
     assert np.count_nonzero(given == FLAGGED) > 20
