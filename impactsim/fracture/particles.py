@@ -42,6 +42,7 @@ from impactsim.contact.geometry import (barycentric_numerators, clamped_weights,
                                         segment, triangle_normal, unit_normal)
 from impactsim.contact.impulse import NO_LOCK
 from impactsim.contact.nodeface import point_face_impulse
+from impactsim.fracture import particle_screen as PS
 
 
 class Particles:
@@ -148,66 +149,94 @@ def _end_of_step(xv, tau, i):
 
 @numba.njit(cache=True)
 def particle_face_sweep_packed(pairs, px, pv, pm, pr, faces, xv, v, mass, force, dtv, tau,
-                               eps_bary, lock):
+                               eps_bary, lock, screened=True):
     """``particle_face_sweep`` reading the face nodes' positions, predicted velocities and
     masses from the table ``xv`` of ``pack_face_nodes`` or ``faces_near`` (rows of every node
     of the faces the pairs name), the same arithmetic: the same impulses bit for bit. An
-    impulse writes the nodes' new velocities to ``v`` and to their rows of the table."""
+    impulse writes the nodes' new velocities to ``v`` and to their rows of the table.
+
+    The pairs go in windows of ``particle_screen.LANES``: the screen flags those of a window
+    that might take an impulse, and only they get the exact test (``_pair_impulse``); after an
+    impulse the next window starts at the next pair. ``screened=False`` gives every pair the
+    exact test (the reference the screen is tested against)."""
     applied = 0
     work = 0.0
-    for k in range(pairs.shape[0]):
-        p = pairs[k, 0]
-        f = pairs[k, 1]
-        ia, ib, ic = faces[f, 0], faces[f, 1], faces[f, 2]
-        if not (xv[ia, 6] > 0.0 and xv[ib, 6] > 0.0 and xv[ic, 6] > 0.0):
-            continue
-        # geometry at the end of the step (predicted positions)
-        ax, ay, az = _end_of_step(xv, tau, ia)
-        bx, by, bz = _end_of_step(xv, tau, ib)
-        cx, cy, cz = _end_of_step(xv, tau, ic)
-        e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz, nn = triangle_normal(ax, ay, az, bx, by, bz,
-                                                                       cx, cy, cz)
-        if not nn > 0.0:
-            continue
-        qx, qy, qz = point_at(px, pv, tau, p)
-        sb, sc = barycentric_numerators(qx - ax, qy - ay, qz - az, e1x, e1y, e1z, e2x, e2y, e2z,
-                                        nx, ny, nz)
-        wb = sb / nn
-        wc = sc / nn
-        wa = 1.0 - wb - wc
-        if wa < -eps_bary or wb < -eps_bary or wc < -eps_bary:
-            continue
-        wa, wb, wc = clamped_weights(wa, wb, wc)
-        nx, ny, nz = unit_normal(nx, ny, nz, nn)
-        # the centre's distance from the face's plane at the start of the step: a particle
-        # meets a face from its outer side only
-        d0 = ((px[p, 0] - xv[ia, 0]) * nx + (px[p, 1] - xv[ia, 1]) * ny
-              + (px[p, 2] - xv[ia, 2]) * nz)
-        if not d0 > 0.0:
-            continue
-        g0 = d0 - pr[p]
-        umin = -g0 / tau if g0 > 0.0 else 0.0
-        p0, p1, p2 = pv[p, 0], pv[p, 1], pv[p, 2]
-        a0, a1, a2 = v[ia, 0], v[ia, 1], v[ia, 2]
-        b0, b1, b2 = v[ib, 0], v[ib, 1], v[ib, 2]
-        c0, c1, c2 = v[ic, 0], v[ic, 1], v[ic, 2]
-        jn = point_face_impulse(pv, p, pm[p], 1.0, 1.0, 1.0, v, mass, lock, ia, ib, ic, wa, wb,
-                                wc, nx, ny, nz, umin, 0.0)
-        if not jn > 0.0:
-            continue
-        work += 0.5 * pm[p] * ((pv[p, 0] - p0) * (pv[p, 0] + p0)
-                               + (pv[p, 1] - p1) * (pv[p, 1] + p1)
-                               + (pv[p, 2] - p2) * (pv[p, 2] + p2))
-        work += _node_work(v, mass, force, dtv, ia, a0, a1, a2)
-        work += _node_work(v, mass, force, dtv, ib, b0, b1, b2)
-        work += _node_work(v, mass, force, dtv, ic, c0, c1, c2)
-        for j in range(3):
-            i = faces[f, j]
-            xv[i, 3] = v[i, 0]
-            xv[i, 4] = v[i, 1]
-            xv[i, 5] = v[i, 2]
-        applied += 1
+    n_pair = pairs.shape[0]
+    flags = np.ones(PS.LANES, np.uint8)
+    buf = np.empty(PS.ROWS * PS.LANES)
+    k0 = 0
+    while k0 < n_pair:
+        k1 = min(k0 + PS.LANES, n_pair)
+        if screened:
+            PS.screen_window(pairs, k0, k1, px, pv, pr, faces, xv, tau, eps_bary, flags, buf)
+        nxt = k1
+        for k in range(k0, k1):
+            if flags[k - k0] == 0:
+                continue
+            took, work = _pair_impulse(pairs[k, 0], pairs[k, 1], px, pv, pm, pr, faces, xv, v,
+                                       mass, force, dtv, tau, eps_bary, lock, work)
+            if took:
+                applied += 1
+                nxt = k + 1  # the pairs after it are screened on the new velocities
+                break
+        k0 = nxt
     return applied, work
+
+
+@numba.njit(cache=True)
+def _pair_impulse(p, f, px, pv, pm, pr, faces, xv, v, mass, force, dtv, tau, eps_bary, lock,
+                  work):
+    """The exact test and correction of pair (particle p, face row f) (module docstring).
+    Returns (True, ``work`` plus the work of the impulse [J], added term by term in the sweep's
+    order), or (False, ``work``) when the pair takes none."""
+    ia, ib, ic = faces[f, 0], faces[f, 1], faces[f, 2]
+    if not (xv[ia, 6] > 0.0 and xv[ib, 6] > 0.0 and xv[ic, 6] > 0.0):
+        return False, work
+    # geometry at the end of the step (predicted positions)
+    ax, ay, az = _end_of_step(xv, tau, ia)
+    bx, by, bz = _end_of_step(xv, tau, ib)
+    cx, cy, cz = _end_of_step(xv, tau, ic)
+    e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz, nn = triangle_normal(ax, ay, az, bx, by, bz,
+                                                                   cx, cy, cz)
+    if not nn > 0.0:
+        return False, work
+    qx, qy, qz = point_at(px, pv, tau, p)
+    sb, sc = barycentric_numerators(qx - ax, qy - ay, qz - az, e1x, e1y, e1z, e2x, e2y, e2z,
+                                    nx, ny, nz)
+    wb = sb / nn
+    wc = sc / nn
+    wa = 1.0 - wb - wc
+    if wa < -eps_bary or wb < -eps_bary or wc < -eps_bary:
+        return False, work
+    wa, wb, wc = clamped_weights(wa, wb, wc)
+    nx, ny, nz = unit_normal(nx, ny, nz, nn)
+    # the centre's distance from the face's plane at the start of the step: a particle meets
+    # a face from its outer side only
+    d0 = ((px[p, 0] - xv[ia, 0]) * nx + (px[p, 1] - xv[ia, 1]) * ny
+          + (px[p, 2] - xv[ia, 2]) * nz)
+    if not d0 > 0.0:
+        return False, work
+    g0 = d0 - pr[p]
+    umin = -g0 / tau if g0 > 0.0 else 0.0
+    p0, p1, p2 = pv[p, 0], pv[p, 1], pv[p, 2]
+    a0, a1, a2 = v[ia, 0], v[ia, 1], v[ia, 2]
+    b0, b1, b2 = v[ib, 0], v[ib, 1], v[ib, 2]
+    c0, c1, c2 = v[ic, 0], v[ic, 1], v[ic, 2]
+    jn = point_face_impulse(pv, p, pm[p], 1.0, 1.0, 1.0, v, mass, lock, ia, ib, ic, wa, wb, wc,
+                            nx, ny, nz, umin, 0.0)
+    if not jn > 0.0:
+        return False, work
+    work += 0.5 * pm[p] * ((pv[p, 0] - p0) * (pv[p, 0] + p0) + (pv[p, 1] - p1) * (pv[p, 1] + p1)
+                          + (pv[p, 2] - p2) * (pv[p, 2] + p2))
+    work += _node_work(v, mass, force, dtv, ia, a0, a1, a2)
+    work += _node_work(v, mass, force, dtv, ib, b0, b1, b2)
+    work += _node_work(v, mass, force, dtv, ic, c0, c1, c2)
+    for j in range(3):
+        i = faces[f, j]
+        xv[i, 3] = v[i, 0]
+        xv[i, 4] = v[i, 1]
+        xv[i, 5] = v[i, 2]
+    return True, work
 
 
 @numba.njit(cache=True, inline="always")
