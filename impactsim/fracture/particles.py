@@ -183,7 +183,7 @@ def particle_face_sweep_packed(pairs, px, pv, pm, pr, faces, xv, v, mass, force,
     return applied, work
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _pair_impulse(p, f, px, pv, pm, pr, faces, xv, v, mass, force, dtv, tau, eps_bary, lock,
                   work):
     """The exact test and correction of pair (particle p, face row f) (module docstring).

@@ -1,0 +1,115 @@
+"""The particle-face sweep on oblique-sphere's own pairs: ns per pair, screened and not.
+
+Runs the case (default cases/oblique-sphere.toml, two threads as set by NUMBA_NUM_THREADS) up
+to the last of --steps, keeps copies of the sweep's inputs (pairs, particles, the face-node
+table, velocities) at each of those steps, then times `particle_face_sweep_packed` on fresh
+copies of them, one thread, with the screen (fracture/particle_screen.py) and without it (the
+exact test on every pair), alternating, and checks that both give the same impulses, work and
+velocities bit for bit. Prints the least of --reps per step. --rev REV times that revision's
+sweep too (its package exported as compare.py does), on the same inputs.
+
+    python benchmarks/bench_particle_sweep.py [CASE] [--steps 800,1500,2200] [--reps 7]
+        [--rev REV]
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+class _Captured(Exception):
+    pass
+
+
+def capture(case_path: Path, steps: set[int]) -> list[tuple[int, list]]:
+    """The sweep's arguments at each of ``steps`` (copies), from a run stopped after the last."""
+    from impactsim.case import load_case
+    from impactsim.fracture import passes as FP
+    from impactsim.solver.run import run_case
+
+    sweep, run = FP.particle_face_sweep_packed, FP.ParticlePass.run
+    got: list[tuple[int, list]] = []
+    model_of: dict = {}
+
+    def run_kept(self, model, dt):
+        model_of["m"] = model
+        return run(self, model, dt)
+
+    def sweep_kept(*args):
+        step = model_of["m"].step
+        if step in steps:
+            got.append((step, [a.copy() if isinstance(a, np.ndarray) else a for a in args]))
+        out = sweep(*args)
+        if step >= max(steps):
+            raise _Captured
+        return out
+
+    FP.particle_face_sweep_packed, FP.ParticlePass.run = sweep_kept, run_kept
+    try:
+        run_case(load_case(case_path), Path(tempfile.mkdtemp()), progress=False)
+    except _Captured:
+        pass
+    finally:
+        FP.particle_face_sweep_packed, FP.ParticlePass.run = sweep, run
+    return got
+
+
+def main(argv=None) -> list[dict]:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("case", nargs="?", default=str(ROOT / "cases" / "oblique-sphere.toml"))
+    ap.add_argument("--steps", default="800,1500,2200")
+    ap.add_argument("--reps", type=int, default=7)
+    ap.add_argument("--rev", default="", help="time this revision's sweep too")
+    args = ap.parse_args(argv)
+    import importlib
+    import sys
+
+    import numba
+
+    from impactsim.fracture.particles import particle_face_sweep_packed as sweep
+
+    sides = {"every pair tested": lambda *a: sweep(*a, False),
+             "screened": lambda *a: sweep(*a, True)}
+    if args.rev:
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        from compare import export
+
+        sys.path.insert(0, export(args.rev))
+        old = importlib.import_module("impactsim_rev.fracture.particles")
+        sides[args.rev] = old.particle_face_sweep_packed
+
+    got = capture(Path(args.case), {int(s) for s in args.steps.split(",")})
+    numba.set_num_threads(1)
+    rows = []
+    for step, a in got:
+        best = {k: np.inf for k in sides}
+        out = {}
+        for _ in range(args.reps):
+            for label, f in sides.items():
+                c = [x.copy() if isinstance(x, np.ndarray) else x for x in a]
+                t = time.perf_counter()
+                applied, work = f(*c)
+                best[label] = min(best[label], time.perf_counter() - t)
+                out[label] = (applied, np.float64(work).view(np.int64), c[2], c[7])
+        ref = out["every pair tested"]
+        same = all(o[:2] == ref[:2] and np.array_equal(o[2], ref[2])
+                   and np.array_equal(o[3], ref[3]) for o in out.values())
+        n = a[0].shape[0]
+        row = {"step": step, "pairs": n, "impulses": int(ref[0]), "same": bool(same),
+               **{f"ns per pair, {k}": best[k] / n * 1e9 for k in sides}}
+        rows.append(row)
+        print(f"step {step}: {n} pairs, {row['impulses']} impulses; ns per pair: "
+              + ", ".join(f"{k} {best[k] / n * 1e9:.1f}" for k in sides)
+              + f"; the same bits: {same}")
+    return rows
+
+
+if __name__ == "__main__":
+    main()
