@@ -20,7 +20,8 @@ J = du / (1/m_p + sum w_i^2 / m_i) with du the missing relative velocity is appl
 U_p += J n / m_p, U_i -= w_i J n / m_i (compressive only; momentum conserved). The impulse is
 ``impactsim.contact.nodeface.point_face_impulse``, the one function both passes call (a face
 with a massless node takes none). Pairs are corrected one after the other in sorted order
-(Gauss-Seidel, as 3.2 asks).
+(Gauss-Seidel, as 3.2 asks); a screen over windows of pairs (``particle_screen``) spares the
+exact test to the pairs that cannot take an impulse, without changing a correction.
 
 Particle-particle contact (optional): the same with two spheres, n along the line of centres and
 g = |x_j - x_i| - r_i - r_j.
