@@ -8,11 +8,11 @@ root, branches taken at random). So the sweep screens a window of ``LANES`` pair
 with the tests below, without division or branch: the window's face nodes and particles are
 copied into a buffer, and the tests run as one vector loop over it; the exact test runs only
 on the pairs flagged. After an impulse the next window starts at the next pair, so every flag
-is computed from the velocities the exact test would read. The flags are a superset of the pairs the exact test
-accepts: each test is the sweep's, multiplied through by the positive denominators and widened
-by ``SLACK`` of the magnitude of its terms (rounding is 1e-16 of it), so the corrections, their
-order and their arithmetic are the unscreened sweep's bit for bit (tests/unit/
-test_particle_screen.py).
+is computed from the velocities the exact test would read. The flags are a superset of the
+pairs the exact test accepts: each test is the sweep's, multiplied through by the positive
+denominators and widened by ``SLACK`` of the magnitude of its terms (rounding is 1e-16 of it),
+so the corrections, their order and their arithmetic are the unscreened sweep's bit for bit
+(tests/unit/test_particle_screen.py).
 
 With the face's normal n = e1 x e2 (|n|^2 = nn), r = x_p - x_a at the start of the step, the
 barycentric numerators s_a, s_b, s_c (``geometry.barycentric_numerators``, s_a = nn - s_b - s_c)
@@ -20,7 +20,7 @@ and c_i = max(s_i, 0), a pair is flagged when every node has mass, nn > 0 and
 
     s_i >= -(eps_bary + SLACK) nn                          (inside the triangle, i = a, b, c)
     r . n > -SLACK sum_d |r_d n_d|                          (in front of the face's plane)
-    tau (sum c (U_p) - sum_i c_i U_i) . n < sum c min(radius |n| - r . n, 0) + SLACK scale
+    tau ((sum c) U_p - sum_i c_i U_i) . n < (sum c) min(radius |n| - r . n, 0) + SLACK scale
 
 the last being u < u_min of the exact test (u the relative normal velocity with the clamped,
 renormalised weights c_i / sum c, u_min = min(-g0 / tau, 0) with the gap g0 = r . n / |n| -
@@ -38,7 +38,8 @@ import numpy as np
 from impactsim.contact.geometry import barycentric_numerators, triangle_normal
 
 LANES = 16  # pairs per window: 8 compiled to scalar code (35 ns a pair), 32 screened more
-#            pairs again after each impulse (oblique-sphere: 17.7 ns a pair at 16, 20 at 32)
+#            pairs again after each impulse (oblique-sphere's sweeps, one thread: 17.7-17.9 ns
+#            a pair at 16, 18.3-21.2 at 32; docs/performance.md, session 17)
 SLACK = 1e-9  # relative widening of each test (rounding is about 1e-16 of its terms)
 ROWS = 28  # buffer rows: three face nodes (x, U*, mass) and the particle (x, U, radius)
 
