@@ -39,9 +39,9 @@ def _on_the_thresholds(seed=5):
     """A triangle of 1 mm legs (normal +z before the turn) seen by particles placed on each
     threshold of the exact test, inside and outside by a hair (within the rounding of the test,
     1e-12) and by a little more than the screen's widening (1e-7): the projection on an edge
-    (w = -eps),
-    the centre on the plane, the closing speed at the gap's limit (u = -g0 / tau); then
-    particles at random near the triangle, in front of it and behind, closing and opening."""
+    (w = -eps), the centre on the plane, the closing speed at the gap's limit (u = -g0 / tau);
+    then particles at random near the triangle, in front of it and behind, closing and opening;
+    the whole scene turned about a random axis."""
     rng = np.random.default_rng(seed)
     h = 1e-3
     x = np.array([[0.0, 0.0, 0.0], [h, 0.0, 0.0], [0.0, h, 0.0]])
