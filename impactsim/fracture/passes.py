@@ -184,8 +184,8 @@ class FracturePass(Pass):
         sim = self.sim
         given = (sim.guard if sim is not None and sim.guard is not None
                  and sim.guard_step == model.step else NONE_GIVEN)
-        # with the kernel's verdicts the blocks it left (damaged cells, mixed materials) run
-        # the full test: there the pre-test would seldom clear a cell
+        # with the kernel's verdicts only the mesh's last, partial block runs the full test
+        # here: the pre-test would not pay for itself on one block
         reach = self.guard.reach(model, dt) if given is NONE_GIVEN else math.inf
         n_dam, n_frac, n_act, n_duct, n_guard, n_clear = C.fracture_criteria(
             model.x, model.v, model.x0, model.conn, model.elem_mat, model.status, model.sdev,

@@ -956,7 +956,7 @@ def _return(buf, mat_params, mk, shear, eps_p, temperature, hard, thermal, e0):
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
 def _masked_block(e0, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
            hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp,
-           half, dt, cq, cl, rows, fext, buf, plastic):
+           half, dt, cq, cl, rows, fext, buf, plastic, guard):
     """Elements e0 .. e0 + B - 1 of a block that is not a full block of intact elements of one
     material, through the vector path in masked passes; returns (min stable dt, its element,
     viscous work, inverted elements).
@@ -968,9 +968,16 @@ def _masked_block(e0, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, ep
     and `_pressure_block` applies their rules (row R_STAT); an eroded or inverted element is
     stored nowhere and adds no force, as in `_element_scalar`. With `plastic` None (a model
     whose tets are all elastic, `plastic_kernel`) the radial return is left out at compile
-    time."""
+    time. ``guard`` (n_elem,) int8, or empty: the distortion guard's verdicts on the block's
+    cells, each pass's on its lanes (those that invert included), PASSED on the eroded ones
+    (the criteria pass them by); only in the plastic specialisation, as in `_chunk`."""
     mat = elem_mat[e0:e0 + B]
     st = status[e0:e0 + B]
+    verdicts = guard.shape[0] != 0
+    if plastic is not None and verdicts:
+        for i in range(B):
+            if st[i] == ERODED:
+                guard[np.uint64(e0 + i)] = G.PASSED
     dt_min = math.inf
     worst = -1
     qwork = 0.0
@@ -995,6 +1002,8 @@ def _masked_block(e0, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, ep
             if not live:
                 for r in range(R_VEOS + 1):
                     buf[r * B + i] = buf[r * B + d]
+        if plastic is not None and verdicts:  # the pass's corners at hand
+            G.masked_verdicts(buf, vol0, e0, dt, guard, R_LIVE)
         shear = mat_params[mk, P.G]
         _kinematics_block(buf, half, dt, shear)
         for i in range(B):
@@ -1056,8 +1065,8 @@ def _chunk(ch0, ch1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
     chunks (a part, or all of them on one thread), not one: numba increfs and decrefs every
     array argument at each call of a function that calls others (about 70 atomic counts).
     ``guard`` (n_elem,) int8, or empty: the distortion guard's verdicts on the cells of each
-    full block (solver/guard.py), UNKNOWN on a block left to `_deferred_chunk`; only in the
-    plastic specialisation (element_update)."""
+    full block (solver/guard.py); `_deferred_chunk` gives them on the blocks it leaves. Only in
+    the plastic specialisation (element_update)."""
     n_elem = conn.shape[0]
     verdicts = guard.shape[0] != 0
     for ch in range(ch0, ch1):
@@ -1113,8 +1122,6 @@ def _chunk(ch0, ch1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
                     binv = 0
                 else:
                     deferred |= 1 << ((e0 - ch * CHUNK) // B)
-                    if plastic is not None and verdicts:
-                        G.unknown(guard, e0)
                     continue
             else:
                 deferred |= 1 << ((e0 - ch * CHUNK) // B)
@@ -1134,11 +1141,12 @@ def _chunk(ch0, ch1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
 def _deferred_chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                     temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
-                    jnode, use_anp, half, dt, cq, cl, rows, fext, chunk_out, buf, plastic):
+                    jnode, use_anp, half, dt, cq, cl, rows, fext, chunk_out, buf, plastic, guard):
     """The blocks of chunk ch that `_chunk` left (OUT_DEFERRED): masked passes
     (`_masked_block`), the last block of the mesh on copies of its lanes; their results merged
     into the chunk's. A kernel of its own, called only when a chunk has such blocks, so that a
-    case without any (the demo) does not compile it."""
+    case without any (the demo) does not compile it. ``guard`` as in `_chunk`: the verdicts of
+    the full blocks' cells (`_masked_block`), none on the mesh's last block."""
     n_elem = conn.shape[0]
     mask = int(chunk_out[ch, OUT_DEFERRED])
     dt_min = chunk_out[ch, OUT_DT]
@@ -1154,7 +1162,7 @@ def _deferred_chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, 
             bdt, bworst, bq, binv = _masked_block(
                 e0, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
                 temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
-                jnode, use_anp, half, dt, cq, cl, rows, fext, buf, plastic)
+                jnode, use_anp, half, dt, cq, cl, rows, fext, buf, plastic, guard)
         else:
             # the last block of the mesh, n < B elements: copied into arrays of one full block
             # whose other lanes are eroded copies of its first element, run in masked passes,
@@ -1175,7 +1183,7 @@ def _deferred_chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, 
                 e0 - e0, x, v, _lanes2(conn, e0, n), _lanes(elem_mat, e0, n), t_st, t_sdev, t_p,
                 t_q, t_ep, t_rate, t_temp, t_hard, t_th, t_en, t_vol, t_veos, _lanes(vol0, e0, n),
                 _lanes(elem_mass, e0, n), mat_params, jnode, use_anp, half, dt, cq, cl,
-                _lanes2(rows, e0, n), fext, buf, plastic)
+                _lanes2(rows, e0, n), fext, buf, plastic, guard[:0])
             bworst = e0 + bworst if bworst >= 0 else -1
             for i in range(n):
                 e = e0 + i
@@ -1233,9 +1241,10 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     True (`plastic_kernel`).
 
     `guard` (n_elem,) int8 or None: where given, the distortion guard's verdicts on the
-    cells of every full block of intact tets of one material, for the fracture criteria that
-    run next on the same x, v and dt (solver/guard.py); UNKNOWN on the other full blocks; the
-    mesh's last, partial block is not written. Compiled into the plastic specialisation only
+    cells of every full block, for the fracture criteria that run next on the same x, v and dt
+    (solver/guard.py): `_chunk` gives them on its blocks, `_masked_block` on the lanes of its
+    passes (PASSED on eroded cells, which the criteria pass by); the mesh's last, partial block
+    is not written. Compiled into the plastic specialisation only
     (`plastic` True): the elastic kernel, the demo's, would otherwise compile the guard's
     loop too (0.5-1 s of a cold cache) for scenes that never ask for it; with plastic None the
     array is left as it is.
@@ -1291,7 +1300,8 @@ def _update_parallel(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
                         _deferred_chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q,
                                         eps_p, eps_rate, temperature, hard, thermal, energy, vol,
                                         vol_eos, vol0, elem_mass, mat_params, jnode, use_anp,
-                                        half, dt, cq, cl, rows, fext, chunk_out, buf, plastic)
+                                        half, dt, cq, cl, rows, fext, chunk_out, buf, plastic,
+                                        guard)
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=FAST)
@@ -1315,7 +1325,7 @@ def _update_serial(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
             _deferred_chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
                             eps_rate, temperature, hard, thermal, energy, vol, vol_eos, vol0,
                             elem_mass, mat_params, jnode, use_anp, 0.5 * dt, dt, cq, cl, rows,
-                            fext, chunk_out, buf, plastic)
+                            fext, chunk_out, buf, plastic, guard)
 
 
 @numba.njit(cache=True, parallel=True, nogil=True)

@@ -5,9 +5,10 @@ that would invert within about two steps at the current velocities: six times th
 the tet at the positions x + h v, for h = 1.1 dt and 2.2 dt, below 6 GUARD_FRACTION V0. Its
 cost is the gather of the four corners' positions and velocities, which the element update
 has just made for the same cells with the same x and v (the fracture passes run right after
-it; solver/loop.py). So the tet kernel gives the verdict on each of its vector blocks while
-the corners are in its buffer (``block_verdicts``), and the criteria gather only the blocks it
-left (solver/element.py, ``_chunk``).
+it; solver/loop.py). So the tet kernel gives the verdicts while the corners are in its
+buffer: on each of its vector blocks (``block_verdicts``, solver/element.py's ``_chunk``) and on
+the lanes of each masked pass (``masked_verdicts``, ``_masked_block``: damaged, fractured and
+mixed blocks), and the criteria gather only the mesh's last, partial block.
 
 ``block_verdicts`` is the criteria' full test (``volume6_of``) with the edges and their
 velocities taken once for both steps ahead, under the tet kernel's fastmath flags, which it
@@ -80,28 +81,46 @@ def block_verdicts(buf, vol0, e0, dt, out):
     """The full guard on the LANES cells e0, e0 + 1, ... of a block buffer (rows as
     ``volume6_lane`` reads them) with rest volumes ``vol0``: ``out`` PASSED or FLAGGED. One
     loop over the lanes in SIMD instructions, about 2 ns per tet in the kernel
-    (bench_kernel.py, "JC + guard"). The edges and their velocities are taken once for both
-    steps ahead (``_volume6_ahead``: the same volumes up to rounding, and a quarter less
-    compile time than ``volume6_of`` written out twice); unsigned indices, so that numba adds no
-    negative-index wraparound."""
+    (bench_kernel.py, "JC + guard"); unsigned indices, so that numba adds no negative-index
+    wraparound."""
     h1, h2 = 1.1 * dt, 2.2 * dt
-    L = LANES
     for i in range(LANES):
         j = np.uint64(e0 + i)
-        lim = 6.0 * GUARD_FRACTION * vol0[j]
-        x0, y0, z0 = buf[0 * L + i], buf[1 * L + i], buf[2 * L + i]
-        u0, v0, w0 = buf[12 * L + i], buf[13 * L + i], buf[14 * L + i]
-        ax, ay, az = buf[3 * L + i] - x0, buf[4 * L + i] - y0, buf[5 * L + i] - z0
-        bx, by, bz = buf[6 * L + i] - x0, buf[7 * L + i] - y0, buf[8 * L + i] - z0
-        cx, cy, cz = buf[9 * L + i] - x0, buf[10 * L + i] - y0, buf[11 * L + i] - z0
-        dax, day, daz = buf[15 * L + i] - u0, buf[16 * L + i] - v0, buf[17 * L + i] - w0
-        dbx, dby, dbz = buf[18 * L + i] - u0, buf[19 * L + i] - v0, buf[20 * L + i] - w0
-        dcx, dcy, dcz = buf[21 * L + i] - u0, buf[22 * L + i] - v0, buf[23 * L + i] - w0
-        ok = ((not (_volume6_ahead(ax, ay, az, bx, by, bz, cx, cy, cz, dax, day, daz, dbx, dby,
-                                   dbz, dcx, dcy, dcz, h1) < lim))
-              & (not (_volume6_ahead(ax, ay, az, bx, by, bz, cx, cy, cz, dax, day, daz, dbx,
-                                     dby, dbz, dcx, dcy, dcz, h2) < lim)))
-        out[j] = PASSED if ok else FLAGGED
+        out[j] = PASSED if _passes(buf, i, 6.0 * GUARD_FRACTION * vol0[j], h1, h2) else FLAGGED
+
+
+@numba.njit(cache=True, inline="always", fastmath=FAST)
+def masked_verdicts(buf, vol0, e0, dt, out, live):
+    """``block_verdicts`` on the lanes of a masked pass of the tet kernel (element._masked_block:
+    row ``live`` of the buffer 1.0 on the pass's lanes; the other lanes hold another lane's
+    corners and keep the verdict they have)."""
+    h1, h2 = 1.1 * dt, 2.2 * dt
+    for i in range(LANES):
+        j = np.uint64(e0 + i)
+        if buf[live * LANES + i] != 0.0:
+            out[j] = (PASSED if _passes(buf, i, 6.0 * GUARD_FRACTION * vol0[j], h1, h2)
+                      else FLAGGED)
+
+
+@numba.njit(cache=True, inline="always", fastmath=FAST)
+def _passes(buf, i, lim, h1, h2):
+    """Lane i's full test: six times its volume h1 and h2 ahead both at least ``lim``. The
+    edges and their velocities are taken once for both steps ahead (``_volume6_ahead``: the same
+    volumes up to rounding, and a quarter less compile time than ``volume6_of`` written out
+    twice)."""
+    L = LANES
+    x0, y0, z0 = buf[0 * L + i], buf[1 * L + i], buf[2 * L + i]
+    u0, v0, w0 = buf[12 * L + i], buf[13 * L + i], buf[14 * L + i]
+    ax, ay, az = buf[3 * L + i] - x0, buf[4 * L + i] - y0, buf[5 * L + i] - z0
+    bx, by, bz = buf[6 * L + i] - x0, buf[7 * L + i] - y0, buf[8 * L + i] - z0
+    cx, cy, cz = buf[9 * L + i] - x0, buf[10 * L + i] - y0, buf[11 * L + i] - z0
+    dax, day, daz = buf[15 * L + i] - u0, buf[16 * L + i] - v0, buf[17 * L + i] - w0
+    dbx, dby, dbz = buf[18 * L + i] - u0, buf[19 * L + i] - v0, buf[20 * L + i] - w0
+    dcx, dcy, dcz = buf[21 * L + i] - u0, buf[22 * L + i] - v0, buf[23 * L + i] - w0
+    return ((not (_volume6_ahead(ax, ay, az, bx, by, bz, cx, cy, cz, dax, day, daz, dbx, dby,
+                                 dbz, dcx, dcy, dcz, h1) < lim))
+            & (not (_volume6_ahead(ax, ay, az, bx, by, bz, cx, cy, cz, dax, day, daz, dbx, dby,
+                                   dbz, dcx, dcy, dcz, h2) < lim)))
 
 
 @numba.njit(cache=True, inline="always")
@@ -112,10 +131,3 @@ def _volume6_ahead(ax, ay, az, bx, by, bz, cx, cy, cz, dax, day, daz, dbx, dby, 
     bx, by, bz = bx + h * dbx, by + h * dby, bz + h * dbz
     cx, cy, cz = cx + h * dcx, cy + h * dcy, cz + h * dcz
     return ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
-
-
-@numba.njit(cache=True)
-def unknown(out, e0):
-    """Mark the LANES cells e0, e0 + 1, ... of ``out`` as not given (UNKNOWN)."""
-    for i in range(LANES):
-        out[np.uint64(e0 + i)] = UNKNOWN

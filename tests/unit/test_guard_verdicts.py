@@ -1,14 +1,16 @@
 """The distortion guard's verdicts the tet kernel gives (solver/guard.py) are the criteria's own.
 
-The kernel tests its full blocks of intact tets of one material while it has their corners in
-its buffer; the fracture criteria then take those verdicts instead of gathering the corners
-again. Asserted on the screen test's state (cells in runs of one material, damaged, fractured
-and eroded ones, some crushed near GUARD_FRACTION of V0), on 1 and 2 threads:
-- every verdict the kernel gives is the full test's, evaluated one cell at a time with the
-  criteria's ``_volume6``, except for cells put on the guard's threshold (where a verdict turns
-  on the last bit of a volume, and the kernel's fastmath rounding may decide otherwise): those
-  may differ only within ROUNDING of the threshold;
-- the blocks it leaves are UNKNOWN, the mesh's partial last block untouched;
+The kernel tests the cells of its full blocks while it has their corners in its buffer: the
+blocks of intact tets of one material on its vector path, the others lane by lane in its masked
+passes (one per material, damaged, fractured and inverting cells included); the fracture
+criteria then take those verdicts instead of gathering the corners again. Asserted on the
+screen test's state (cells in runs of one material, damaged, fractured and eroded ones, some
+crushed near GUARD_FRACTION of V0), on 1 and 2 threads:
+- every verdict the kernel gives on a cell that is not eroded is the full test's, evaluated one
+  cell at a time with the criteria's ``_volume6``, except for cells put on the guard's threshold
+  (where a verdict turns on the last bit of a volume, and the kernel's fastmath rounding may
+  decide otherwise): those may differ only within ROUNDING of the threshold;
+- an eroded cell gets PASSED (the criteria pass it by), the mesh's partial last block nothing;
 - with the threshold cells moved off it, ``fracture_criteria`` with the given verdicts leaves
   the statuses, actions, damage and counts of the criteria that give their own, bit for bit.
 """
@@ -22,9 +24,9 @@ import pytest
 from impactsim.fracture.criteria import (GUARD, GUARD_FRACTION, _volume6, fracture_criteria,
                                          guard_reach)
 from impactsim.fracture.spall import SPALL_LESSER
-from impactsim.model import INTACT
+from impactsim.model import ERODED, INTACT
 from impactsim.solver import element as E
-from impactsim.solver.guard import FLAGGED, NONE_GIVEN, PASSED, UNKNOWN
+from impactsim.solver.guard import FLAGGED, NONE_GIVEN, PASSED
 from impactsim.solver.scatter import force_rows
 from tests.unit.test_fracture_screen import MUTATED, _same, _state
 
@@ -123,17 +125,16 @@ def test_the_kernels_verdicts_are_the_full_guards(threads):
     n = s["conn"].shape[0]
     n_full = n // E.B * E.B
     assert np.all(given[n_full:] == 99)  # the mesh's last, partial block: not written
-    blocks = given[:n_full].reshape(-1, E.B)
-    known = np.all(blocks != UNKNOWN, axis=1)
-    # a block is given whole or not at all; the kernel gives it for blocks of intact cells of
-    # one material, and leaves the others
-    assert np.all(known | np.all(blocks == UNKNOWN, axis=1))
+    assert np.all(np.isin(given[:n_full], (PASSED, FLAGGED)))  # every full block's cells
     st = s["status"][:n_full].reshape(-1, E.B)
     mats = s["elem_mat"][:n_full].reshape(-1, E.B)
     vector = np.all(st == INTACT, axis=1) & np.all(mats == mats[:, :1], axis=1)
-    assert np.array_equal(known, vector)
-    assert 0 < known.sum() < known.shape[0]
-    cells = np.flatnonzero(np.repeat(known, E.B))
+    assert 0 < vector.sum() < vector.shape[0]  # blocks on either path
+    eroded = np.flatnonzero(s["status"][:n_full] == ERODED)
+    assert eroded.shape[0] > 20 and np.all(given[eroded] == PASSED)
+    cells = np.flatnonzero(s["status"][:n_full] != ERODED)
+    masked = ~np.repeat(vector, E.B)[cells]
+    assert masked.sum() > 1000 and np.unique(s["status"][cells[masked]]).shape[0] == 3
     differ = 0
     for e in cells:
         flag, gap, scale = _full_test(s, e)
@@ -142,6 +143,7 @@ def test_the_kernels_verdicts_are_the_full_guards(threads):
             differ += 1
     flagged = given[cells] == FLAGGED
     assert flagged.sum() > 20 and (~flagged).sum() > 1000
+    assert flagged[masked].sum() > 5 and (~flagged[masked]).sum() > 500
     # cells on the threshold among the given, on both sides of it
     on_edge = np.isin(cells, edge)
     assert flagged[on_edge].sum() > 5 and (~flagged[on_edge]).sum() > 5
