@@ -1,15 +1,17 @@
 """The particle-face sweep on oblique-sphere's own pairs: ns per pair, screened and not.
 
-Runs the case (default cases/oblique-sphere.toml, two threads as set by NUMBA_NUM_THREADS) up
-to the last of --steps, keeps copies of the sweep's inputs (pairs, particles, the face-node
+Runs the case (--case, default cases/oblique-sphere.toml, on the threads NUMBA_NUM_THREADS
+sets) up to the last of --steps, keeps copies of the sweep's inputs (pairs, particles, the face-node
 table, velocities) at each of those steps, then times `particle_face_sweep_packed` on fresh
 copies of them, one thread, with the screen (fracture/particle_screen.py) and without it (the
 exact test on every pair), alternating, and checks that both give the same impulses, work and
 velocities bit for bit. Prints the least of --reps per step. --rev REV times that revision's
 sweep too (its package exported as compare.py does), on the same inputs.
 
-    python benchmarks/bench_particle_sweep.py [CASE] [--steps 800,1500,2200] [--reps 7]
+    python benchmarks/bench_particle_sweep.py [--case CASE] [--steps 800,1500,2200] [--reps 7]
         [--rev REV]
+
+In `make bench` (BENCH=particle_sweep) with the defaults: about a minute and a half.
 """
 
 from __future__ import annotations
@@ -63,7 +65,7 @@ def capture(case_path: Path, steps: set[int]) -> list[tuple[int, list]]:
 
 def main(argv=None) -> list[dict]:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("case", nargs="?", default=str(ROOT / "cases" / "oblique-sphere.toml"))
+    ap.add_argument("--case", default=str(ROOT / "cases" / "oblique-sphere.toml"))
     ap.add_argument("--steps", default="800,1500,2200")
     ap.add_argument("--reps", type=int, default=7)
     ap.add_argument("--rev", default="", help="time this revision's sweep too")
