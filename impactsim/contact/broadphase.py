@@ -93,16 +93,18 @@ def build_hash(lo, hi, origin, inv_h, tbits, tmp_keys, tmp_ents, bucket_start, k
     Counting sort by bucket: ``bucket_start (2**tbits + 1,)`` offsets into the entries:
     ``keys`` (the cell key shifted left by 3, its low bits d = 0, 1, 2 set when the cell is the
     entity's first along axis d: the query's once-only rule without floors, in the word it
-    loads anyway) and ``ents`` (entity). The boxes go
-    to ``boxes (n, 8)`` (lo, hi and two unused columns: one cache line per entity, so the
-    query gathers a box with one load). Returns the number of entries needed; when it exceeds
-    the capacity (len(keys)) nothing usable is built and the caller grows the buffers."""
+    loads anyway) and ``ents`` (entity). The boxes go to ``boxes (n, 8)``, one row (a cache
+line) per entity, so that the query gathers a box with one load: columns 0-2 the upper corner,
+3-5 the lower corner negated (the query's overlap test is then six subtractions and one sign,
+``_query_rows``), 6 the entity's body (written by ``SpatialHash.query``), 7 unused. Returns the
+number of entries needed; when it exceeds the capacity (len(keys)) nothing usable is built and
+the caller grows the buffers."""
     cap = keys.shape[0]
     n = 0
     for i in range(lo.shape[0]):
         for d in range(3):
-            boxes[i, d] = lo[i, d]
-            boxes[i, 3 + d] = hi[i, d]
+            boxes[i, d] = hi[i, d]
+            boxes[i, 3 + d] = -lo[i, d]
         x0 = _cell(lo[i, 0], origin[0], inv_h)
         x1 = _cell(hi[i, 0], origin[0], inv_h)
         y0 = _cell(lo[i, 1], origin[1], inv_h)
@@ -151,21 +153,28 @@ def _shares_node(qent, i, eent, j):
     return False
 
 
-@numba.njit(cache=True)
-def _query_rows(i0, i1, qlo, qhi, qent, qbody, eent, ebody, same_set, self_contact, origin,
-                inv_h, tbits, bucket_start, keys, ents, boxes, out, o0, o1):
-    """The pairs of query rows [i0, i1) (see ``query_pairs``) into out[o0:o1]; returns their
-    number (more than o1 - o0: only the first ones were written).
+@numba.njit(cache=True, error_model="numpy", fastmath={"nnan", "ninf"})
+def _query_rows(i0, i1, qlo, qhi, qent, qbody, eent, same_set, self_contact, origin, inv_h,
+                tbits, bucket_start, keys, ents, boxes, out, o0, o1):
+    """The pairs of query rows [i0, i1) (see ``query_pairs``) into rows o0 .. o1 - 2 of ``out``
+    (the (cap, 2) pair array flattened; row o1 - 1 takes the writes of the entries past the
+    last row); returns their number (o1 - o0 or more: only the first ones were written).
 
-    An entry of the cell's key and an admissible entity (j > i for ``same_set``, another body
-    or, with ``self_contact``, no shared node) is tested in one expression without branches
-    (the once-only rule, the box overlap on the entity's row of ``boxes``, one cache line), and
-    the pair is written at the next free row whether it counts or not. Against the branching
-    test on boxes split in two arrays: 2x faster for the particle pass (every entry passes the
-    cheap tests there, and each gather missed the cache twice), 1.3-1.6x for the edge-edge
-    pass. Unsigned indices: numba does not test them for wraparound."""
-    cap = o1 - o0
+    Every entry of a cell is tested without a branch: the cell's key, the once-only rule, j > i
+    for ``same_set``, another body (column 6 of the entity's row of ``boxes``) and the overlap,
+    as the least of the six differences (upper corners minus the query's lower corner, and the
+    query's upper corner minus the lower corners, from the row's negated lower corner) against
+    0: for finite numbers a rounded difference is >= 0 exactly when the exact one is. The entry
+    is written to the next free row whether it counts or not, and the query row's index goes in
+    once its pairs are known. Only a pair of one body under ``self_contact`` branches, to look
+    for a shared node. Against the tests and comparisons one by one, on boxes indexed in two
+    dimensions with the bodies in an array of their own: 27-34 % less time on oblique-sphere's
+    particle queries (docs/performance.md, session 18). Unsigned indices: numba does not test
+    them for wraparound."""
+    cap = o1 - o0 - 1  # rows for pairs; the last one takes the writes beyond them
     n = 0
+    last = np.uint64(max(cap, 0))
+    base = np.uint64(2 * o0)
     for i in range(i0, i1):
         ql0 = qlo[i, 0]
         ql1 = qlo[i, 1]
@@ -173,7 +182,7 @@ def _query_rows(i0, i1, qlo, qhi, qent, qbody, eent, ebody, same_set, self_conta
         qh0 = qhi[i, 0]
         qh1 = qhi[i, 1]
         qh2 = qhi[i, 2]
-        qb = qbody[i]
+        qb = np.float64(qbody[i])
         jmin = i + 1 if same_set else 0
         x0 = _cell(ql0, origin[0], inv_h)
         x1 = _cell(qh0, origin[0], inv_h)
@@ -189,40 +198,66 @@ def _query_rows(i0, i1, qlo, qhi, qent, qbody, eent, ebody, same_set, self_conta
                 for iz in range(z0, z1 + 1):
                     # the first-cell bits an entry needs: the axes where this is not the
                     # query's first cell
-                    need = fx | fy | (0 if iz == z0 else 4)
+                    need = np.int64(fx | fy | (0 if iz == z0 else 4))
                     key = _key(ix, iy, iz)
-                    b = _bucket(key, tbits)
+                    # an entry counts when its word, with the bits not needed set, is this
+                    # cell's key with all three bits set
+                    spare = 7 ^ need
+                    want = (key << 3) | 7
+                    b = np.uint64(_bucket(key, tbits))
                     k = np.uint64(bucket_start[b])
-                    k1 = np.uint64(bucket_start[b + 1])
-                    while k < k1:
-                        j = ents[k]
-                        e = keys[k]
-                        if (e >> 3) == key and j >= jmin and (
-                                ebody[j] != qb
-                                or (self_contact and not _shares_node(qent, i, eent, j))):
-                            uj = np.uint64(j)
-                            hit = (((e & need) == need)
-                                   & (ql0 <= boxes[uj, 3]) & (boxes[uj, 0] <= qh0)
-                                   & (ql1 <= boxes[uj, 4]) & (boxes[uj, 1] <= qh1)
-                                   & (ql2 <= boxes[uj, 5]) & (boxes[uj, 2] <= qh2))
-                            if n < cap:
-                                out[o0 + n, 0] = i
-                                out[o0 + n, 1] = j
+                    k1 = np.uint64(bucket_start[b + np.uint64(1)])
+                    # the same loop twice: the shared-node test's live values, in the loop
+                    # of every query, pushed the others out of the registers
+                    if self_contact:
+                        while k < k1:
+                            e = keys[k]
+                            j = ents[k]
+                            r = np.uint64(j) * np.uint64(8)
+                            gap = min(min(min(boxes[r] - ql0, boxes[r + np.uint64(1)] - ql1),
+                                          min(boxes[r + np.uint64(2)] - ql2,
+                                              boxes[r + np.uint64(3)] + qh0)),
+                                      min(boxes[r + np.uint64(4)] + qh1,
+                                          boxes[r + np.uint64(5)] + qh2))
+                            other = boxes[r + np.uint64(6)] != qb
+                            hit = ((e | spare) == want) & (j >= jmin) & (gap >= 0.0)
+                            if hit and not other:
+                                other = not _shares_node(qent, i, eent, j)
+                            out[base + np.uint64(2) * min(np.uint64(n), last)
+                                + np.uint64(1)] = j
+                            n += hit & other
+                            k += np.uint64(1)
+                    else:
+                        while k < k1:
+                            e = keys[k]
+                            j = ents[k]
+                            r = np.uint64(j) * np.uint64(8)
+                            gap = min(min(min(boxes[r] - ql0, boxes[r + np.uint64(1)] - ql1),
+                                          min(boxes[r + np.uint64(2)] - ql2,
+                                              boxes[r + np.uint64(3)] + qh0)),
+                                      min(boxes[r + np.uint64(4)] + qh1,
+                                          boxes[r + np.uint64(5)] + qh2))
+                            hit = (((e | spare) == want) & (j >= jmin)
+                                   & (boxes[r + np.uint64(6)] != qb) & (gap >= 0.0))
+                            out[base + np.uint64(2) * min(np.uint64(n), last)
+                                + np.uint64(1)] = j
                             n += hit
-                        k += np.uint64(1)
+                            k += np.uint64(1)
         if n <= cap:
+            for a in range(row, n):
+                out[2 * (o0 + a)] = i
             for a in range(row + 1, n):  # the row sorted by j (insertion: a row holds a few)
-                j = out[o0 + a, 1]
+                j = out[2 * (o0 + a) + 1]
                 c = a
-                while c > row and out[o0 + c - 1, 1] > j:
-                    out[o0 + c, 1] = out[o0 + c - 1, 1]
+                while c > row and out[2 * (o0 + c - 1) + 1] > j:
+                    out[2 * (o0 + c) + 1] = out[2 * (o0 + c - 1) + 1]
                     c -= 1
-                out[o0 + c, 1] = j
+                out[2 * (o0 + c) + 1] = j
     return n
 
 
 @numba.njit(cache=True)
-def query_pairs(qlo, qhi, qent, qbody, eent, ebody, same_set, self_contact, origin, inv_h, tbits,
+def query_pairs(qlo, qhi, qent, qbody, eent, same_set, self_contact, origin, inv_h, tbits,
                 bucket_start, keys, ents, boxes, out):
     """Candidate pairs (ALGORITHMS.md 3.2, "Cost": the broad phase before the cubic).
 
@@ -235,14 +270,16 @@ def query_pairs(qlo, qhi, qent, qbody, eent, ebody, same_set, self_contact, orig
     along each axis the cell of max(lo_i, lo_j), which is the larger of the two boxes' first
     cells (the cell index is monotone in the coordinate), so the entry in cell ix counts when ix
     is the query's first cell or the entry's (its first-cell bit). The pairs of a query row are
-    sorted by j before the next row."""
-    return _query_rows(0, qlo.shape[0], qlo, qhi, qent, qbody, eent, ebody, same_set,
-                       self_contact, origin, inv_h, tbits, bucket_start, keys, ents, boxes,
-                       out, 0, out.shape[0])
+    sorted by j before the next row. ``boxes``: the hashed rows of ``build_hash``, the
+    entities' bodies in column 6 (``SpatialHash.query`` writes them there)."""
+    n = _query_rows(0, qlo.shape[0], qlo, qhi, qent, qbody, eent, same_set, self_contact,
+                    origin, inv_h, tbits, bucket_start, keys, ents, boxes.reshape(-1),
+                    out.reshape(-1), 0, out.shape[0])
+    return n if n < out.shape[0] else n + 1  # the last row is the kernel's: one more needed
 
 
 @numba.njit(cache=True, parallel=True)
-def query_pairs_chunked(chunk, counts, qlo, qhi, qent, qbody, eent, ebody, same_set, self_contact,
+def query_pairs_chunked(chunk, counts, qlo, qhi, qent, qbody, eent, same_set, self_contact,
                         origin, inv_h, tbits, bucket_start, keys, ents, boxes, out, threads,
                         counter):
     """``query_pairs`` over ``threads`` threads: query rows in fixed chunks of ``chunk`` rows
@@ -252,25 +289,27 @@ def query_pairs_chunked(chunk, counts, qlo, qhi, qent, qbody, eent, ebody, same_
     ``solver.workqueue``): the chunks' costs differ with the pairs they find. The chunks do not
     depend on the number of threads or on which thread runs which, so neither does the result:
     the pairs of ``query_pairs``, in the same order. Returns their number, or, when a chunk had
-    more than its share, a capacity that gives every chunk enough (more than len(out): the
-    caller grows ``out`` and repeats)."""
+    more than its share (all rows but the last, which is the kernel's), a capacity that gives
+    every chunk enough (more than len(out): the caller grows ``out`` and repeats)."""
     nq = qlo.shape[0]
     nc = counts.shape[0]
     per = out.shape[0] // nc
+    flat = out.reshape(-1)
+    rows = boxes.reshape(-1)
     for _ in numba.prange(threads):
         while True:
             c = fetch_add(counter, 1)
             if c >= nc:
                 break
             i0 = c * chunk
-            counts[c] = _query_rows(i0, min(nq, i0 + chunk), qlo, qhi, qent, qbody, eent, ebody,
+            counts[c] = _query_rows(i0, min(nq, i0 + chunk), qlo, qhi, qent, qbody, eent,
                                     same_set, self_contact, origin, inv_h, tbits, bucket_start,
-                                    keys, ents, boxes, out, c * per, (c + 1) * per)
+                                    keys, ents, rows, flat, c * per, (c + 1) * per)
     worst = 0
     for c in range(nc):
         worst = max(worst, counts[c])
-    if worst > per:
-        return worst * nc
+    if worst >= per:  # a share's last row is the kernel's
+        return (worst + 1) * nc
     n = counts[0]
     for c in range(1, nc):
         src = c * per
@@ -522,7 +561,7 @@ class SpatialHash:
         self.grows = 0  # how often a buffer had to grow (reported in the pass summary)
         self.chunk_counts = np.zeros(1, dtype=np.int64)
         self.counter = np.zeros(1, dtype=np.int64)  # the threaded query's (solver/workqueue.py)
-        self.box_rows = np.zeros((16, 8))  # the hashed boxes, one row (lo, hi, 2 unused) each
+        self.box_rows = np.zeros((16, 8))  # the hashed boxes, a row each (build_hash)
         self.n_entries = 0
 
     def _alloc_entries(self, cap: int) -> None:
@@ -561,8 +600,9 @@ class SpatialHash:
         chunked = n_chunk >= QUERY_MIN_CHUNKS and numba.get_num_threads() > 1
         if chunked and self.chunk_counts.shape[0] < n_chunk:
             self.chunk_counts = np.zeros(n_chunk, dtype=np.int64)
+        self.boxes[:, 6] = ebody  # the entities' bodies, beside their boxes (query_pairs)
         while True:
-            args = (qlo, qhi, qent, qbody, eent, ebody, same_set, self_contact, self.origin,
+            args = (qlo, qhi, qent, qbody, eent, same_set, self_contact, self.origin,
                     self.inv_h, self.tbits, self.bucket_start, self.keys, self.ents, self.boxes,
                     self.pairs_buf)
             if chunked:

@@ -127,6 +127,43 @@ def test_threaded_query_gives_the_serial_pairs(monkeypatch, same_set, self_conta
         numba.set_num_threads(threads)
 
 
+@pytest.mark.parametrize("chunked", [False, True])
+def test_pair_buffer_filled_to_its_last_rows(monkeypatch, chunked):
+    """A pair buffer of as many rows as there are pairs, one fewer or one more: the query
+    writes every scanned entry to its next free row (the buffer's last row takes the writes
+    beyond it), so a buffer exactly full must still grow, never lose its last pair."""
+    import numba
+
+    from impactsim.contact import broadphase
+
+    rng = np.random.default_rng(11)
+    qlo, qhi = random_boxes(rng, 300, size=0.8, extent=5.0)
+    elo, ehi = random_boxes(rng, 200, size=1.5, extent=5.0)
+    qbody = np.full(300, -1, np.int32)
+    ebody = rng.integers(0, 3, 200).astype(np.int32)
+    rows = np.zeros((1, 1), np.int32)
+    origin, h = grid_for([(qlo, qhi), (elo, ehi)], 1.0)
+    ref_hash = SpatialHash()
+    ref_hash.build(elo, ehi, origin, h)
+    ref = np.array(ref_hash.query(qlo, qhi, rows, qbody, rows, ebody, False, False))
+    assert {tuple(p) for p in ref} == brute(qlo, qhi, elo, ehi, qbody, ebody, False)
+    m = ref.shape[0]
+    assert m > 100
+    if chunked:
+        monkeypatch.setattr(broadphase, "QUERY_CHUNK", 100)  # 3 chunks
+        monkeypatch.setattr(broadphase, "QUERY_MIN_CHUNKS", 2)
+    threads = numba.get_num_threads()
+    numba.set_num_threads(min(2, threads))
+    try:
+        for cap in (m - 1, m, m + 1, 3 * m - 1, 3 * m, 3 * m + 1, 3 * m + 3):
+            hs = SpatialHash(pair_capacity=cap)
+            hs.build(elo, ehi, origin, h)
+            np.testing.assert_array_equal(hs.query(qlo, qhi, rows, qbody, rows, ebody, False,
+                                                   False), ref)
+    finally:
+        numba.set_num_threads(threads)
+
+
 def test_non_finite_boxes_are_an_error():
     lo = np.array([[0.0, 0.0, np.nan]])
     with pytest.raises(FloatingPointError):
