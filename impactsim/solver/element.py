@@ -913,32 +913,49 @@ def _vector_block(elem_mat, status, e0):
 @numba.njit(cache=True, error_model="numpy")
 def _store_masked(rows, sdev, pressure, q, eps_rate, energy, vol, vol_eos, fext, use_anp, e0,
                   buf):
-    """`_store_block` for the lanes of row R_LIVE only (a masked pass of `_block`)."""
+    """`_store_block` for the lanes of row R_LIVE only (a masked pass of `_block`).
+
+    The element arrays are written through views of the block as in `_store_block`, every lane
+    with a select: a lane not in the pass gets its own value back, so the copy needs no branch
+    (lane by lane with a branch, indexed e0 + i, it cost the masked blocks 3-4 ns per element
+    more, docs/performance.md, session 18). The forces and the reductions take the pass's lanes
+    only."""
+    sd = sdev[e0:e0 + B]
+    pr = pressure[e0:e0 + B]
+    qq = q[e0:e0 + B]
+    en = energy[e0:e0 + B]
+    er = eps_rate[e0:e0 + B]
+    vo = vol[e0:e0 + B]
+    ve = vol_eos[e0:e0 + B]
+    for i in range(B):
+        live = buf[R_LIVE * B + i] != 0.0
+        for c in range(6):
+            sd[i, c] = buf[(R_SN + c) * B + i] if live else sd[i, c]
+        pr[i] = buf[R_PN * B + i] if live else pr[i]
+        qq[i] = buf[R_QN * B + i] if live else qq[i]
+        en[i] = buf[R_EN1 * B + i] if live else en[i]
+        er[i] = buf[R_RATE * B + i] if live else er[i]
+    for i in range(B):  # vol_eos is vol itself without the averaged nodal pressure
+        live = buf[R_LIVE * B + i] != 0.0
+        vnew = buf[R_DET * B + i] * (1.0 / 6.0)
+        vo[i] = vnew if live else vo[i]
+        ve[i] = (buf[R_VEOS * B + i] if use_anp else vnew) if live else ve[i]
+    rw = rows[e0:e0 + B]
     dt_min = math.inf
     worst = -1
     qwork = 0.0
     for i in range(B):
         if buf[R_LIVE * B + i] == 0.0:
             continue
-        e = e0 + i
-        for c in range(6):
-            sdev[e, c] = buf[(R_SN + c) * B + i]
-        pressure[e] = buf[R_PN * B + i]
-        q[e] = buf[R_QN * B + i]
-        energy[e] = buf[R_EN1 * B + i]
-        eps_rate[e] = buf[R_RATE * B + i]
-        vnew = buf[R_DET * B + i] * (1.0 / 6.0)
-        vol[e] = vnew
-        vol_eos[e] = buf[R_VEOS * B + i] if use_anp else vnew
         for k in range(4):
-            r = rows[e, k]
+            r = np.uint64(rw[i, k])
             for d in range(3):
                 fext[r, d] += buf[(R_F + 3 * k + d) * B + i]
         qwork += buf[R_QW * B + i]
         dte = buf[R_DTE * B + i]
         if dte < dt_min:
             dt_min = dte
-            worst = e
+            worst = e0 + i
     return dt_min, worst, qwork
 
 
@@ -954,12 +971,19 @@ def _return(buf, mat_params, mk, shear, eps_p, temperature, hard, thermal, e0):
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=FAST)
-def _masked_block(e0, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
-           hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp,
-           half, dt, cq, cl, rows, fext, buf, plastic, guard):
-    """Elements e0 .. e0 + B - 1 of a block that is not a full block of intact elements of one
-    material, through the vector path in masked passes; returns (min stable dt, its element,
-    viscous work, inverted elements).
+def _masked_blocks(e_first, mask, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
+                   eps_rate, temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass,
+                   mat_params, jnode, use_anp, half, dt, cq, cl, rows, fext, buf, plastic,
+                   guard, dt_min, worst, qwork, inverted):
+    """The blocks e0 = e_first + b B for the set bits b of ``mask``, blocks that are not full
+    blocks of intact elements of one material, through the vector path in masked passes, in
+    order; returns (min stable dt, its element, viscous work, inverted elements) reduced over
+    them from the given ones (the chunk's so far: the sums in the order of the blocks).
+
+    All of a chunk's blocks in one call, not one call per block: numba counts references to
+    every array argument at each call of a function that calls others (more than 40 atomic
+    adds here), which cost the masked blocks about a third of their time
+    (docs/performance.md, session 18).
 
     One masked pass runs per material among the block's elements that are not eroded: the other
     lanes get a copy of the pass's first lane's data (so that they compute finite numbers), the
@@ -971,62 +995,69 @@ def _masked_block(e0, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, ep
     time. ``guard`` (n_elem,) int8, or empty: the distortion guard's verdicts on the block's
     cells, each pass's on its lanes (those that invert included), PASSED on the eroded ones
     (the criteria pass them by); only in the plastic specialisation, as in `_chunk`."""
-    mat = elem_mat[e0:e0 + B]
-    st = status[e0:e0 + B]
     verdicts = guard.shape[0] != 0
-    if plastic is not None and verdicts:
-        for i in range(B):
-            if st[i] == ERODED:
-                guard[np.uint64(e0 + i)] = G.PASSED
-    dt_min = math.inf
-    worst = -1
-    qwork = 0.0
-    inverted = 0
-    for d in range(B):  # lane d starts the pass of its material if no lane before has it
-        if st[d] == ERODED:
+    for blk in range(CHUNK // B):
+        if (mask >> blk) & 1 == 0:
             continue
-        mk = mat[d]
-        first = True
-        for j in range(d):
-            if st[j] != ERODED and mat[j] == mk:
-                first = False
-                break
-        if not first:
-            continue
-        _load_block(x, v, conn, sdev, pressure, energy, vol, vol_eos, vol0, elem_mass, jnode,
-                    use_anp, e0, buf)
-        for i in range(B):
-            live = st[i] != ERODED and mat[i] == mk
-            buf[R_LIVE * B + i] = 1.0 if live else 0.0
-            buf[R_STAT * B + i] = float(st[i]) if live else 0.0
-            if not live:
-                for r in range(R_VEOS + 1):
-                    buf[r * B + i] = buf[r * B + d]
-        if plastic is not None and verdicts:  # the pass's corners at hand
-            G.masked_verdicts(buf, vol0, e0, dt, guard, R_LIVE)
-        shear = mat_params[mk, P.G]
-        _kinematics_block(buf, half, dt, shear)
-        for i in range(B):
-            # inverted as in `_element_scalar` (V <= 0): a NaN volume is not, and goes on, so
-            # that the run's non-finite check names the node (the full block's test, not V > 0,
-            # sends such a block here)
-            if buf[R_LIVE * B + i] != 0.0 and buf[R_DET * B + i] <= 0.0:
-                inverted += 1
-                buf[R_LIVE * B + i] = 0.0
-            if buf[R_LIVE * B + i] == 0.0 or buf[R_STAT * B + i] != 0.0:
-                buf[R_SEQ * B + i] = 0.0  # no return
-        if plastic is not None:
-            _return(buf, mat_params, mk, shear, eps_p, temperature, hard, thermal, e0)
-        for i in range(B):
-            if buf[R_STAT * B + i] != 0.0:  # damaged or fractured: no deviator
-                for c in range(6):
-                    buf[(R_SN + c) * B + i] = 0.0
-        _pressure_block(buf, dt, use_anp, int(mat_params[mk, P.EOS]), mat_params[mk, P.RHO0],
-                        mat_params[mk, P.K], mat_params[mk, P.C0], mat_params[mk, P.S],
-                        mat_params[mk, P.GAMMA0], shear, cq, cl, True)
-        bdt, bworst, bq = _store_masked(rows, sdev, pressure, q, eps_rate, energy, vol,
-                                        vol_eos, fext, use_anp, e0, buf)
-        qwork += bq
+        e0 = e_first + blk * B
+        mat = elem_mat[e0:e0 + B]
+        st = status[e0:e0 + B]
+        if plastic is not None and verdicts:
+            for i in range(B):
+                if st[i] == ERODED:
+                    guard[np.uint64(e0 + i)] = G.PASSED
+        bdt = math.inf  # the block's least stable step and its element
+        bworst = -1
+        bq = 0.0  # its viscous work
+        for d in range(B):  # lane d starts the pass of its material if no lane before has it
+            if st[d] == ERODED:
+                continue
+            mk = mat[d]
+            first = True
+            for j in range(d):
+                if st[j] != ERODED and mat[j] == mk:
+                    first = False
+                    break
+            if not first:
+                continue
+            _load_block(x, v, conn, sdev, pressure, energy, vol, vol_eos, vol0, elem_mass,
+                        jnode, use_anp, e0, buf)
+            for i in range(B):
+                live = st[i] != ERODED and mat[i] == mk
+                buf[R_LIVE * B + i] = 1.0 if live else 0.0
+                buf[R_STAT * B + i] = float(st[i]) if live else 0.0
+                if not live:
+                    for r in range(R_VEOS + 1):
+                        buf[r * B + i] = buf[r * B + d]
+            if plastic is not None and verdicts:  # the pass's corners at hand
+                G.masked_verdicts(buf, vol0, e0, dt, guard, R_LIVE)
+            shear = mat_params[mk, P.G]
+            _kinematics_block(buf, half, dt, shear)
+            for i in range(B):
+                # inverted as in `_element_scalar` (V <= 0): a NaN volume is not, and goes on,
+                # so that the run's non-finite check names the node (the full block's test, not
+                # V > 0, sends such a block here)
+                if buf[R_LIVE * B + i] != 0.0 and buf[R_DET * B + i] <= 0.0:
+                    inverted += 1
+                    buf[R_LIVE * B + i] = 0.0
+                if buf[R_LIVE * B + i] == 0.0 or buf[R_STAT * B + i] != 0.0:
+                    buf[R_SEQ * B + i] = 0.0  # no return
+            if plastic is not None:
+                _return(buf, mat_params, mk, shear, eps_p, temperature, hard, thermal, e0)
+            for i in range(B):
+                if buf[R_STAT * B + i] != 0.0:  # damaged or fractured: no deviator
+                    for c in range(6):
+                        buf[(R_SN + c) * B + i] = 0.0
+            _pressure_block(buf, dt, use_anp, int(mat_params[mk, P.EOS]),
+                            mat_params[mk, P.RHO0], mat_params[mk, P.K], mat_params[mk, P.C0],
+                            mat_params[mk, P.S], mat_params[mk, P.GAMMA0], shear, cq, cl, True)
+            pdt, pworst, pq = _store_masked(rows, sdev, pressure, q, eps_rate, energy, vol,
+                                            vol_eos, fext, use_anp, e0, buf)
+            bq += pq
+            if pdt < bdt:
+                bdt = pdt
+                bworst = pworst
+        qwork += bq  # the block's sums into the chunk's, as block by block before
         if bdt < dt_min:
             dt_min = bdt
             worst = bworst
@@ -1143,62 +1174,54 @@ def _deferred_chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, 
                     temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
                     jnode, use_anp, half, dt, cq, cl, rows, fext, chunk_out, buf, plastic, guard):
     """The blocks of chunk ch that `_chunk` left (OUT_DEFERRED): masked passes
-    (`_masked_block`), the last block of the mesh on copies of its lanes; their results merged
+    (`_masked_blocks`), the last block of the mesh on copies of its lanes; their results merged
     into the chunk's. A kernel of its own, called only when a chunk has such blocks, so that a
     case without any (the demo) does not compile it. ``guard`` as in `_chunk`: the verdicts of
-    the full blocks' cells (`_masked_block`), none on the mesh's last block."""
+    the full blocks' cells (`_masked_blocks`), none on the mesh's last block."""
     n_elem = conn.shape[0]
     mask = int(chunk_out[ch, OUT_DEFERRED])
-    dt_min = chunk_out[ch, OUT_DT]
-    worst = int(chunk_out[ch, OUT_WORST])
-    qwork = chunk_out[ch, OUT_QWORK]
-    inverted = int(chunk_out[ch, OUT_INVERTED])
     e_end = min(n_elem, (ch + 1) * CHUNK)
-    for blk in range(CHUNK // B):
-        if (mask >> blk) & 1 == 0:
-            continue
-        e0 = ch * CHUNK + blk * B
-        if e0 + B <= e_end:
-            bdt, bworst, bq, binv = _masked_block(
-                e0, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
-                temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
-                jnode, use_anp, half, dt, cq, cl, rows, fext, buf, plastic, guard)
-        else:
-            # the last block of the mesh, n < B elements: copied into arrays of one full block
-            # whose other lanes are eroded copies of its first element, run in masked passes,
-            # copied back (its first lane is passed as e0 - e0: a literal 0 would compile
-            # `_masked_block` again; and this code is here, not in a function of its own: numba
-            # links a called kernel's code into its caller and optimises it again there, so
-            # every level of calls costs compile time)
-            n = e_end - e0
-            t_st = _lanes(status, e0, n)
-            for i in range(n, B):
-                t_st[i] = ERODED
-            t_sdev, t_p, t_q = _lanes2(sdev, e0, n), _lanes(pressure, e0, n), _lanes(q, e0, n)
-            t_ep, t_rate = _lanes(eps_p, e0, n), _lanes(eps_rate, e0, n)
-            t_temp, t_hard, t_th = (_lanes(temperature, e0, n), _lanes(hard, e0, n),
-                                    _lanes(thermal, e0, n))
-            t_en, t_vol, t_veos = _lanes(energy, e0, n), _lanes(vol, e0, n), _lanes(vol_eos, e0, n)
-            bdt, bworst, bq, binv = _masked_block(
-                e0 - e0, x, v, _lanes2(conn, e0, n), _lanes(elem_mat, e0, n), t_st, t_sdev, t_p,
-                t_q, t_ep, t_rate, t_temp, t_hard, t_th, t_en, t_vol, t_veos, _lanes(vol0, e0, n),
-                _lanes(elem_mass, e0, n), mat_params, jnode, use_anp, half, dt, cq, cl,
-                _lanes2(rows, e0, n), fext, buf, plastic, guard[:0])
-            bworst = e0 + bworst if bworst >= 0 else -1
-            for i in range(n):
-                e = e0 + i
-                for c in range(6):
-                    sdev[e, c] = t_sdev[i, c]
-                pressure[e], q[e], eps_p[e], eps_rate[e] = t_p[i], t_q[i], t_ep[i], t_rate[i]
-                temperature[e], hard[e], thermal[e] = t_temp[i], t_hard[i], t_th[i]
-                energy[e] = t_en[i]
-                vol[e] = t_vol[i]
-                vol_eos[e] = t_veos[i] if use_anp else t_vol[i]
-        qwork += bq
-        inverted += binv
-        if bdt < dt_min:
-            dt_min = bdt
-            worst = bworst
+    n_full = (e_end - ch * CHUNK) // B  # the chunk's full blocks; a partial one is the last
+    dt_min, worst, qwork, inverted = _masked_blocks(
+        ch * CHUNK, mask & ((1 << n_full) - 1), x, v, conn, elem_mat, status, sdev, pressure, q,
+        eps_p, eps_rate, temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass,
+        mat_params, jnode, use_anp, half, dt, cq, cl, rows, fext, buf, plastic, guard,
+        chunk_out[ch, OUT_DT], int(chunk_out[ch, OUT_WORST]), chunk_out[ch, OUT_QWORK],
+        int(chunk_out[ch, OUT_INVERTED]))
+    e0 = ch * CHUNK + n_full * B
+    if e0 < e_end and (mask >> n_full) & 1:
+        # the last block of the mesh, n < B elements: copied into arrays of one full block
+        # whose other lanes are eroded copies of its first element, run in masked passes,
+        # copied back (its first lane is passed as e0 - e0, its mask as mask - mask + 1: a
+        # literal would compile `_masked_blocks` again; and this code is here, not in a
+        # function of its own: numba links a called kernel's code into its caller and
+        # optimises it again there, so every level of calls costs compile time)
+        n = e_end - e0
+        t_st = _lanes(status, e0, n)
+        for i in range(n, B):
+            t_st[i] = ERODED
+        t_sdev, t_p, t_q = _lanes2(sdev, e0, n), _lanes(pressure, e0, n), _lanes(q, e0, n)
+        t_ep, t_rate = _lanes(eps_p, e0, n), _lanes(eps_rate, e0, n)
+        t_temp, t_hard, t_th = (_lanes(temperature, e0, n), _lanes(hard, e0, n),
+                                _lanes(thermal, e0, n))
+        t_en, t_vol, t_veos = _lanes(energy, e0, n), _lanes(vol, e0, n), _lanes(vol_eos, e0, n)
+        # (its worst element counted from e0 there, as its lanes are)
+        dt_min, worst, qwork, inverted = _masked_blocks(
+            e0 - e0, mask - mask + 1, x, v, _lanes2(conn, e0, n), _lanes(elem_mat, e0, n), t_st,
+            t_sdev, t_p, t_q, t_ep, t_rate, t_temp, t_hard, t_th, t_en, t_vol, t_veos,
+            _lanes(vol0, e0, n), _lanes(elem_mass, e0, n), mat_params, jnode, use_anp, half, dt,
+            cq, cl, _lanes2(rows, e0, n), fext, buf, plastic, guard[:0], dt_min, worst - e0,
+            qwork, inverted)
+        worst += e0
+        for i in range(n):
+            e = e0 + i
+            for c in range(6):
+                sdev[e, c] = t_sdev[i, c]
+            pressure[e], q[e], eps_p[e], eps_rate[e] = t_p[i], t_q[i], t_ep[i], t_rate[i]
+            temperature[e], hard[e], thermal[e] = t_temp[i], t_hard[i], t_th[i]
+            energy[e] = t_en[i]
+            vol[e] = t_vol[i]
+            vol_eos[e] = t_veos[i] if use_anp else t_vol[i]
     chunk_out[ch, OUT_DT] = dt_min
     chunk_out[ch, OUT_QWORK] = qwork
     chunk_out[ch, OUT_INVERTED] = inverted
@@ -1242,7 +1265,7 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
 
     `guard` (n_elem,) int8 or None: where given, the distortion guard's verdicts on the
     cells of every full block, for the fracture criteria that run next on the same x, v and dt
-    (solver/guard.py): `_chunk` gives them on its blocks, `_masked_block` on the lanes of its
+    (solver/guard.py): `_chunk` gives them on its blocks, `_masked_blocks` on the lanes of its
     passes (PASSED on eroded cells, which the criteria pass by); the mesh's last, partial block
     is not written. Compiled into the plastic specialisation only
     (`plastic` True): the elastic kernel, the demo's, would otherwise compile the guard's

@@ -7,7 +7,7 @@ cost is the gather of the four corners' positions and velocities, which the elem
 has just made for the same cells with the same x and v (the fracture passes run right after
 it; solver/loop.py). So the tet kernel gives the verdicts while the corners are in its
 buffer: on each of its vector blocks (``block_verdicts``, solver/element.py's ``_chunk``) and on
-the lanes of each masked pass (``masked_verdicts``, ``_masked_block``: damaged, fractured and
+the lanes of each masked pass (``masked_verdicts``, ``element._masked_blocks``: damaged, fractured and
 mixed blocks), and the criteria gather only the mesh's last, partial block.
 
 ``block_verdicts`` is the criteria' full test (``volume6_of``) with the edges and their
@@ -91,7 +91,7 @@ def block_verdicts(buf, vol0, e0, dt, out):
 
 @numba.njit(cache=True, inline="always", fastmath=FAST)
 def masked_verdicts(buf, vol0, e0, dt, out, live):
-    """``block_verdicts`` on the lanes of a masked pass of the tet kernel (element._masked_block:
+    """``block_verdicts`` on the lanes of a masked pass of the tet kernel (element._masked_blocks:
     row ``live`` of the buffer 1.0 on the pass's lanes; the other lanes hold another lane's
     corners and keep the verdict they have)."""
     h1, h2 = 1.1 * dt, 2.2 * dt
