@@ -144,6 +144,15 @@ the caller grows the buffers."""
 
 
 @numba.njit(cache=True)
+def put_bodies(boxes, body):
+    """The entities' bodies into column 6 of their rows of ``boxes`` (``build_hash``): a loop
+    here, as numpy's strided casting assignment of the column cost 0.25 ms a query on the
+    contact passes' surfaces."""
+    for j in range(body.shape[0]):
+        boxes[np.uint64(j), 6] = body[j]
+
+
+@numba.njit(cache=True)
 def _shares_node(qent, i, eent, j):
     """True when rows i and j share a node (self-contact exclusion, ALGORITHMS.md 3.2)."""
     for a in range(qent.shape[1]):
@@ -204,44 +213,53 @@ def _query_rows(i0, i1, qlo, qhi, qent, qbody, eent, same_set, self_contact, ori
                     # cell's key with all three bits set
                     spare = 7 ^ need
                     want = (key << 3) | 7
+                    key7 = want
                     b = np.uint64(_bucket(key, tbits))
                     k = np.uint64(bucket_start[b])
                     k1 = np.uint64(bucket_start[b + np.uint64(1)])
                     # the same loop twice: the shared-node test's live values, in the loop
                     # of every query, pushed the others out of the registers
+                    # an entry of another cell (a rare collision in the bucket), with same_set
+                    # one of j <= i (the bucket's first entries: they come in entity order), and
+                    # one of the query's own body is passed by with a branch (the particle
+                    # pass's never are; the contact passes' hashes hold both bodies' entities,
+                    # and there testing every entry without a branch cost a third more); the
+                    # rest is tested without one
                     if self_contact:
                         while k < k1:
                             e = keys[k]
                             j = ents[k]
-                            r = np.uint64(j) * np.uint64(8)
-                            gap = min(min(min(boxes[r] - ql0, boxes[r + np.uint64(1)] - ql1),
-                                          min(boxes[r + np.uint64(2)] - ql2,
-                                              boxes[r + np.uint64(3)] + qh0)),
-                                      min(boxes[r + np.uint64(4)] + qh1,
-                                          boxes[r + np.uint64(5)] + qh2))
-                            other = boxes[r + np.uint64(6)] != qb
-                            hit = ((e | spare) == want) & (j >= jmin) & (gap >= 0.0)
-                            if hit and not other:
-                                other = not _shares_node(qent, i, eent, j)
-                            out[base + np.uint64(2) * min(np.uint64(n), last)
-                                + np.uint64(1)] = j
-                            n += hit & other
+                            if (e | 7) == key7 and j >= jmin:
+                                r = np.uint64(j) * np.uint64(8)
+                                gap = min(min(min(boxes[r] - ql0, boxes[r + np.uint64(1)] - ql1),
+                                              min(boxes[r + np.uint64(2)] - ql2,
+                                                  boxes[r + np.uint64(3)] + qh0)),
+                                          min(boxes[r + np.uint64(4)] + qh1,
+                                              boxes[r + np.uint64(5)] + qh2))
+                                other = boxes[r + np.uint64(6)] != qb
+                                hit = ((e | spare) == want) & (gap >= 0.0)
+                                if hit and not other:
+                                    other = not _shares_node(qent, i, eent, j)
+                                out[base + np.uint64(2) * min(np.uint64(n), last)
+                                    + np.uint64(1)] = j
+                                n += hit & other
                             k += np.uint64(1)
                     else:
                         while k < k1:
                             e = keys[k]
                             j = ents[k]
                             r = np.uint64(j) * np.uint64(8)
-                            gap = min(min(min(boxes[r] - ql0, boxes[r + np.uint64(1)] - ql1),
-                                          min(boxes[r + np.uint64(2)] - ql2,
-                                              boxes[r + np.uint64(3)] + qh0)),
-                                      min(boxes[r + np.uint64(4)] + qh1,
-                                          boxes[r + np.uint64(5)] + qh2))
-                            hit = (((e | spare) == want) & (j >= jmin)
-                                   & (boxes[r + np.uint64(6)] != qb) & (gap >= 0.0))
-                            out[base + np.uint64(2) * min(np.uint64(n), last)
-                                + np.uint64(1)] = j
-                            n += hit
+                            if ((e | 7) == key7 and j >= jmin
+                                    and boxes[r + np.uint64(6)] != qb):
+                                gap = min(min(min(boxes[r] - ql0, boxes[r + np.uint64(1)] - ql1),
+                                              min(boxes[r + np.uint64(2)] - ql2,
+                                                  boxes[r + np.uint64(3)] + qh0)),
+                                          min(boxes[r + np.uint64(4)] + qh1,
+                                              boxes[r + np.uint64(5)] + qh2))
+                                hit = ((e | spare) == want) & (gap >= 0.0)
+                                out[base + np.uint64(2) * min(np.uint64(n), last)
+                                    + np.uint64(1)] = j
+                                n += hit
                             k += np.uint64(1)
         if n <= cap:
             for a in range(row, n):
@@ -563,6 +581,7 @@ class SpatialHash:
         self.counter = np.zeros(1, dtype=np.int64)  # the threaded query's (solver/workqueue.py)
         self.box_rows = np.zeros((16, 8))  # the hashed boxes, a row each (build_hash)
         self.n_entries = 0
+        self._bodies_of = None
 
     def _alloc_entries(self, cap: int) -> None:
         cap = max(int(cap), 16)
@@ -583,6 +602,7 @@ class SpatialHash:
             self.grows += 1
             self.box_rows = np.zeros((int(lo.shape[0] * 1.5) + 16, 8))
         self.boxes = self.box_rows[:lo.shape[0]]
+        self._bodies_of = None  # the bodies' array last written into the rows (query)
         while True:
             n = build_hash(lo, hi, self.origin, self.inv_h, self.tbits, self.tmp_keys,
                            self.tmp_ents, self.bucket_start, self.keys, self.ents, self.boxes)
@@ -600,7 +620,9 @@ class SpatialHash:
         chunked = n_chunk >= QUERY_MIN_CHUNKS and numba.get_num_threads() > 1
         if chunked and self.chunk_counts.shape[0] < n_chunk:
             self.chunk_counts = np.zeros(n_chunk, dtype=np.int64)
-        self.boxes[:, 6] = ebody  # the entities' bodies, beside their boxes (query_pairs)
+        if ebody is not self._bodies_of:  # beside their boxes (query_pairs), once a build
+            put_bodies(self.boxes, ebody)
+            self._bodies_of = ebody
         while True:
             args = (qlo, qhi, qent, qbody, eent, same_set, self_contact, self.origin,
                     self.inv_h, self.tbits, self.bucket_start, self.keys, self.ents, self.boxes,

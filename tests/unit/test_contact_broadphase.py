@@ -164,6 +164,31 @@ def test_pair_buffer_filled_to_its_last_rows(monkeypatch, chunked):
         numba.set_num_threads(threads)
 
 
+def test_bodies_follow_each_build():
+    """The query keeps the hashed entities' bodies beside their boxes, written once a build: a
+    body array changed in place before the next build, or another array for the same build,
+    gives that build's pairs of other bodies (never the previous bodies')."""
+    rng = np.random.default_rng(4)
+    qlo, qhi = random_boxes(rng, 120, size=0.8, extent=5.0)
+    elo, ehi = random_boxes(rng, 90, size=1.5, extent=5.0)
+    qbody = rng.integers(0, 2, 120).astype(np.int32)
+    ebody = rng.integers(0, 2, 90).astype(np.int32)
+    rows = np.zeros((1, 1), np.int32)
+    origin, h = grid_for([(qlo, qhi), (elo, ehi)], 1.0)
+    hs = SpatialHash()
+
+    def check(body):
+        pairs = hs.query(qlo, qhi, rows, qbody, rows, body, False, False)
+        assert {tuple(p) for p in pairs} == brute(qlo, qhi, elo, ehi, qbody, body, False)
+
+    hs.build(elo, ehi, origin, h)
+    check(1 - ebody)  # another array for the same build
+    check(ebody)
+    ebody[:] = 1 - ebody  # the array the last query had, changed in place, then built again
+    hs.build(elo, ehi, origin, h)
+    check(ebody)
+
+
 def test_non_finite_boxes_are_an_error():
     lo = np.array([[0.0, 0.0, np.nan]])
     with pytest.raises(FloatingPointError):
