@@ -103,6 +103,9 @@ def time_to_first_step(case: str = "cases/elastic-bar-wall.toml", cold: bool = F
 
 
 def main() -> list[dict]:
+    from impactsim.kernel_cache import refresh
+
+    refresh()  # kernels cached from older sources go first, as the CLI does
     n_threads = numba.config.NUMBA_NUM_THREADS
     rows = [time_steps(t, elastic=el) for el in (False, True) for t in (1, n_threads)]
     print(f"{'material':>9}{'threads':>8}{'elements':>10}{'steps':>7}{'ns/elem-step':>14}"

@@ -35,6 +35,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 def main(argv=None) -> dict:
     from bench_element import build
 
+    from impactsim.kernel_cache import refresh
+
+    refresh()  # kernels cached from older sources go first (kernel_cache.py), as the CLI does
+
     from impactsim.materials import params as P
     from impactsim.model import ERODED
     from impactsim.solver import element as E

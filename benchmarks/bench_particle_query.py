@@ -80,6 +80,9 @@ def capture(case_path: Path, steps: set[int]) -> list[dict]:
 
 
 def main(argv=None) -> list[dict]:
+    from impactsim.kernel_cache import refresh
+
+    refresh()  # kernels cached from older sources go first, as the CLI does
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--case", default=str(ROOT / "cases" / "oblique-sphere.toml"))
     ap.add_argument("--steps", default="800,1500,2200")

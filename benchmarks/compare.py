@@ -82,6 +82,9 @@ def _count(model) -> int:
 
 
 def main(argv=None) -> dict:
+    from impactsim.kernel_cache import refresh
+
+    refresh()  # the tree's kernels cached from older sources go first, as the CLI does
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("rev")
     ap.add_argument("--steps", type=int, default=60, help="timed steps per version")
