@@ -94,11 +94,11 @@ def build_hash(lo, hi, origin, inv_h, tbits, tmp_keys, tmp_ents, bucket_start, k
     ``keys`` (the cell key shifted left by 3, its low bits d = 0, 1, 2 set when the cell is the
     entity's first along axis d: the query's once-only rule without floors, in the word it
     loads anyway) and ``ents`` (entity). The boxes go to ``boxes (n, 8)``, one row (a cache
-line) per entity, so that the query gathers a box with one load: columns 0-2 the upper corner,
-3-5 the lower corner negated (the query's overlap test is then six subtractions and one sign,
-``_query_rows``), 6 the entity's body (written by ``SpatialHash.query``), 7 unused. Returns the
-number of entries needed; when it exceeds the capacity (len(keys)) nothing usable is built and
-the caller grows the buffers."""
+    line) per entity, so that the query gathers a box with one load: columns 0-2 the upper
+    corner, 3-5 the lower corner negated (the query's overlap test is then six subtractions and
+    one sign, ``_query_rows``), 6 the entity's body (written by ``SpatialHash.query``), 7
+    unused. Returns the number of entries needed; when it exceeds the capacity (len(keys))
+    nothing usable is built and the caller grows the buffers."""
     cap = keys.shape[0]
     n = 0
     for i in range(lo.shape[0]):
@@ -145,9 +145,8 @@ the caller grows the buffers."""
 
 @numba.njit(cache=True)
 def put_bodies(boxes, body):
-    """The entities' bodies into column 6 of their rows of ``boxes`` (``build_hash``): a loop
-    here, as numpy's strided casting assignment of the column cost 0.25 ms a query on the
-    contact passes' surfaces."""
+    """The entities' bodies into column 6 of their rows of ``boxes`` (``build_hash``), where
+    the query reads them beside the box (``SpatialHash.query`` writes them once a build)."""
     for j in range(body.shape[0]):
         boxes[np.uint64(j), 6] = body[j]
 
@@ -169,17 +168,20 @@ def _query_rows(i0, i1, qlo, qhi, qent, qbody, eent, same_set, self_contact, ori
     (the (cap, 2) pair array flattened; row o1 - 1 takes the writes of the entries past the
     last row); returns their number (o1 - o0 or more: only the first ones were written).
 
-    Every entry of a cell is tested without a branch: the cell's key, the once-only rule, j > i
-    for ``same_set``, another body (column 6 of the entity's row of ``boxes``) and the overlap,
-    as the least of the six differences (upper corners minus the query's lower corner, and the
-    query's upper corner minus the lower corners, from the row's negated lower corner) against
-    0: for finite numbers a rounded difference is >= 0 exactly when the exact one is. The entry
-    is written to the next free row whether it counts or not, and the query row's index goes in
-    once its pairs are known. Only a pair of one body under ``self_contact`` branches, to look
-    for a shared node. Against the tests and comparisons one by one, on boxes indexed in two
-    dimensions with the bodies in an array of their own: 27-34 % less time on oblique-sphere's
-    particle queries (docs/performance.md, session 18). Unsigned indices: numba does not test
-    them for wraparound."""
+    An entry is tested for the cell's key, the once-only rule, j > i for ``same_set``, another
+    body (column 6 of the entity's row of ``boxes``) and the overlap, the least of six
+    differences (the upper corners minus the query's lower corner, the query's upper corner
+    plus the row's negated lower corner) against 0: for finite numbers a rounded difference is
+    >= 0 exactly when the exact one is. The entry is written to the next free row whether it
+    counts or not, and the query row's index goes in once its pairs are known. Three loops:
+    a query row of no body (a particle) tests every entry without a branch; the contact
+    passes' rows (their hashes hold both bodies' entities) pass an entry of another cell, of
+    j <= i or of their own body by with a branch, the rest without; under ``self_contact`` a
+    pair of one body branches to look for a shared node. Against the tests one by one, on
+    boxes indexed in two dimensions with the bodies in an array of their own: 17-27 % less
+    time on oblique-sphere's particle queries, the contact passes' as before
+    (docs/performance.md, session 18). Unsigned indices: numba does not test them for
+    wraparound."""
     cap = o1 - o0 - 1  # rows for pairs; the last one takes the writes beyond them
     n = 0
     last = np.uint64(max(cap, 0))
@@ -213,24 +215,22 @@ def _query_rows(i0, i1, qlo, qhi, qent, qbody, eent, same_set, self_contact, ori
                     # cell's key with all three bits set
                     spare = 7 ^ need
                     want = (key << 3) | 7
-                    key7 = want
                     b = np.uint64(_bucket(key, tbits))
                     k = np.uint64(bucket_start[b])
                     k1 = np.uint64(bucket_start[b + np.uint64(1)])
-                    # the same loop twice: the shared-node test's live values, in the loop
-                    # of every query, pushed the others out of the registers
-                    # an entry of another cell (a rare collision in the bucket), with same_set
-                    # one of j <= i (the bucket's first entries: they come in entity order), and
-                    # one of the query's own body is passed by with a branch: the contact
-                    # passes' hashes hold both bodies' entities, and there testing every entry
-                    # without a branch cost a third more; the rest is tested without one. A
-                    # query row of no body (a particle) meets no entry of its own body, and
-                    # its loop tests every entry without a branch (7 % of its time)
+                    # three loops: the shared-node test's live values, in a loop of every
+                    # query, pushed the others out of the registers; an entry of another cell
+                    # (a rare collision in the bucket), of j <= i (same_set: a bucket's first
+                    # entries, as they come in entity order) or of the row's own body is
+                    # passed by with a branch where the hash holds both bodies' entities
+                    # (tested without one, the contact passes' queries took a third more);
+                    # a row of no body (a particle) meets no entry of its own body, and its
+                    # loop has no branch (7 % of its time)
                     if self_contact:
                         while k < k1:
                             e = keys[k]
                             j = ents[k]
-                            if (e | 7) == key7 and j >= jmin:
+                            if (e | 7) == want and j >= jmin:
                                 r = np.uint64(j) * np.uint64(8)
                                 gap = min(min(min(boxes[r] - ql0, boxes[r + np.uint64(1)] - ql1),
                                               min(boxes[r + np.uint64(2)] - ql2,
@@ -265,7 +265,7 @@ def _query_rows(i0, i1, qlo, qhi, qent, qbody, eent, same_set, self_contact, ori
                             e = keys[k]
                             j = ents[k]
                             r = np.uint64(j) * np.uint64(8)
-                            if ((e | 7) == key7 and j >= jmin
+                            if ((e | 7) == want and j >= jmin
                                     and boxes[r + np.uint64(6)] != qb):
                                 gap = min(min(min(boxes[r] - ql0, boxes[r + np.uint64(1)] - ql1),
                                               min(boxes[r + np.uint64(2)] - ql2,

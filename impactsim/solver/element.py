@@ -917,7 +917,7 @@ def _store_masked(rows, sdev, pressure, q, eps_rate, energy, vol, vol_eos, fext,
 
     The element arrays are written through views of the block as in `_store_block`, every lane
     with a select: a lane not in the pass gets its own value back, so the copy needs no branch
-    (lane by lane with a branch, indexed e0 + i, it cost the masked blocks 3-4 ns per element
+    (lane by lane with a branch, indexed e0 + i, it cost the masked blocks 1.5 ns per element
     more, docs/performance.md, session 18). The forces and the reductions take the pass's lanes
     only."""
     sd = sdev[e0:e0 + B]
@@ -980,10 +980,9 @@ def _masked_blocks(e_first, mask, x, v, conn, elem_mat, status, sdev, pressure, 
     order; returns (min stable dt, its element, viscous work, inverted elements) reduced over
     them from the given ones (the chunk's so far: the sums in the order of the blocks).
 
-    All of a chunk's blocks in one call, not one call per block: numba counts references to
-    every array argument at each call of a function that calls others (more than 40 atomic
-    adds here), which cost the masked blocks about a third of their time
-    (docs/performance.md, session 18).
+    All of a chunk's blocks in one call, not one call per block: numba passes each array as its
+    data pointer, shape, strides and owner, and a call with these 20 arrays cost the masked
+    blocks about 5 ns per tet (docs/performance.md, session 18).
 
     One masked pass runs per material among the block's elements that are not eroded: the other
     lanes get a copy of the pass's first lane's data (so that they compute finite numbers), the
