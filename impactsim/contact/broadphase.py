@@ -161,6 +161,17 @@ def _shares_node(qent, i, eent, j):
     return False
 
 
+@numba.njit(cache=True, inline="always", fastmath={"nnan", "ninf"})
+def _gap(boxes, r, ql0, ql1, ql2, qh0, qh1, qh2):
+    """How far the box of the row at r of ``boxes`` (flat; ``build_hash``: upper corner, lower
+    corner negated) overlaps the query box along the axis where it overlaps least: >= 0 exactly
+    when the boxes overlap (for finite numbers a rounded difference is >= 0 exactly when the
+    exact one is)."""
+    return min(min(min(boxes[r] - ql0, boxes[r + np.uint64(1)] - ql1),
+                   min(boxes[r + np.uint64(2)] - ql2, boxes[r + np.uint64(3)] + qh0)),
+               min(boxes[r + np.uint64(4)] + qh1, boxes[r + np.uint64(5)] + qh2))
+
+
 @numba.njit(cache=True, error_model="numpy", fastmath={"nnan", "ninf"})
 def _query_rows(i0, i1, qlo, qhi, qent, qbody, eent, same_set, self_contact, origin, inv_h,
                 tbits, bucket_start, keys, ents, boxes, out, o0, o1):
@@ -232,11 +243,7 @@ def _query_rows(i0, i1, qlo, qhi, qent, qbody, eent, same_set, self_contact, ori
                             j = ents[k]
                             if (e | 7) == want and j >= jmin:
                                 r = np.uint64(j) * np.uint64(8)
-                                gap = min(min(min(boxes[r] - ql0, boxes[r + np.uint64(1)] - ql1),
-                                              min(boxes[r + np.uint64(2)] - ql2,
-                                                  boxes[r + np.uint64(3)] + qh0)),
-                                          min(boxes[r + np.uint64(4)] + qh1,
-                                              boxes[r + np.uint64(5)] + qh2))
+                                gap = _gap(boxes, r, ql0, ql1, ql2, qh0, qh1, qh2)
                                 other = boxes[r + np.uint64(6)] != qb
                                 hit = ((e | spare) == want) & (gap >= 0.0)
                                 if hit and not other:
@@ -250,11 +257,7 @@ def _query_rows(i0, i1, qlo, qhi, qent, qbody, eent, same_set, self_contact, ori
                             e = keys[k]
                             j = ents[k]
                             r = np.uint64(j) * np.uint64(8)
-                            gap = min(min(min(boxes[r] - ql0, boxes[r + np.uint64(1)] - ql1),
-                                          min(boxes[r + np.uint64(2)] - ql2,
-                                              boxes[r + np.uint64(3)] + qh0)),
-                                      min(boxes[r + np.uint64(4)] + qh1,
-                                          boxes[r + np.uint64(5)] + qh2))
+                            gap = _gap(boxes, r, ql0, ql1, ql2, qh0, qh1, qh2)
                             hit = ((e | spare) == want) & (j >= jmin) & (gap >= 0.0)
                             out[base + np.uint64(2) * min(np.uint64(n), last)
                                 + np.uint64(1)] = j
@@ -267,11 +270,7 @@ def _query_rows(i0, i1, qlo, qhi, qent, qbody, eent, same_set, self_contact, ori
                             r = np.uint64(j) * np.uint64(8)
                             if ((e | 7) == want and j >= jmin
                                     and boxes[r + np.uint64(6)] != qb):
-                                gap = min(min(min(boxes[r] - ql0, boxes[r + np.uint64(1)] - ql1),
-                                              min(boxes[r + np.uint64(2)] - ql2,
-                                                  boxes[r + np.uint64(3)] + qh0)),
-                                          min(boxes[r + np.uint64(4)] + qh1,
-                                              boxes[r + np.uint64(5)] + qh2))
+                                gap = _gap(boxes, r, ql0, ql1, ql2, qh0, qh1, qh2)
                                 hit = ((e | spare) == want) & (gap >= 0.0)
                                 out[base + np.uint64(2) * min(np.uint64(n), last)
                                     + np.uint64(1)] = j
