@@ -144,14 +144,6 @@ def build_hash(lo, hi, origin, inv_h, tbits, tmp_keys, tmp_ents, bucket_start, k
 
 
 @numba.njit(cache=True)
-def put_bodies(boxes, body):
-    """The entities' bodies into column 6 of their rows of ``boxes`` (``build_hash``), where
-    the query reads them beside the box (``SpatialHash.query`` writes them once a build)."""
-    for j in range(body.shape[0]):
-        boxes[np.uint64(j), 6] = body[j]
-
-
-@numba.njit(cache=True)
 def _shares_node(qent, i, eent, j):
     """True when rows i and j share a node (self-contact exclusion, ALGORITHMS.md 3.2)."""
     for a in range(qent.shape[1]):
@@ -636,7 +628,7 @@ class SpatialHash:
         if chunked and self.chunk_counts.shape[0] < n_chunk:
             self.chunk_counts = np.zeros(n_chunk, dtype=np.int64)
         if ebody is not self._bodies_of:  # beside their boxes (query_pairs), once a build
-            put_bodies(self.boxes, ebody)
+            self.boxes[:, 6] = ebody
             self._bodies_of = ebody
         while True:
             args = (qlo, qhi, qent, qbody, eent, same_set, self_contact, self.origin,

@@ -6,9 +6,9 @@ the tet at the positions x + h v, for h = 1.1 dt and 2.2 dt, below 6 GUARD_FRACT
 cost is the gather of the four corners' positions and velocities, which the element update
 has just made for the same cells with the same x and v (the fracture passes run right after
 it; solver/loop.py). So the tet kernel gives the verdicts while the corners are in its
-buffer: on each of its vector blocks (``block_verdicts``, solver/element.py's ``_chunk``) and on
-the lanes of each masked pass (``masked_verdicts``, ``element._masked_blocks``: damaged, fractured and
-mixed blocks), and the criteria gather only the mesh's last, partial block.
+buffer: on each of its vector blocks (``block_verdicts``, solver/element.py's ``_chunk``) and
+on the lanes of each masked pass (``masked_verdicts``, ``element._masked_blocks``: damaged,
+fractured and mixed blocks), and the criteria gather only the mesh's last, partial block.
 
 ``block_verdicts`` is the criteria' full test (``volume6_of``) with the edges and their
 velocities taken once for both steps ahead, under the tet kernel's fastmath flags, which it
