@@ -154,8 +154,9 @@ distortion_interval = "20 ns"
 # element.PARALLEL_FORCE_NODES, element.PARALLEL_ELEMENTS, broadphase.QUERY_MIN_CHUNKS, the
 # chunk count from which the broad-phase query runs on the threads, and
 # particle_faces.THREADED_FACES, the free faces from which the particle pass finds those near
-# the particles on them), so that their parallel
-# versions are compiled too (the tet kernel's with elastic and with plastic tets:
+# the particles on them; buckets.KERNEL_MIN_ROWS, the element faces or edges from which the
+# face adjacency and the edges are found by a kernel instead of numpy's sort), so that their
+# parallel (and large-mesh) versions are compiled too (the tet kernel's with elastic and with plastic tets:
 # element.plastic_kernel); they run on every thread (run.threads), as a large scene does: the
 # threaded query is only taken with more than one
 PARALLEL_SCENES = {"fracture-threads", "elastic-wall-threads"}
@@ -166,13 +167,16 @@ def _thresholds(values=None):
     (returns the previous ones)."""
     from impactsim.contact import broadphase
     from impactsim.fracture import particle_faces
+    from impactsim.mesh import buckets
     from impactsim.solver import element, nodal
 
     old = (nodal.PARALLEL_NODES, element.PARALLEL_FORCE_NODES, element.PARALLEL_ELEMENTS,
-           broadphase.QUERY_MIN_CHUNKS, particle_faces.THREADED_FACES)
+           broadphase.QUERY_MIN_CHUNKS, particle_faces.THREADED_FACES,
+           buckets.KERNEL_MIN_ROWS)
     if values is not None:
         (nodal.PARALLEL_NODES, element.PARALLEL_FORCE_NODES, element.PARALLEL_ELEMENTS,
-         broadphase.QUERY_MIN_CHUNKS, particle_faces.THREADED_FACES) = values
+         broadphase.QUERY_MIN_CHUNKS, particle_faces.THREADED_FACES,
+         buckets.KERNEL_MIN_ROWS) = values
     return old
 
 
@@ -225,7 +229,7 @@ def warm_up(verbose: bool = True, names=None) -> dict[str, dict]:
         if name in PARALLEL_SCENES:  # on every thread, small as they are (run.thread_count)
             sets.append(f"run.threads={numba.config.NUMBA_NUM_THREADS}")
         case = load_case_text(text, overrides=sets)
-        old = _thresholds((0, 0, 0, 0, 0) if name in PARALLEL_SCENES else None)
+        old = _thresholds((0, 0, 0, 0, 0, 0) if name in PARALLEL_SCENES else None)
         try:
             with (CompileCounter() as compiled,
                   tempfile.TemporaryDirectory(prefix="impactsim-warmup-") as out,

@@ -68,6 +68,7 @@ from impactsim.fracture.separation_refresh import (move_node_elements, move_node
 from impactsim.solver.element import (FAST, _char_length, _tet_gradients,
                                       stored_corner_force)
 from impactsim.solver.hex8 import _volume_gradient
+from impactsim.mesh import buckets
 from impactsim.mesh.topology import LOCAL_FACES as TET_FACES
 from impactsim.model import ERODED, FRACTURED, INTACT
 
@@ -82,8 +83,14 @@ def local_faces(corners: int) -> np.ndarray:
 
 def face_adjacency_k(conn: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """(n, f) int64 neighbour across each local face (faces (f, w) local corner lists), -1 on
-    the boundary: faces matched by their sorted node tuples (lexsort, O(N log N))."""
+    the boundary: faces matched by their sorted node tuples (lexsort, O(N log N); in linear
+    time from KERNEL_MIN_ROWS element faces on, `mesh.buckets`)."""
     n, f = conn.shape[0], faces.shape[0]
+    if n * f >= buckets.KERNEL_MIN_ROWS:
+        adj = buckets.match_faces(conn, faces)
+        if adj is None:
+            raise ValueError("non-manifold mesh: a face is shared by more than two elements")
+        return adj
     adj = np.full((n, f), -1, np.int64)
     if n == 0:
         return adj

@@ -12,12 +12,16 @@ Conventions (used by every caller; contact and erosion rely on them):
   ``FACE_EDGES[i]`` lists the three local edges of local face ``i``.
 
 Faces are matched by a hash of their sorted node triples (packed into one int64 key when the
-node numbers fit in 21 bits, otherwise sorted lexicographically): O(N log N), no Python loops.
+node numbers fit in 21 bits, otherwise sorted lexicographically): O(N log N), no Python loops;
+from `buckets.KERNEL_MIN_ROWS` element faces (edges) on, `face_adjacency` and `unique_edges`
+match them in linear time instead (`buckets.py`).
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from impactsim.mesh import buckets
 
 LOCAL_FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]], dtype=np.int64)
 LOCAL_EDGES = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]], dtype=np.int64)
@@ -62,6 +66,11 @@ def face_adjacency(tets: np.ndarray, active: np.ndarray | None = None) -> np.nda
     """
     tets = np.asarray(tets)
     n_elem = tets.shape[0]
+    if 4 * n_elem >= buckets.KERNEL_MIN_ROWS:  # linear time (buckets.py)
+        adj = buckets.match_faces(tets, LOCAL_FACES, active)
+        if adj is None:
+            raise ValueError("non-manifold mesh: a face is shared by more than two tetrahedra")
+        return adj
     adj = np.full((n_elem, 4), -1, dtype=np.int64)
     if n_elem == 0:
         return adj
@@ -112,6 +121,8 @@ def unique_edges(tets: np.ndarray):
     """
     tets = np.asarray(tets)
     n_elem = tets.shape[0]
+    if 6 * n_elem >= buckets.KERNEL_MIN_ROWS:  # linear time (buckets.py)
+        return buckets.unique_edges(tets, LOCAL_EDGES)
     pairs = tets[:, LOCAL_EDGES].reshape(-1, 2).astype(np.int64)
     pairs.sort(axis=1)
     if pairs.size and pairs.max() < (1 << 31):
