@@ -2,11 +2,17 @@
 
 After each step ``Watch.after_step(sim)`` runs one pass over the node and element arrays
 (``state_sums``, a numba kernel: kinetic and internal energy, which the balance needs, and a
-sum of ``value * 0`` over every position, velocity, force, stress, pressure and specific energy,
-which is 0 when all are finite and nan otherwise). Its cost is measured by
+sum of ``value * 0`` over every position, velocity, force and specific energy, which is 0 when
+all are finite and nan otherwise). Stress and pressure need no pass of their own: the element
+update computed every live element's nodal forces from them in this step, and a nan or inf in
+either makes those forces non-finite (nan * 0 and inf * 0 are nan), which the force test
+catches. Leaving the six stress components and the pressure out (56 of the 73 bytes the pass
+read per element) halved the watch: 0.9 ms a step on oblique-sphere, 2.7 s of its run
+(docs/performance.md, "Whole scenes, session 19"). Its cost is measured by
 benchmarks/bench_watch.py (docs/user-guide.md, Stops). When the sum is not finite, a second
 pass (``locate``) names the first node or element holding a non-finite value, its body and the
-array, and the run stops with SimulationStopped in the step the value appeared.
+array, and the run stops with SimulationStopped in the step the value appeared (a value a pass
+writes into an element's stress after the element update: in the next step, from its forces).
 
 The total energy (kinetic + internal + dissipated + eroded - external work + the half-step
 energy, as Simulation.energies: time-centred, so that a body driven from rest by a prescribed
@@ -31,11 +37,11 @@ CHUNK = 4096
 
 
 @numba.njit(cache=True)
-def state_sums(x, v, force, mass, sdev, pressure, energy, elem_mass, status):
+def state_sums(x, v, force, mass, energy, elem_mass, status):
     """(kinetic energy, internal energy, finiteness sum, force power): the third is 0.0 when
-    every value of the arrays is finite, nan otherwise; the last the sum of F . v over the nodes
-    with mass (nodal.force_power, for the time-centred balance). Sums in fixed chunks, the same
-    on any thread count."""
+    every value of the arrays is finite (the live elements' only), nan otherwise; the last the
+    sum of F . v over the nodes with mass (nodal.force_power, for the time-centred balance).
+    Sums in fixed chunks, the same on any thread count."""
     n = mass.shape[0]
     ke = 0.0
     bad = 0.0
@@ -56,9 +62,7 @@ def state_sums(x, v, force, mass, sdev, pressure, energy, elem_mass, status):
     for e in range(energy.shape[0]):
         if status[e] != ERODED:
             ie += elem_mass[e] * energy[e]
-            bad += (pressure[e] + sdev[e, 0] + sdev[e, 1] + sdev[e, 2] + sdev[e, 3]
-                    + sdev[e, 4] + sdev[e, 5]) * 0.0
-    bad += ie * 0.0
+    bad += ie * 0.0  # a non-finite energy makes the sum non-finite
     return ke, ie, bad, power
 
 
@@ -104,8 +108,7 @@ class Watch:
 
     def sums(self) -> tuple[float, float, float, float]:
         m = self.sim.model
-        return state_sums(m.x, m.v, m.force, m.mass, m.sdev, m.pressure, m.energy, m.elem_mass,
-                          m.status)
+        return state_sums(m.x, m.v, m.force, m.mass, m.energy, m.elem_mass, m.status)
 
     def after_step(self) -> float:
         """Check the state; returns the energy balance error of this step. Raises NonFinite."""
