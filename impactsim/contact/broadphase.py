@@ -384,29 +384,35 @@ def select_boxes(x, v, tau, ent, pad, body, blo, bhi, keep_all, skip, sel, lo, h
     n = 0
     n_body = blo.shape[0]
     use_skip = skip.shape[0] > 0
+    swept = tau != 0.0  # else the box of the nodes alone (v is not read)
     for i in range(ent.shape[0]):
         if use_skip and skip[i] != 0:
             continue
-        x0 = np.inf
-        y0 = np.inf
-        z0 = np.inf
-        x1 = -np.inf
-        y1 = -np.inf
-        z1 = -np.inf
+        k = np.uint64(ent[i, 0])  # unsigned: no wraparound test on the node index
+        x0 = x1 = x[k, 0]
+        y0 = y1 = x[k, 1]
+        z0 = z1 = x[k, 2]
         for j in range(ent.shape[1]):
-            k = ent[i, j]
+            k = np.uint64(ent[i, j])
             px = x[k, 0]
             py = x[k, 1]
             pz = x[k, 2]
-            qx = px + tau * v[k, 0]
-            qy = py + tau * v[k, 1]
-            qz = pz + tau * v[k, 2]
-            x0 = min(x0, px, qx)
-            y0 = min(y0, py, qy)
-            z0 = min(z0, pz, qz)
-            x1 = max(x1, px, qx)
-            y1 = max(y1, py, qy)
-            z1 = max(z1, pz, qz)
+            x0 = min(x0, px)
+            y0 = min(y0, py)
+            z0 = min(z0, pz)
+            x1 = max(x1, px)
+            y1 = max(y1, py)
+            z1 = max(z1, pz)
+            if swept:
+                qx = px + tau * v[k, 0]
+                qy = py + tau * v[k, 1]
+                qz = pz + tau * v[k, 2]
+                x0 = min(x0, qx)
+                y0 = min(y0, qy)
+                z0 = min(z0, qz)
+                x1 = max(x1, qx)
+                y1 = max(y1, qy)
+                z1 = max(z1, qz)
         x0 -= pad
         y0 -= pad
         z0 -= pad
