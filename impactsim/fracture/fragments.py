@@ -22,6 +22,7 @@ Connected components by scipy.sparse.csgraph over the element-node incidence (O(
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
@@ -90,20 +91,53 @@ CLOUD_FRACTION = 0.1  # the cloud: what moves along the axis at >= this share of
 def leading_edge(model, axis, particles=None) -> tuple[float, float]:
     """(position along axis [m], its velocity along axis [m/s]) of the foremost node with mass
     or particle of the cloud (moving along the axis at CLOUD_FRACTION of the fastest or more:
-    the plates ahead of the cloud, at rest or ringing, are not its edge)."""
+    the plates ahead of the cloud, at rest or ringing, are not its edge). A history column:
+    one kernel pass over the nodes and particles (numpy's masks and copies took 1.6 ms a row
+    on oblique-sphere's 45,000 nodes)."""
     a = np.asarray(axis, float) / np.linalg.norm(axis)
-    live = model.mass > 0
-    s, u = model.x[live] @ a, model.v[live] @ a
-    if particles is not None and particles.n:
-        s = np.concatenate([s, particles.x[:particles.n] @ a])
-        u = np.concatenate([u, particles.v[:particles.n] @ a])
-    if s.size == 0:
+    n_p = particles.n if particles is not None else 0
+    px = particles.x if n_p else _NO_POINTS
+    pv = particles.v if n_p else _NO_POINTS
+    s, u = _leading_edge(model.x, model.v, model.mass, px, pv, n_p, a, CLOUD_FRACTION)
+    return float(s), float(u)
+
+
+_NO_POINTS = np.zeros((0, 3))
+
+
+@numba.njit(cache=True)
+def _leading_edge(x, v, mass, px, pv, n_p, a, fraction):
+    """`leading_edge` over the nodes with mass, then the first n_p particles (rows of px, pv):
+    the first of the largest positions among the cloud's points; (-inf, 0) for no point."""
+    n = x.shape[0]
+    umax = -np.inf
+    count = 0
+    for i in range(n + n_p):
+        if i < n and not mass[i] > 0.0:
+            continue
+        w = v[i] if i < n else pv[i - n]
+        umax = max(umax, w[0] * a[0] + w[1] * a[1] + w[2] * a[2])
+        count += 1
+    if count == 0:
         return -np.inf, 0.0
-    cloud = u >= CLOUD_FRACTION * max(float(u.max()), 0.0)
-    if not np.any(cloud & (u > 0.0)):  # nothing moves forward: the foremost material
-        cloud = np.ones(s.shape, bool)
-    i = int(np.flatnonzero(cloud)[np.argmax(s[cloud])])
-    return float(s[i]), float(u[i])
+    lim = fraction * max(umax, 0.0)
+    for everything in (False, True):  # the cloud; if nothing of it moves forward, every point
+        best_s, best_u, found, forward = -np.inf, 0.0, False, False
+        for i in range(n + n_p):
+            if i < n and not mass[i] > 0.0:
+                continue
+            w = v[i] if i < n else pv[i - n]
+            u = w[0] * a[0] + w[1] * a[1] + w[2] * a[2]
+            if not (everything or u >= lim):
+                continue
+            forward |= u > 0.0
+            p = x[i] if i < n else px[i - n]
+            s = p[0] * a[0] + p[1] * a[1] + p[2] * a[2]
+            if not found or s > best_s:
+                best_s, best_u, found = s, u, True
+        if everything or (found and forward):
+            return best_s, best_u
+    return -np.inf, 0.0
 
 
 def cloud_summary(model, axis, particles=None, bins: int = 12) -> dict:

@@ -66,3 +66,45 @@ def test_the_cloud_is_what_moves_forward():
     s = cloud_summary(m, [0, 0, 1])
     assert s["leading_edge"] == 1.0 and s["leading_edge_speed"] == 100.0
     assert s["spread_angle_deg"] == pytest.approx(0.0)
+
+
+def _leading_edge_numpy(model, axis, particles=None):
+    """The definition in numpy: the foremost point (first on ties) of the cloud, or of every
+    point when nothing of the cloud moves forward."""
+    from impactsim.fracture.fragments import CLOUD_FRACTION
+
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    live = model.mass > 0
+    s, u = model.x[live] @ a, model.v[live] @ a
+    if particles is not None and particles.n:
+        s = np.concatenate([s, particles.x[:particles.n] @ a])
+        u = np.concatenate([u, particles.v[:particles.n] @ a])
+    if s.size == 0:
+        return -np.inf, 0.0
+    cloud = u >= CLOUD_FRACTION * max(float(u.max()), 0.0)
+    if not np.any(cloud & (u > 0.0)):
+        cloud = np.ones(s.shape, bool)
+    i = int(np.flatnonzero(cloud)[np.argmax(s[cloud])])
+    return float(s[i]), float(u[i])
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_leading_edge_is_the_foremost_point_of_the_cloud(seed):
+    """The kernel against the definition: random nodes (some without mass: not material) and
+    particles (rows past n unused), a cloud along the axis or all of it moving backwards (then
+    the foremost point of all), ties on the position (the first point wins)."""
+    from impactsim.fracture.fragments import leading_edge
+
+    rng = np.random.default_rng(seed)
+    n, k = 500, 40
+    x = np.round(rng.uniform(-1.0, 1.0, (n, 3)), 1)  # many ties
+    v = rng.normal(0.0, 100.0, (n, 3)) - (400.0 if seed % 3 == 2 else 0.0)
+    mass = rng.uniform(0.0, 1.0, n) * (rng.random(n) > 0.2)
+    model = SimpleNamespace(x=x, v=v, mass=mass)
+    pa = SimpleNamespace(n=k if seed % 2 else 0, x=np.round(rng.uniform(-1, 1.2, (k + 7, 3)), 1),
+                         v=rng.normal(0.0, 300.0, (k + 7, 3)))
+    axis = [0.0, 0.0, 1.0] if seed < 3 else rng.normal(size=3)
+    got, want = leading_edge(model, axis, pa), _leading_edge_numpy(model, axis, pa)
+    assert got == pytest.approx(want, rel=1e-14, abs=1e-14)
+    model.mass[:] = 0.0
+    assert leading_edge(model, axis, SimpleNamespace(n=0)) == (-np.inf, 0.0)
