@@ -154,11 +154,12 @@ distortion_interval = "20 ns"
 # element.PARALLEL_FORCE_NODES, element.PARALLEL_ELEMENTS, broadphase.QUERY_MIN_CHUNKS, the
 # chunk count from which the broad-phase query runs on the threads, and
 # particle_faces.THREADED_FACES, the free faces from which the particle pass finds those near
-# the particles on them; buckets.KERNEL_MIN_ROWS, the element faces or edges from which the
-# face adjacency and the edges are found by a kernel instead of numpy's sort), so that their
-# parallel (and large-mesh) versions are compiled too (the tet kernel's with elastic and with plastic tets:
-# element.plastic_kernel); they run on every thread (run.threads), as a large scene does: the
-# threaded query is only taken with more than one
+# the particles on them), so that their parallel versions are compiled too (the tet kernel's
+# with elastic and with plastic tets: element.plastic_kernel); they run on every thread
+# (run.threads), as a large scene does: the threaded query is only taken with more than one.
+# Every scene runs with buckets.KERNEL_MIN_ROWS at 0 (the element faces or edges from which the
+# face adjacency and the edges are found by a kernel instead of numpy's sort), so that the
+# first scenes of the first stage compile those kernels
 PARALLEL_SCENES = {"fracture-threads", "elastic-wall-threads"}
 
 
@@ -167,16 +168,13 @@ def _thresholds(values=None):
     (returns the previous ones)."""
     from impactsim.contact import broadphase
     from impactsim.fracture import particle_faces
-    from impactsim.mesh import buckets
     from impactsim.solver import element, nodal
 
     old = (nodal.PARALLEL_NODES, element.PARALLEL_FORCE_NODES, element.PARALLEL_ELEMENTS,
-           broadphase.QUERY_MIN_CHUNKS, particle_faces.THREADED_FACES,
-           buckets.KERNEL_MIN_ROWS)
+           broadphase.QUERY_MIN_CHUNKS, particle_faces.THREADED_FACES)
     if values is not None:
         (nodal.PARALLEL_NODES, element.PARALLEL_FORCE_NODES, element.PARALLEL_ELEMENTS,
-         broadphase.QUERY_MIN_CHUNKS, particle_faces.THREADED_FACES,
-         buckets.KERNEL_MIN_ROWS) = values
+         broadphase.QUERY_MIN_CHUNKS, particle_faces.THREADED_FACES) = values
     return old
 
 
@@ -218,6 +216,7 @@ def warm_up(verbose: bool = True, names=None) -> dict[str, dict]:
     import numba
 
     from impactsim.case import load_case_text
+    from impactsim.mesh import buckets
     from impactsim.solver.run import run_case
 
     counts = {}
@@ -229,7 +228,8 @@ def warm_up(verbose: bool = True, names=None) -> dict[str, dict]:
         if name in PARALLEL_SCENES:  # on every thread, small as they are (run.thread_count)
             sets.append(f"run.threads={numba.config.NUMBA_NUM_THREADS}")
         case = load_case_text(text, overrides=sets)
-        old = _thresholds((0, 0, 0, 0, 0, 0) if name in PARALLEL_SCENES else None)
+        old = _thresholds((0, 0, 0, 0, 0) if name in PARALLEL_SCENES else None)
+        old_rows, buckets.KERNEL_MIN_ROWS = buckets.KERNEL_MIN_ROWS, 0
         try:
             with (CompileCounter() as compiled,
                   tempfile.TemporaryDirectory(prefix="impactsim-warmup-") as out,
@@ -237,6 +237,7 @@ def warm_up(verbose: bool = True, names=None) -> dict[str, dict]:
                 summary = run_case(case, Path(out), progress=False)
         finally:
             _thresholds(old)
+            buckets.KERNEL_MIN_ROWS = old_rows
         counts[name] = {"compiled": compiled.kernels, "summary": summary}
         if verbose:
             extra = ""
