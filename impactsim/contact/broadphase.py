@@ -373,6 +373,12 @@ def body_bounds(x, v, tau, nodes, node_body, pad, blo, bhi):
     return True
 
 
+@numba.njit(cache=True, inline="always")
+def _grown(x0, y0, z0, x1, y1, z1, px, py, pz):
+    """The box (x0, y0, z0) - (x1, y1, z1) grown to hold the point (px, py, pz)."""
+    return min(x0, px), min(y0, py), min(z0, pz), max(x1, px), max(y1, py), max(z1, pz)
+
+
 @numba.njit(cache=True)
 def select_boxes(x, v, tau, ent, pad, body, blo, bhi, keep_all, skip, sel, lo, hi):
     """Broad-phase pre-selection (ALGORITHMS.md 3.2, "Cost").
@@ -397,22 +403,10 @@ def select_boxes(x, v, tau, ent, pad, body, blo, bhi, keep_all, skip, sel, lo, h
             px = x[k, 0]
             py = x[k, 1]
             pz = x[k, 2]
-            x0 = min(x0, px)
-            y0 = min(y0, py)
-            z0 = min(z0, pz)
-            x1 = max(x1, px)
-            y1 = max(y1, py)
-            z1 = max(z1, pz)
+            x0, y0, z0, x1, y1, z1 = _grown(x0, y0, z0, x1, y1, z1, px, py, pz)
             if swept:
-                qx = px + tau * v[k, 0]
-                qy = py + tau * v[k, 1]
-                qz = pz + tau * v[k, 2]
-                x0 = min(x0, qx)
-                y0 = min(y0, qy)
-                z0 = min(z0, qz)
-                x1 = max(x1, qx)
-                y1 = max(y1, qy)
-                z1 = max(z1, qz)
+                x0, y0, z0, x1, y1, z1 = _grown(x0, y0, z0, x1, y1, z1, px + tau * v[k, 0],
+                                                py + tau * v[k, 1], pz + tau * v[k, 2])
         x0 -= pad
         y0 -= pad
         z0 -= pad
