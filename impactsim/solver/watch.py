@@ -7,7 +7,7 @@ all are finite and nan otherwise). Stress and pressure need no pass of their own
 update computed every live element's nodal forces from them in this step, and a nan or inf in
 either makes those forces non-finite (nan * 0 and inf * 0 are nan), which the force test
 catches. Leaving the six stress components and the pressure out (56 of the 73 bytes the pass
-read per element) halved the watch: 0.9 ms a step on oblique-sphere, 2.7 s of its run
+read per element) took the watch from 2.7-3.0 s of oblique-sphere's run to 1.1-1.2 s
 (docs/performance.md, "Whole scenes, session 19"). Its cost is measured by
 benchmarks/bench_watch.py (docs/user-guide.md, Stops). When the sum is not finite, a second
 pass (``locate``) names the first node or element holding a non-finite value, its body and the
