@@ -18,7 +18,6 @@ In `make bench` (BENCH=particle_query) with the defaults: about a minute and a h
 from __future__ import annotations
 
 import argparse
-import tempfile
 import time
 from pathlib import Path
 
@@ -27,17 +26,16 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 
 
-class _Captured(Exception):
-    pass
-
-
 def capture(case_path: Path, steps: set[int]) -> list[dict]:
     """At each of ``steps``: the particle hash's build arguments, its query arguments and the
     pairs it found (copies), from a run stopped after the last."""
-    from impactsim.case import load_case
+    import sys
+
     from impactsim.contact.broadphase import SpatialHash
     from impactsim.fracture import passes as FP
-    from impactsim.solver.run import run_case
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from scene_capture import Captured, run_patched
 
     build, query, run = SpatialHash.build, SpatialHash.query, FP.ParticlePass.run
     got: list[dict] = []
@@ -66,16 +64,11 @@ def capture(case_path: Path, steps: set[int]) -> list[dict]:
             got.append({"step": step, "build": seen["build"],
                         "query": [copy(a) for a in args], "pairs": pairs.copy()})
             if step >= max(steps):
-                raise _Captured
+                raise Captured
         return pairs
 
-    SpatialHash.build, SpatialHash.query, FP.ParticlePass.run = build_kept, query_kept, run_kept
-    try:
-        run_case(load_case(case_path), Path(tempfile.mkdtemp()), progress=False)
-    except _Captured:
-        pass
-    finally:
-        SpatialHash.build, SpatialHash.query, FP.ParticlePass.run = build, query, run
+    run_patched(case_path, [(SpatialHash, "build", build_kept), (SpatialHash, "query", query_kept),
+                            (FP.ParticlePass, "run", run_kept)])
     return got
 
 

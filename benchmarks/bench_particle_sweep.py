@@ -17,7 +17,6 @@ In `make bench` (BENCH=particle_sweep) with the defaults: about a minute and a h
 from __future__ import annotations
 
 import argparse
-import tempfile
 import time
 from pathlib import Path
 
@@ -26,15 +25,14 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 
 
-class _Captured(Exception):
-    pass
-
-
 def capture(case_path: Path, steps: set[int]) -> list[tuple[int, list]]:
     """The sweep's arguments at each of ``steps`` (copies), from a run stopped after the last."""
-    from impactsim.case import load_case
+    import sys
+
     from impactsim.fracture import passes as FP
-    from impactsim.solver.run import run_case
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from scene_capture import Captured, run_patched
 
     sweep, run = FP.particle_face_sweep_packed, FP.ParticlePass.run
     got: list[tuple[int, list]] = []
@@ -50,16 +48,11 @@ def capture(case_path: Path, steps: set[int]) -> list[tuple[int, list]]:
             got.append((step, [a.copy() if isinstance(a, np.ndarray) else a for a in args]))
         out = sweep(*args)
         if step >= max(steps):
-            raise _Captured
+            raise Captured
         return out
 
-    FP.particle_face_sweep_packed, FP.ParticlePass.run = sweep_kept, run_kept
-    try:
-        run_case(load_case(case_path), Path(tempfile.mkdtemp()), progress=False)
-    except _Captured:
-        pass
-    finally:
-        FP.particle_face_sweep_packed, FP.ParticlePass.run = sweep, run
+    run_patched(case_path, [(FP, "particle_face_sweep_packed", sweep_kept),
+                            (FP.ParticlePass, "run", run_kept)])
     return got
 
 

@@ -16,10 +16,10 @@ HERE = Path(__file__).parent
 
 
 def main() -> int:
+    sys.path.insert(0, str(HERE.parent))
     from impactsim.kernel_cache import refresh
 
     refresh()  # kernels cached from older sources go first, as the CLI does
-    sys.path.insert(0, str(HERE.parent))
     names = sorted(p.stem[len("bench_"):] for p in HERE.glob("bench_*.py"))
     wanted = os.environ.get("BENCH")
     if wanted:
