@@ -17,24 +17,21 @@ In `make bench` (BENCH=particle_query) with the defaults: about a minute and a h
 
 from __future__ import annotations
 
-import argparse
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # scene_capture, compare
 
 
 def capture(case_path: Path, steps: set[int]) -> list[dict]:
     """At each of ``steps``: the particle hash's build arguments, its query arguments and the
     pairs it found (copies), from a run stopped after the last."""
-    import sys
-
     from impactsim.contact.broadphase import SpatialHash
     from impactsim.fracture import passes as FP
 
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
     from scene_capture import Captured, run_patched
 
     build, query, run = SpatialHash.build, SpatialHash.query, FP.ParticlePass.run
@@ -73,17 +70,10 @@ def capture(case_path: Path, steps: set[int]) -> list[dict]:
 
 
 def main(argv=None) -> list[dict]:
-    from impactsim.kernel_cache import refresh
-
-    refresh()  # kernels cached from older sources go first, as the CLI does
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--case", default=str(ROOT / "cases" / "oblique-sphere.toml"))
-    ap.add_argument("--steps", default="800,1500,2200")
-    ap.add_argument("--reps", type=int, default=7)
-    ap.add_argument("--rev", default="", help="time this revision's hash too")
-    args = ap.parse_args(argv)
     import importlib
-    import sys
+    from scene_capture import arguments
+
+    args = arguments(__doc__, "time this revision's hash too", argv)
 
     import numba
 
@@ -91,7 +81,6 @@ def main(argv=None) -> list[dict]:
 
     sides = {"tree": SpatialHash}
     if args.rev:
-        sys.path.insert(0, str(Path(__file__).resolve().parent))
         from compare import export
 
         sys.path.insert(0, export(args.rev))

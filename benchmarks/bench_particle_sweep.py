@@ -16,22 +16,19 @@ In `make bench` (BENCH=particle_sweep) with the defaults: about a minute and a h
 
 from __future__ import annotations
 
-import argparse
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # scene_capture, compare
 
 
 def capture(case_path: Path, steps: set[int]) -> list[tuple[int, list]]:
     """The sweep's arguments at each of ``steps`` (copies), from a run stopped after the last."""
-    import sys
-
     from impactsim.fracture import passes as FP
 
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
     from scene_capture import Captured, run_patched
 
     sweep, run = FP.particle_face_sweep_packed, FP.ParticlePass.run
@@ -57,17 +54,10 @@ def capture(case_path: Path, steps: set[int]) -> list[tuple[int, list]]:
 
 
 def main(argv=None) -> list[dict]:
-    from impactsim.kernel_cache import refresh
-
-    refresh()  # kernels cached from older sources go first, as the CLI does
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--case", default=str(ROOT / "cases" / "oblique-sphere.toml"))
-    ap.add_argument("--steps", default="800,1500,2200")
-    ap.add_argument("--reps", type=int, default=7)
-    ap.add_argument("--rev", default="", help="time this revision's sweep too")
-    args = ap.parse_args(argv)
     import importlib
-    import sys
+    from scene_capture import arguments
+
+    args = arguments(__doc__, "time this revision's sweep too", argv)
 
     import numba
 
@@ -76,7 +66,6 @@ def main(argv=None) -> list[dict]:
     sides = {"every pair tested": lambda *a: sweep(*a, False),
              "screened": lambda *a: sweep(*a, True)}
     if args.rev:
-        sys.path.insert(0, str(Path(__file__).resolve().parent))
         from compare import export
 
         sys.path.insert(0, export(args.rev))

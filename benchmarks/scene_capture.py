@@ -31,3 +31,20 @@ def run_patched(case_path: Path, patches) -> None:
     finally:
         for obj, name, old in saved:
             setattr(obj, name, old)
+
+
+def arguments(doc: str, rev_help: str, argv=None):
+    """The particle benchmarks' options (--case, --steps, --reps, --rev), parsed; first the
+    kernel cache refreshed, as the CLI does (kernels cached from older sources go first)."""
+    import argparse
+
+    from impactsim.kernel_cache import refresh
+
+    refresh()
+    root = Path(__file__).resolve().parents[1]
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--case", default=str(root / "cases" / "oblique-sphere.toml"))
+    ap.add_argument("--steps", default="800,1500,2200")
+    ap.add_argument("--reps", type=int, default=7)
+    ap.add_argument("--rev", default="", help=rev_help)
+    return ap.parse_args(argv)
