@@ -621,7 +621,10 @@ class SpatialHash:
 
     def query(self, qlo, qhi, qent, qbody, eent, ebody, same_set: bool, self_contact: bool):
         """Candidate pairs (k, 2) int64 of (query row, hashed row), sorted; see ``query_pairs``.
-        The result is a view of this hash's pair buffer: valid until its next query."""
+        The result is a view of this hash's pair buffer: valid until its next query. The hashed
+        rows' bodies ``ebody`` go into the box rows at the first query after a build and again
+        only for another array object: an array changed in place between two queries of one
+        build is not seen (the callers pass fresh arrays or ones they never change)."""
         nq = qlo.shape[0]
         n_chunk = -(-nq // QUERY_CHUNK)
         chunked = n_chunk >= QUERY_MIN_CHUNKS and numba.get_num_threads() > 1
