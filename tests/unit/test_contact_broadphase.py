@@ -253,3 +253,33 @@ def test_occupancy_keeps_every_row_of_a_pair(cell, bodies):
     # a generation left behind reads as empty
     occ.next()
     assert occ.keep(np.arange(200), elo.copy(), ehi.copy(), ebody)[0].shape[0] == 0
+
+
+@pytest.mark.parametrize("tau,keep_all", [(0.0, False), (1e-3, False), (-2e-3, False),
+                                          (1e-3, True)])
+def test_select_boxes_against_numpy(tau, keep_all):
+    """The pre-selection's rows and padded boxes against numpy: the box of every row's nodes and
+    (tau != 0) their ends x + tau v, padded, kept when it meets the box of another body (all
+    with keep_all), skipped rows left out, in increasing order."""
+    from impactsim.contact.broadphase import select_boxes
+
+    rng = np.random.default_rng(7)
+    x = rng.uniform(0.0, 1.0, (200, 3))
+    v = rng.normal(0.0, 50.0, (200, 3))
+    ent = rng.integers(0, 200, (300, 4)).astype(np.int32)
+    body = rng.integers(0, 3, 300).astype(np.int32)
+    blo = np.array([[0.0, 0.0, 0.0], [0.2, 0.3, 0.1], [0.7, 0.7, 0.7]])
+    bhi = np.array([[0.3, 0.3, 0.3], [0.4, 0.6, 0.5], [1.0, 1.0, 1.0]])
+    skip = (rng.random(300) < 0.1).astype(np.uint8)
+    pad = 0.01
+    pts = np.concatenate([x[ent], (x + tau * v)[ent]], axis=1)
+    lo, hi = pts.min(axis=1) - pad, pts.max(axis=1) + pad
+    meets = np.zeros(300, bool)
+    for b in range(3):
+        meets |= ((body != b) & np.all(lo <= bhi[b], axis=1) & np.all(blo[b] <= hi, axis=1))
+    want = np.flatnonzero((meets | keep_all) & (skip == 0))
+    sel, glo, ghi = np.empty(300, np.int64), np.empty((300, 3)), np.empty((300, 3))
+    k = select_boxes(x, v, tau, ent, pad, body, blo, bhi, keep_all, skip, sel, glo, ghi)
+    assert 0 < k < 300 or keep_all
+    assert np.array_equal(sel[:k], want)
+    assert np.array_equal(glo[:k], lo[want]) and np.array_equal(ghi[:k], hi[want])
