@@ -36,7 +36,7 @@ QUERY_MIN_CHUNKS = 8  # fewer chunks run in one thread: a parallel launch does n
 #                       there, least of all when another thread (the frame writer) holds a core
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def swept_boxes(x, v, tau, ent, pad, lo, hi):
     """Boxes of entity rows ``ent (k, w)`` swept over [x, x + tau v], padded (ALGORITHMS.md 3.2,
     "bounding boxes of the swept edges"). Writes lo, hi (k, 3) [m]."""
@@ -85,7 +85,7 @@ def _bucket(key, tbits):
     return np.int64((np.uint64(key) * _GOLDEN) >> np.uint64(64 - tbits))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def build_hash(lo, hi, origin, inv_h, tbits, tmp_keys, tmp_ents, bucket_start, keys, ents,
                boxes):
     """Insert every box into each grid cell it covers (ALGORITHMS.md 3.2, spatial hash).
@@ -281,7 +281,7 @@ def _query_rows(i0, i1, qlo, qhi, qent, qbody, eent, same_set, self_contact, ori
     return n
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def query_pairs(qlo, qhi, qent, qbody, eent, same_set, self_contact, origin, inv_h, tbits,
                 bucket_start, keys, ents, boxes, out):
     """Candidate pairs (ALGORITHMS.md 3.2, "Cost": the broad phase before the cubic).
@@ -345,7 +345,7 @@ def query_pairs_chunked(chunk, counts, qlo, qhi, qent, qbody, eent, same_set, se
     return n
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def body_bounds(x, v, tau, nodes, node_body, pad, blo, bhi):
     """Broad-phase pre-selection (ALGORITHMS.md 3.2, "Cost").
 
@@ -379,7 +379,7 @@ def _grown(x0, y0, z0, x1, y1, z1, px, py, pz):
     return min(x0, px), min(y0, py), min(z0, pz), max(x1, px), max(y1, py), max(z1, pz)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def select_boxes(x, v, tau, ent, pad, body, blo, bhi, keep_all, skip, sel, lo, hi):
     """Broad-phase pre-selection (ALGORITHMS.md 3.2, "Cost").
 
@@ -565,7 +565,7 @@ class Occupancy:
         return sel[:k], lo[:k], hi[:k]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def mean_length(x, edges):
     """Mean length [m] of the segments ``edges (g, 2)`` (0 for none): the hash cell size and
     the touching band of ALGORITHMS.md 3 scale with it."""
@@ -578,9 +578,15 @@ def mean_length(x, edges):
 
 
 class SpatialHash:
-    """Host side of the hash grid: owns the growable buffers (entries and pairs)."""
+    """Host side of the hash grid: owns the growable buffers (entries and pairs).
 
-    def __init__(self, entry_capacity: int = 1024, pair_capacity: int = 1024):
+    ``chunked``: large queries run on the threads (``query_pairs_chunked``); False keeps every
+    query in the calling thread (a hash used outside the run's thread: the penetration
+    measure, contact/diagnostics.py)."""
+
+    def __init__(self, entry_capacity: int = 1024, pair_capacity: int = 1024,
+                 chunked: bool = True):
+        self.chunked = bool(chunked)
         self._alloc_entries(entry_capacity)
         self.pairs_buf = np.zeros((max(pair_capacity, 16), 2), dtype=np.int64)
         self.grows = 0  # how often a buffer had to grow (reported in the pass summary)
@@ -627,7 +633,8 @@ class SpatialHash:
         build is not seen (the callers pass fresh arrays or ones they never change)."""
         nq = qlo.shape[0]
         n_chunk = -(-nq // QUERY_CHUNK)
-        chunked = n_chunk >= QUERY_MIN_CHUNKS and numba.get_num_threads() > 1
+        chunked = (self.chunked and n_chunk >= QUERY_MIN_CHUNKS
+                   and numba.get_num_threads() > 1)
         if chunked and self.chunk_counts.shape[0] < n_chunk:
             self.chunk_counts = np.zeros(n_chunk, dtype=np.int64)
         if ebody is not self._bodies_of:  # beside their boxes (query_pairs), once a build

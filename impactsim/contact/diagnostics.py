@@ -20,6 +20,8 @@ search afresh: ``PenetrationMeter``). Self-penetration of one body is not measur
 from __future__ import annotations
 
 import math
+from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import wait as futures_wait
 
 import numba
 import numpy as np
@@ -128,7 +130,7 @@ def nearest_face_distance(px, py, pz, body, faces, face_body, x, origin, inv_h, 
     return best
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def nodes_in_tets(cand, near, nodes, conn, status, eroded, x, inside):
     """Penetration measure, nodes (ALGORITHMS.md 3: no body crosses another).
 
@@ -199,7 +201,7 @@ def _resolved(d, kmax, h, strict):
     return (not strict) or d <= kmax * h
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def inside_node_depths(inside, elem_body, nodes, x, hfaces, hbody, origin, inv_h, h, tbits,
                        bucket_start, keys, ents, kmax, strict):
     """Penetration measure, nodes (ALGORITHMS.md 3). Depth [m] of the deepest node of the
@@ -248,7 +250,7 @@ def _crossing(p, q, a, b, c, x):
     return t, (1 if sp > 0.0 else -1)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def crossing_pairs(cand, edges, faces, x, cuts):
     """Penetration measure, edges cutting through faces (ALGORITHMS.md 3.2).
 
@@ -334,7 +336,7 @@ def _segment_depth(p, q, t0, t1, fa, fb, deepest, floor, search, strict, body, f
     return best, needed
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def edge_cut_depths(pairs, edges, faces, face_body, x, floor, search, strict, hfaces, hbody,
                     origin, inv_h, h, tbits, bucket_start, keys, ents, kmax, ts, signs, fs):
     """Edges of A cutting through the surface of another body B (ALGORITHMS.md 3.2: "without
@@ -418,7 +420,7 @@ def edge_cut_depths(pairs, edges, faces, face_body, x, floor, search, strict, hf
     return deepest, count, needed
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def near_other_body(x, nodes, node_body, blo, bhi, near):
     """near[j] = 1 for the nodes ``nodes[j]`` that lie in the box (blo, bhi) of a body other
     than their own ``node_body[j]`` (the broad phase's selection of points, ALGORITHMS.md 3.2
@@ -436,7 +438,7 @@ def near_other_body(x, nodes, node_body, blo, bhi, near):
     return n
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def moved_beyond(x, ref, limit):
     """True when a node has moved more than ``limit`` [m] along an axis from ``ref`` (the
     positions the kept candidates of the penetration measure were found at)."""
@@ -447,7 +449,7 @@ def moved_beyond(x, ref, limit):
     return False
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def came_back(status, ref, eroded):
     """True when an element eroded in ``ref`` is not in ``status`` (the kept candidates of the
     penetration measure leave eroded tets out)."""
@@ -457,7 +459,7 @@ def came_back(status, ref, eroded):
     return False
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def lift_rows(pairs, first, second):
     """Pairs of rows of two selections -> pairs of what they select, in place (the order is
     kept: the selections are increasing)."""
@@ -513,14 +515,24 @@ class PenetrationMeter:
     (``full_searches`` counts those measures).
 
     Buffers are kept from call to call and grow when they must (no allocation per call once
-    they have grown)."""
+    they have grown).
+
+    In the meter's own thread (``measure_later``): the run hands over copies of the positions
+    and statuses and a view of the surface (``Surface.view``) and goes on while the measure is
+    taken; the calls run one after the other in the order they were made, so the results are
+    those of ``measure`` called in the run's thread at the same moments. Its kernels release
+    the GIL, and its hashes query in the calling thread (``SpatialHash(chunked=False)``)."""
 
     def __init__(self, skin: float = SKIN):
         self.skin_rel = float(skin)
-        self.node_hash = SpatialHash()  # boundary nodes near another body (queried by tets)
-        self.cut_hash = SpatialHash()  # boundary faces near another body (queried by edges)
-        self.near_hash = SpatialHash()  # boundary faces near another body, for the depths
-        self.depth_hash = SpatialHash()  # every boundary face, for searches not closed near
+        # boundary nodes near another body (queried by tets)
+        self.node_hash = SpatialHash(chunked=False)
+        # boundary faces near another body (queried by edges)
+        self.cut_hash = SpatialHash(chunked=False)
+        # boundary faces near another body, for the depths
+        self.near_hash = SpatialHash(chunked=False)
+        # every boundary face, for searches not closed near
+        self.depth_hash = SpatialHash(chunked=False)
         self.builds = 0
         self.full_searches = 0
         self._ts = np.empty(256)
@@ -533,6 +545,45 @@ class PenetrationMeter:
         self._node_tet = _NO_PAIRS
         self._edge_face = _NO_PAIRS
         self._near = None
+        self._pool = None  # the meter's thread (measure_later), started on first use
+        self._last = None  # the Future of the last measure handed to it
+        self._mesh_key = None  # what the copies of conn and elem_body were taken of
+        self._mesh = None
+
+    def measure_later(self, x, conn, elem_body, status, surface, topology, then=None) -> Future:
+        """``measure`` in the meter's own thread (class docstring) on copies of x and status
+        and a view of ``surface`` taken now: a Future of ``then(result)`` (called in the
+        meter's thread), or of the result without ``then``. conn and elem_body are copied again
+        only when their shape, the arrays or ``topology`` (a count of the changes made to conn
+        in place, node separation) change."""
+        key = (topology, id(conn), conn.shape, id(elem_body), elem_body.shape)
+        if key != self._mesh_key:
+            self._mesh = (conn.copy(), elem_body.copy())
+            self._mesh_key = key
+        conn_c, body_c = self._mesh
+        args = (x.copy(), conn_c, body_c, None if status is None else status.copy(),
+                surface.view())
+        if self._pool is None:
+            self._pool = ThreadPoolExecutor(1, thread_name_prefix="impactsim-penetration")
+
+        def task():
+            out = self.measure(*args)
+            return out if then is None else then(out)
+
+        self._last = self._pool.submit(task)
+        return self._last
+
+    def wait(self) -> None:
+        """Wait for the measures handed to the meter's thread so far (their errors stay with
+        their Futures)."""
+        if self._last is not None:
+            futures_wait([self._last])
+
+    def close(self) -> None:
+        """Wait for the measures still being taken and stop the meter's thread."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=True)
+            self._pool = None
 
     def measure(self, x, conn, elem_body, status, surface) -> dict:
         """{"max_penetration" [m], "node_depth" [m], "edge_depth" [m], "nodes_inside",
@@ -601,8 +652,9 @@ class PenetrationMeter:
         """Keep the candidate lists and the hash of the faces near another body, or find them
         again (class docstring); blo, bhi: the bodies' boxes now."""
         key = (conn.shape, s.version, x.shape, status.shape, status.dtype)
+        source = getattr(s, "source", s)  # a view's surface (``Surface.view``)
         same = (key == self._key and self._of[0] is conn and self._of[1] is elem_body
-                and self._of[2] is s)
+                and self._of[2] is source)
         ref_x = self._buffer("ref.x", x.shape)
         ref_status = self._buffer("ref.status", status.shape, status.dtype)
         if same:
@@ -666,7 +718,7 @@ class PenetrationMeter:
         ref_status[:] = status
         self._skin = skin
         self._key = key
-        self._of = (conn, elem_body, s)  # (held: compared by identity)
+        self._of = (conn, elem_body, source)  # (held: compared by identity)
 
     def _full_hash(self, x, s, origin, h):
         """The hash of every boundary face as the face-hash arguments of the depth kernels."""

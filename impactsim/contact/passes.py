@@ -115,6 +115,9 @@ class ContactContext:
         self.restore = float(restore)
         self.skip_unchanged = True  # repeated sweeps visit only pairs whose nodes changed
         self.meter = PenetrationMeter()
+        # the history's penetration measure in the meter's thread (the run sets it: its
+        # history writer takes the Future, output/history.py); off, it is taken at once
+        self.measure_later = False
         self.passes: list[ContactPass] = []
         self.last = {}  # pass name -> statistics of its last run
         self._h_key = None
@@ -689,13 +692,23 @@ class ContactPass(Pass):
         x, conn, elem_body, status = model.x, model.conn, model.elem_body, model.status
         if ctx.proxy is not None:  # hexes: against a tet cover (contact/hexes.py)
             x, conn, elem_body, status = ctx.proxy.update(model)
-        pen = ctx.meter.measure(x, conn, elem_body, status, ctx.surface)["max_penetration"]
-        self.max_penetration_seen = max(self.max_penetration_seen, pen)
+        if ctx.measure_later:  # a Future: the measure is taken in the meter's thread
+            pen = ctx.meter.measure_later(x, conn, elem_body, status, ctx.surface,
+                                          ctx.topology, self._seen)
+        else:
+            pen = self._seen(ctx.meter.measure(x, conn, elem_body, status, ctx.surface))
         return {"max_penetration": pen,
                 "contact_pairs": float(sum(s["pairs"] for s in ctx.last.values())),
                 "contact_impulse": float(sum(s["impulse"] for s in ctx.last.values()))}
 
+    def _seen(self, measured: dict) -> float:
+        """A measure's max_penetration, kept in ``max_penetration_seen``."""
+        pen = measured["max_penetration"]
+        self.max_penetration_seen = max(self.max_penetration_seen, pen)
+        return pen
+
     def summary(self, model) -> dict:
+        self.ctx.meter.wait()  # (max_penetration_seen of the measures still being taken)
         t = self.totals
         out = {"candidate_pairs": int(t["candidates"]), "corrected_pairs": int(t["pairs"]),
                "impulse": float(t["impulse"]), "sweeps": int(t["sweeps"]),

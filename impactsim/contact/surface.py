@@ -596,6 +596,33 @@ class Surface:
         """Mean length [m] of the boundary edges at positions x (0 when there are none)."""
         return float(mean_length(x, self.edges))
 
+    def view(self) -> SurfaceView:
+        """The compact arrays as they are now, for a reader in another thread."""
+        return SurfaceView(self)
+
+
+class SurfaceView:
+    """A surface's compact arrays at one moment (``Surface.view``), with the sizes and the
+    measure a reader takes of them: what the penetration measure reads in its own thread
+    (contact/diagnostics.py) while the run goes on. A surface replaces its compact arrays when
+    it changes (``_set_compact``) and never writes into them, so a view stays as it was taken.
+    ``source`` is the surface, ``version`` its version then."""
+
+    __slots__ = ("source", "version", "faces", "face_body", "edges", "edge_body", "nodes",
+                 "node_body")
+
+    def __init__(self, surface: Surface):
+        self.source = surface
+        self.version = surface.version
+        self.faces, self.face_body = surface.faces, surface.face_body
+        self.edges, self.edge_body = surface.edges, surface.edge_body
+        self.nodes, self.node_body = surface.nodes, surface.node_body
+
+    n_faces = Surface.n_faces
+    n_edges = Surface.n_edges
+    n_nodes = Surface.n_nodes
+    mean_edge_length = Surface.mean_edge_length
+
 
 
 @numba.njit(cache=True)

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import os
 import time as _time
+from collections import deque
+from concurrent.futures import Future
 from pathlib import Path
 
 import numpy as np
@@ -41,6 +43,7 @@ class HistoryWriter:
         self._flush_rows = max(1, int(flush_rows))
         self._flush_seconds = float(flush_seconds)
         self._pending: list[str] = []
+        self._waiting: deque[dict] = deque()  # rows with values not known yet (row)
         self._header = header if header is not None else (lambda name: name)
         self._n_rows = 0
         self._last_flush = _time.monotonic()
@@ -62,20 +65,40 @@ class HistoryWriter:
         self._write((",".join(self._header(c) for c in self.columns) + "\n").encode())
 
     def row(self, values: dict[str, float]) -> None:
-        """Append one line; columns absent from `values` (or None) are left empty."""
+        """Append one line; columns absent from `values` (or None) are left empty.
+
+        A value may be a `concurrent.futures.Future` of one (a measure taken in another
+        thread): the line then waits for it, and so do the lines after it, so that the lines
+        keep their order. `flush` writes the lines before the first one still waiting;
+        `position` and `close` wait for them all, and raise the error of a failed one."""
         unknown = values.keys() - self._index.keys()
         if unknown:
             raise KeyError(f"{self.path}: unknown columns {sorted(unknown)}; columns are {self.columns}")
-        fields = [""] * len(self.columns)
-        for name, value in values.items():
-            fields[self._index[name]] = _format(value)
-        self._pending.append(",".join(fields) + "\n")
+        self._waiting.append(values)
         self._n_rows += 1
+        self._take(wait=False)
         if len(self._pending) >= self._flush_rows or _time.monotonic() - self._last_flush >= self._flush_seconds:
             self.flush()
 
+    def _take(self, wait: bool) -> None:
+        """The waiting rows as text lines, in order, up to the first whose values are not all
+        known yet (all of them with `wait`)."""
+        while self._waiting:
+            values = self._waiting[0]
+            later = [v for v in values.values() if isinstance(v, Future)]
+            if later and not wait and not all(f.done() for f in later):
+                return
+            self._waiting.popleft()  # (a failed value's row goes, and its error is raised)
+            fields = [""] * len(self.columns)
+            for name, value in values.items():
+                fields[self._index[name]] = _format(
+                    value.result() if isinstance(value, Future) else value)
+            self._pending.append(",".join(fields) + "\n")
+
     def position(self) -> int:
-        """Flush, then the file's length in bytes: where a resumed run goes on writing."""
+        """Flush (every row, waiting for their values), then the file's length in bytes: where
+        a resumed run goes on writing."""
+        self._take(wait=True)
         self.flush()
         return os.fstat(self._file.fileno()).st_size
 
@@ -91,6 +114,7 @@ class HistoryWriter:
         self._flush_rows = max(1, int(kw.get("flush_rows", 100)))
         self._flush_seconds = float(kw.get("flush_seconds", 1.0))
         self._pending = []
+        self._waiting = deque()
         self._header = header if header is not None else (lambda name: name)
         self._n_rows = 1  # the columns are fixed
         self._last_flush = _time.monotonic()
@@ -101,7 +125,9 @@ class HistoryWriter:
         return self
 
     def flush(self) -> None:
-        """Hand the pending whole lines to the operating system in one write."""
+        """Hand the pending whole lines to the operating system in one write (the rows whose
+        values are all known: `row`)."""
+        self._take(wait=False)
         if self._pending:
             self._write("".join(self._pending).encode())
             self._pending.clear()
@@ -112,8 +138,11 @@ class HistoryWriter:
         if self._file.closed:
             return
         try:
-            self.flush()
-            os.fsync(self._file.fileno())
+            try:
+                self._take(wait=True)
+            finally:  # the lines before a failed row stand
+                self.flush()
+                os.fsync(self._file.fileno())
         finally:
             self._file.close()
 

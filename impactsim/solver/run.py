@@ -292,6 +292,9 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
         for key, pos in saved["pass_series"].items():
             pass_series[key] = pass_writer(key)
             pass_series[key].resume(pos)
+    # the history's penetration measure is taken in its meter's own thread while the run goes
+    # on (contact/diagnostics.py); the history writer keeps the rows in order as it comes
+    meters = _measures_later(passes)
     times = frame_times(case)
     next_frame = 0 if saved is None else saved["next_frame"]
     end = case.run.end_time
@@ -419,6 +422,9 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
             except OSError as err:
                 output_error = output_error or (f"{_label(case)}output.directory: cannot write "
                                                 f"history.csv in {out}: {err.strerror or err}")
+            finally:
+                for meter in meters:
+                    meter.close()
             bar.close()
             t1 = wallclock.perf_counter()
             for writer in (series, *pass_series.values()):
@@ -527,6 +533,18 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
 
 
 _NO_SPEED = {"ns_per_element_step": 0.0, "seconds_per_step": 0.0, "source": "none"}
+
+
+def _measures_later(passes) -> list:
+    """Have the contact passes take the history's penetration measure in the meter's thread
+    (``ContactContext.measure_later``); returns their meters."""
+    from impactsim.contact.passes import ContactContext
+
+    contexts = {id(p.ctx): p.ctx for p in passes
+                if isinstance(getattr(p, "ctx", None), ContactContext)}
+    for ctx in contexts.values():
+        ctx.measure_later = True
+    return [ctx.meter for ctx in contexts.values()]
 
 
 def _initial_checks(case: Case, meshes: list, checks) -> None:

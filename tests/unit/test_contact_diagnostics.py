@@ -182,3 +182,48 @@ def test_nearest_face_distance_is_the_minimum_over_every_face():
                                     fh.tbits, fh.bucket_start, fh.keys, fh.ents, 40)
         want = min(point_triangle_distance(*p, *x[f[0]], *x[f[1]], *x[f[2]]) for f in s.faces)
         assert got == want
+
+
+def test_the_measure_in_the_meters_thread_is_the_measure_at_the_call():
+    # measure_later copies the positions and statuses and views the surface at the call: the
+    # caller then spoils the nodes, erodes every element and changes the surface before the
+    # meter's thread may start (a gate), and the results are still those of a meter called at
+    # each moment (its candidates kept as in the run, the same number of builds)
+    import threading
+
+    conn, eb, s, frames = approach(30, 0.002, 0.54)
+    top = np.flatnonzero((eb == 0) & (np.arange(len(eb)) % 7 == 0))
+    status = np.zeros(len(eb), np.int8)
+    x = frames[0].copy()
+    later, now = PenetrationMeter(), PenetrationMeter()
+    gates = []
+    taken = later.measure
+
+    def gated(*args):  # the meter's thread waits until the caller has moved on
+        assert gates.pop(0).wait(30)
+        return taken(*args)
+
+    later.measure = gated
+    seen, futures, expected = [], [], []
+    for k, frame in enumerate(frames):
+        if k % 3 == 0:
+            status[top[k // 3::8]] = 3
+        x[:] = frame
+        s.sync(status)
+        gate = threading.Event()
+        gates.append(gate)
+        futures.append(later.measure_later(x, conn, eb, status, s, 0) if k % 2 else
+                       later.measure_later(x, conn, eb, status, s, 0,
+                                           lambda m: seen.append(m) or m["max_penetration"]))
+        expected.append(now.measure(x, conn, eb, status, s))
+        kept = status.copy()
+        x[:] = np.nan
+        status[:] = 3
+        s.sync(status)
+        gate.set()
+        status[:] = kept
+    got = [f.result() for f in futures]
+    later.close()
+    assert got[1::2] == expected[1::2] and seen == expected[::2]
+    assert got[::2] == [e["max_penetration"] for e in expected[::2]]
+    assert any(e["nodes_inside"] for e in expected) and later.builds == now.builds

@@ -122,3 +122,49 @@ def test_read_history_leaves_out_a_torn_last_line(tmp_path):
     assert list(df["step"]) == [0, 1] and units == {"time": "s", "step": ""}
     path.write_text("time [s],step\n0.0,0\n")
     assert list(read_history(path)[0]["step"]) == [0]
+
+
+def test_rows_with_values_to_come_keep_their_order(tmp_path):
+    # a value may be a Future (the penetration measure taken in its meter's thread): the row
+    # and those after it wait for it; flush writes what is known, position and close wait
+    from concurrent.futures import Future
+
+    path = tmp_path / "history.csv"
+    writer = HistoryWriter(path, ["time", "p"], flush_rows=1)
+    later = [Future() for _ in range(3)]
+    writer.row({"time": 0.0, "p": 1.5})
+    writer.row({"time": 1.0, "p": later[0]})
+    writer.row({"time": 2.0, "p": 2.5})
+    writer.row({"time": 3.0, "p": later[1]})
+    assert path.read_text().splitlines()[1:] == ["0.0,1.5"]
+    later[1].set_result(4.0)  # the later one first: still held behind the first
+    writer.flush()
+    assert path.read_text().splitlines()[1:] == ["0.0,1.5"]
+    later[0].set_result(np.float64(3.0))
+    writer.row({"time": 4.0, "p": 5.0})
+    assert path.read_text().splitlines()[1:] == ["0.0,1.5", "1.0,3.0", "2.0,2.5", "3.0,4.0",
+                                                 "4.0,5.0"]
+    writer.row({"time": 5.0, "p": later[2]})
+    import threading
+    threading.Timer(0.05, later[2].set_result, (6.0,)).start()
+    size = writer.position()  # waits for the value
+    assert path.read_text().splitlines()[-1] == "5.0,6.0"
+    assert size == path.stat().st_size
+    writer.close()
+
+
+def test_a_failed_value_drops_its_row_and_is_raised_at_close(tmp_path):
+    # the rows before it and after it stand
+    from concurrent.futures import Future
+
+    path = tmp_path / "history.csv"
+    writer = HistoryWriter(path, ["time", "p"])
+    bad = Future()
+    writer.row({"time": 0.0, "p": 1.0})
+    writer.row({"time": 1.0, "p": bad})
+    writer.row({"time": 2.0, "p": 2.0})
+    bad.set_exception(FloatingPointError("non-finite position in the penetration measure"))
+    with pytest.raises(FloatingPointError):
+        writer.close()
+    assert writer.closed
+    assert path.read_text().splitlines()[1:] == ["0.0,1.0", "2.0,2.0"]
