@@ -426,87 +426,96 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
                 for meter in meters:
                     meter.close()
             bar.close()
-            t1 = wallclock.perf_counter()
-            for writer in (series, *pass_series.values()):
-                try:
-                    writer.close()  # the frames still being written
-                except OSError as err:
-                    output_error = output_error or (
-                        f"{_label(case)}output.directory: cannot write a frame in {out}: "
-                        f"{err.strerror or err}")
-            t_out += wallclock.perf_counter() - t1
 
-    energies = sim.energies()
-    if model.blocks:
-        from impactsim.solver.blocks import hourglass_warning
+    def close_writers():
+        """Wait for the frames still being written (output/series.py)."""
+        nonlocal output_error, t_out
+        t1 = wallclock.perf_counter()
+        for writer in (series, *pass_series.values()):
+            try:
+                writer.close()
+            except OSError as err:
+                output_error = output_error or (
+                    f"{_label(case)}output.directory: cannot write a frame in {out}: "
+                    f"{err.strerror or err}")
+        t_out += wallclock.perf_counter() - t1
 
-        if hourglass_warning(energies):
-            bar.log("warning: " + hourglass_warning(energies))
-    wall = wallclock.perf_counter() - start
-    timings.update({k: v for k, v in sim.timings.items()})
+    # the summary is made while the writers' threads finish the last frames
+    try:
+        energies = sim.energies()
+        if model.blocks:
+            from impactsim.solver.blocks import hourglass_warning
+
+            if hourglass_warning(energies):
+                bar.log("warning: " + hourglass_warning(energies))
+        timings.update({k: v for k, v in sim.timings.items()})
+        timings["watch"] = watch.seconds
+        summary = {
+            "case": case.run.name,
+            "source": str(case.source) if case.source else None,
+            "nodes": model.n_node, "elements": n_elem, "bodies": body_summary(model),
+            "steps": model.step, "time": model.time, "end_time": end,
+            "wall_seconds": None, "seconds_to_first_step": first_step_seconds,
+            "seconds_per_pass": timings,
+            "ns_per_element_step": (1e9 * sim.timings["element"] / (n_elem * model.step)
+                                    if model.step and n_elem else None),
+            "passes": [p.name for p in passes],
+            "element": element,
+            "energy": energies,
+            "energy_balance_error": ((energies["total_energy"] - e0) / max(abs(e0), 1e-300)
+                                     if e0 else 0.0),
+            "stopped": stopped,
+            "threads": numba.get_num_threads(),
+            "versions": {"impactsim": _version(), "numpy": np.__version__,
+                         "numba": numba.__version__, "python": platform.python_version()},
+        }
+        summary.update(watch.report())
+        if stopped is not None:
+            summary["stop"] = {"reason": stopped, "kind": stop_kind,
+                               "signal": stops.signal if stop_kind == "signal" else None}
+        summary["estimate"] = {"elements": estimate.elements, "steps": estimate.steps,
+                               "wall_seconds": estimate.wall_seconds,
+                               "memory_bytes": estimate.memory_bytes, "threads": estimate.threads,
+                               "seconds": estimate.seconds, "crush_factor": estimate.crush_factor}
+        if revised is not None:
+            summary["re_estimate"] = revised
+        for p in passes:  # one level deep: a pass may add keys to an existing table ("bodies")
+            for key, val in p.summary(model).items():
+                if isinstance(val, dict) and isinstance(summary.get(key), dict):
+                    for k2, v2 in val.items():
+                        if isinstance(v2, dict) and isinstance(summary[key].get(k2), dict):
+                            summary[key][k2].update(v2)
+                        else:
+                            summary[key][k2] = v2
+                else:
+                    summary[key] = val
+        unconverged, in_contact = unconverged_contact(summary)
+        share = unconverged / in_contact if in_contact else 0.0
+        if (unconverged and share > chk.unconverged_contact_share
+                and chk.unconverged_contact != "ignore"):
+            try:
+                checks.trigger("unconverged_contact", chk.unconverged_contact,
+                               f"{unconverged} step(s) whose projected contact rounds did not "
+                               f"converge, {100 * share:.3g} % of the {in_contact} step(s) in "
+                               f"contact (limit {100 * chk.unconverged_contact_share:g} %)",
+                               count=unconverged)
+            except CheckFailed as err:
+                if summary["stopped"] is None:
+                    summary["stopped"] = str(err)
+                    summary["stop"] = {"reason": str(err), "kind": "check", "signal": None}
+        for name, vals in wall_measures(model).items():
+            summary["bodies"].setdefault(name, {}).update(vals)
+        summary["units"] = SUMMARY_UNITS
+        summary["checks"] = checks.summary()
+        for line in checks.closing_lines():
+            bar.log(line)
+        info(f"energy balance: {100 * summary['energy_balance_error']:+.3g} % at the end, "
+                f"largest {100 * watch.worst:+.3g} % at t = {watch.worst_time:.6g} s")
+    finally:
+        close_writers()
     timings["output"] = t_out
-    timings["watch"] = watch.seconds
-    summary = {
-        "case": case.run.name,
-        "source": str(case.source) if case.source else None,
-        "nodes": model.n_node, "elements": n_elem, "bodies": body_summary(model),
-        "steps": model.step, "time": model.time, "end_time": end,
-        "wall_seconds": wall, "seconds_to_first_step": first_step_seconds,
-        "seconds_per_pass": timings,
-        "ns_per_element_step": (1e9 * sim.timings["element"] / (n_elem * model.step)
-                                if model.step and n_elem else None),
-        "passes": [p.name for p in passes],
-        "element": element,
-        "energy": energies,
-        "energy_balance_error": ((energies["total_energy"] - e0) / max(abs(e0), 1e-300)
-                                 if e0 else 0.0),
-        "stopped": stopped,
-        "threads": numba.get_num_threads(),
-        "versions": {"impactsim": _version(), "numpy": np.__version__,
-                     "numba": numba.__version__, "python": platform.python_version()},
-    }
-    summary.update(watch.report())
-    if stopped is not None:
-        summary["stop"] = {"reason": stopped, "kind": stop_kind,
-                           "signal": stops.signal if stop_kind == "signal" else None}
-    summary["estimate"] = {"elements": estimate.elements, "steps": estimate.steps,
-                           "wall_seconds": estimate.wall_seconds,
-                           "memory_bytes": estimate.memory_bytes, "threads": estimate.threads,
-                           "seconds": estimate.seconds, "crush_factor": estimate.crush_factor}
-    if revised is not None:
-        summary["re_estimate"] = revised
-    for p in passes:  # one level deep: a pass may add keys to an existing table ("bodies")
-        for key, val in p.summary(model).items():
-            if isinstance(val, dict) and isinstance(summary.get(key), dict):
-                for k2, v2 in val.items():
-                    if isinstance(v2, dict) and isinstance(summary[key].get(k2), dict):
-                        summary[key][k2].update(v2)
-                    else:
-                        summary[key][k2] = v2
-            else:
-                summary[key] = val
-    unconverged, in_contact = unconverged_contact(summary)
-    share = unconverged / in_contact if in_contact else 0.0
-    if (unconverged and share > chk.unconverged_contact_share
-            and chk.unconverged_contact != "ignore"):
-        try:
-            checks.trigger("unconverged_contact", chk.unconverged_contact,
-                           f"{unconverged} step(s) whose projected contact rounds did not "
-                           f"converge, {100 * share:.3g} % of the {in_contact} step(s) in "
-                           f"contact (limit {100 * chk.unconverged_contact_share:g} %)",
-                           count=unconverged)
-        except CheckFailed as err:
-            if summary["stopped"] is None:
-                summary["stopped"] = str(err)
-                summary["stop"] = {"reason": str(err), "kind": "check", "signal": None}
-    for name, vals in wall_measures(model).items():
-        summary["bodies"].setdefault(name, {}).update(vals)
-    summary["units"] = SUMMARY_UNITS
-    summary["checks"] = checks.summary()
-    for line in checks.closing_lines():
-        bar.log(line)
-    info(f"energy balance: {100 * summary['energy_balance_error']:+.3g} % at the end, "
-            f"largest {100 * watch.worst:+.3g} % at t = {watch.worst_time:.6g} s")
+    wall = wallclock.perf_counter() - start
+    summary["wall_seconds"] = wall
     with stops.finishing():
         try:
             write_summary(out / "summary.json", summary)
