@@ -26,6 +26,7 @@ from concurrent.futures import wait as futures_wait
 import numba
 import numpy as np
 
+from impactsim.background import idle_thread
 from impactsim.contact.broadphase import (_AXIS_CELLS, SpatialHash, _bucket, _cell, _key,
                                           body_bounds, grid_from_bounds, select_boxes,
                                           swept_boxes)
@@ -564,7 +565,8 @@ class PenetrationMeter:
         args = (x.copy(), conn_c, body_c, None if status is None else status.copy(),
                 surface.view())
         if self._pool is None:
-            self._pool = ThreadPoolExecutor(1, thread_name_prefix="impactsim-penetration")
+            self._pool = ThreadPoolExecutor(1, thread_name_prefix="impactsim-penetration",
+                                            initializer=idle_thread)
 
         def task():
             out = self.measure(*args)
