@@ -20,13 +20,14 @@ search afresh: ``PenetrationMeter``). Self-penetration of one body is not measur
 from __future__ import annotations
 
 import math
+from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor
 from concurrent.futures import wait as futures_wait
 
 import numba
 import numpy as np
 
-from impactsim.background import idle_thread
+from impactsim.background import background_thread
 from impactsim.contact.broadphase import (_AXIS_CELLS, SpatialHash, _bucket, _cell, _key,
                                           body_bounds, grid_from_bounds, select_boxes,
                                           swept_boxes)
@@ -477,6 +478,7 @@ SKIN = 0.1  # candidates are found with boxes padded by SKIN x cell size and kep
 #             has moved that far
 PAIR_CELL = 1.5  # cell of the hashes that find the candidates, in cell sizes (cost only: the
 #                  pairs do not depend on it; 1.5 against 1: sphere-plate 8.5 -> 7.5 ms a row)
+MAX_PENDING = 8  # measures handed to the meter's thread and not done before the next waits
 
 
 class PenetrationMeter:
@@ -547,7 +549,7 @@ class PenetrationMeter:
         self._edge_face = _NO_PAIRS
         self._near = None
         self._pool = None  # the meter's thread (measure_later), started on first use
-        self._last = None  # the Future of the last measure handed to it
+        self._pending = deque()  # the Futures of the measures handed to it, not known done
         self._mesh_key = None  # what the copies of conn and elem_body were taken of
         self._mesh = None
 
@@ -566,20 +568,24 @@ class PenetrationMeter:
                 surface.view())
         if self._pool is None:
             self._pool = ThreadPoolExecutor(1, thread_name_prefix="impactsim-penetration",
-                                            initializer=idle_thread)
+                                            initializer=background_thread)
+        while self._pending and self._pending[0].done():
+            self._pending.popleft()
+        if len(self._pending) >= MAX_PENDING:  # (each holds copies of x and status)
+            futures_wait([self._pending.popleft()])
 
         def task():
             out = self.measure(*args)
             return out if then is None else then(out)
 
-        self._last = self._pool.submit(task)
-        return self._last
+        self._pending.append(self._pool.submit(task))
+        return self._pending[-1]
 
     def wait(self) -> None:
         """Wait for the measures handed to the meter's thread so far (their errors stay with
         their Futures)."""
-        if self._last is not None:
-            futures_wait([self._last])
+        if self._pending:
+            futures_wait([self._pending[-1]])  # (they run one after the other)
 
     def close(self) -> None:
         """Wait for the measures still being taken and stop the meter's thread."""

@@ -34,6 +34,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from impactsim.background import background_thread
 from impactsim.output.atomic import replacing, write_text
 from impactsim.output.vtu import write_vtu
 
@@ -67,8 +68,8 @@ class SeriesWriter:
         self.pvd_path = self.directory / pvd_name
         self.frames: list[tuple[float, str]] = []
         self._count = 0  # frames handed to write() and write_later()
-        self._pool = (ThreadPoolExecutor(1, thread_name_prefix=f"impactsim-{prefix}")
-                      if background else None)
+        self._pool = (ThreadPoolExecutor(1, thread_name_prefix=f"impactsim-{prefix}",
+                                         initializer=background_thread) if background else None)
         self._pending: deque[Future] = deque()
 
     def write(

@@ -227,3 +227,34 @@ def test_the_measure_in_the_meters_thread_is_the_measure_at_the_call():
     assert got[1::2] == expected[1::2] and seen == expected[::2]
     assert got[::2] == [e["max_penetration"] for e in expected[::2]]
     assert any(e["nodes_inside"] for e in expected) and later.builds == now.builds
+
+
+def test_the_meter_holds_at_most_max_pending_measures(monkeypatch):
+    # each measure handed over holds copies of the positions and statuses: beyond MAX_PENDING
+    # not yet done, the caller waits for the oldest
+    import threading
+
+    from impactsim.contact import diagnostics
+
+    monkeypatch.setattr(diagnostics, "MAX_PENDING", 2)
+    conn, eb, s, frames = approach(3)
+    meter = PenetrationMeter()
+    release = threading.Event()
+    taken = meter.measure
+
+    def held(*args):
+        assert release.wait(30)
+        return taken(*args)
+
+    meter.measure = held
+    first = [meter.measure_later(x, conn, eb, None, s, 0) for x in frames[:2]]
+    third = threading.Thread(target=meter.measure_later, args=(frames[2], conn, eb, None, s, 0))
+    third.start()
+    third.join(0.3)
+    assert third.is_alive() and not any(f.done() for f in first)
+    release.set()
+    third.join(30)
+    assert not third.is_alive()
+    meter.close()
+    assert [f.result() for f in first] == [PenetrationMeter().measure(x, conn, eb, None, s)
+                                           for x in frames[:2]]
