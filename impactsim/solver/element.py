@@ -52,6 +52,7 @@ from impactsim.model import DAMAGED, ERODED, FRACTURED
 from impactsim.solver import guard as G
 from impactsim.solver import vecmath as VM
 from impactsim.solver.scatter import take_node
+from impactsim.solver.workqueue import fetch_add
 
 DAMAGED_F, FRACTURED_F = float(DAMAGED), float(FRACTURED)  # as row R_STAT holds them
 
@@ -1284,13 +1285,16 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     altitude), Q = C_l c + C_q^2 L |tr D| in compression, c the EOS sound speed with 4G/3rho.
     """
     parallel = conn.shape[0] >= PARALLEL_ELEMENTS
+    n_parts = -(-(-(-conn.shape[0] // CHUNK)) // part_chunks)
+    claimed = np.zeros(n_parts, np.int64)  # (the parallel kernel's: made by its caller)
     args = (x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature, hard,
             thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp, dt, cq,
             cl, rows, fext, part_chunks, chunk_out, threads, plastic,
-            G.NONE_GIVEN if guard is None else guard)
+            G.NONE_GIVEN if guard is None else guard, claimed)
     kernel = _update_parallel if parallel else _update_serial
     kernel(*args, None)
     if chunk_out[:, OUT_DEFERRED].any():  # blocks left: masked passes, the mesh's last block
+        claimed[:] = 0
         kernel(*args, True)
     (_sum_parallel if parallel else _sum_serial)(force, fext, extra_ptr, extra_rows)
 
@@ -1300,16 +1304,21 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
 def _update_parallel(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                      hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
                      use_anp, dt, cq, cl, rows, fext, part_chunks, chunk_out, threads, plastic,
-                     guard, deferred):
+                     guard, claimed, deferred):
     """element_update's blocks on `threads` threads: parts t, t + threads, t + 2 threads, ... on
-    thread t, each in chunk order; the full blocks (`_chunk`) with `deferred` None, else the
-    blocks they left (`_deferred_chunk`): two specialisations, pruned at compile time."""
+    thread t, each in chunk order, then the parts of the other threads not begun yet, from
+    their last (`_visit`; a part goes to the thread that claims it first, `claimed` (n_parts,)
+    int64 zeros); the full blocks (`_chunk`) with `deferred` None, else the blocks they left
+    (`_deferred_chunk`): two specialisations, pruned at compile time."""
     half = 0.5 * dt
     n_ch = (conn.shape[0] + CHUNK - 1) // CHUNK
     n_parts = (n_ch + part_chunks - 1) // part_chunks
     for t in numba.prange(threads):
         buf = aligned_empty(TET_ROWS * B)  # one block buffer per thread and step
-        for part in range(t, n_parts, threads):
+        for k in range(n_parts):
+            part = _visit(t, k, n_parts, threads)
+            if fetch_add(claimed[part:part + 1], 1) != 0:
+                continue
             c0, c1 = part * part_chunks, min(n_ch, (part + 1) * part_chunks)
             if deferred is None:
                 _chunk(c0, c1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
@@ -1326,11 +1335,27 @@ def _update_parallel(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
                                         guard)
 
 
+@numba.njit(cache=True, inline="always")
+def _visit(t, k, n_parts, threads):
+    """The k-th of the n_parts parts thread t visits: its own (t, t + threads, ...) first to
+    last, then each other thread's (from t + 1 on, cyclically) last to first. A thread keeps
+    its parts from step to step and finds their state in the caches it filled; it takes
+    another's only at the end of the loop, where that one has fallen behind (it lost its core
+    for a while, or its parts hold more of a crush's plastic returns and masked passes)."""
+    for s in range(threads):
+        u = (t + s) % threads
+        n_u = (n_parts - u + threads - 1) // threads if u < n_parts else 0
+        if k < n_u:
+            return u + k * threads if s == 0 else u + (n_u - 1 - k) * threads
+        k -= n_u
+    return -1
+
+
 @numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=FAST)
 def _update_serial(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                    hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
                    use_anp, dt, cq, cl, rows, fext, part_chunks, chunk_out, threads, plastic,
-                   guard, deferred):
+                   guard, claimed, deferred):
     """`_update_parallel` on one thread: the chunks in order (the parts' order), `_chunk` called
     from here directly (numba links a called kernel's code into its caller and optimises it
     again there, so every level of calls costs compile time: one more, 1.5 s)."""

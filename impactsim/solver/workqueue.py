@@ -10,12 +10,14 @@ loop's end. Here each thread takes the next chunk from a counter in memory with 
 The results do not depend on which thread runs which chunk as long as each chunk's output has
 that chunk as its only writer: the same bits on any number of threads, in any interleaving.
 
-The element kernels keep their fixed cyclic parts (part t, t + T, ... on thread t): with parts
+The tet kernel keeps its fixed cyclic parts (part t, t + T, ... on thread t) first: with parts
 taken from the counter, the tet bench (202,752 tets, two threads, quiet) ran 31-33 ns per
 element-step in five runs of eight and 39-42 in three, where the fixed parts gave 32-34 in all
 eight. A thread that keeps its parts from step to step finds their state in the caches it
 filled the step before; parts that change threads do not (docs/performance.md, "Whole scenes,
-session 12 (the lead)").
+session 12 (the lead)"). Only when its own parts are done does a thread take the other
+threads' parts not begun yet, from their last: a flag per part, claimed with ``fetch_add``
+(solver/element.py ``_visit``), so a thread that lost its core for a while is not waited for.
 
     for t in numba.prange(threads):  # counter: np.zeros(1, np.int64), made by the caller
         while True:
