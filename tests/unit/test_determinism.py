@@ -66,3 +66,41 @@ def test_one_and_two_threads_give_the_same_bits(monkeypatch):
     for name in ("x", "v", "force", "sdev", "pressure", "energy", "eps_p", "temperature", "q"):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
     assert sa.dt == sb.dt and a.energy_terms == b.energy_terms
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3, 4])
+def test_each_thread_visits_every_part_once_its_own_first(threads):
+    # the tet kernel's threads claim parts as they visit them (element._visit): each visits
+    # every part once, its own (t, t + T, ...) first in order, then each other thread's from
+    # its last, so that it takes another's only once that one has fallen behind
+    for n_parts in range(10):
+        for t in range(threads):
+            seq = [E._visit.py_func(t, k, n_parts, threads) for k in range(n_parts)]
+            assert sorted(seq) == list(range(n_parts))
+            own = list(range(t, n_parts, threads))
+            assert seq[:len(own)] == own
+            rest = seq[len(own):]
+            for u in range(threads):
+                theirs = [p for p in rest if p % threads == u]
+                assert theirs == sorted(theirs, reverse=True)
+
+
+@pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two numba threads")
+def test_parts_taken_from_other_threads_give_the_same_bits(monkeypatch):
+    # the kernel told of more threads than run: the loop's extra iterations find their own
+    # parts taken by the threads that finished first, which take the other iterations' parts
+    # from their last; the bits are those of one thread
+    a, _ = _run(1)
+    monkeypatch.setattr(E, "PARALLEL_ELEMENTS", 0)
+    update = E.element_update
+
+    def with_more_threads(*args, **kw):
+        args = list(args)
+        args[-3] = 5  # `threads`
+        return update(*args, **kw)
+
+    monkeypatch.setattr(E, "element_update", with_more_threads)
+    b, _ = _run(2)
+    assert a.n_elem > 2 * E.PART  # three parts for five iterations: two own none
+    for name in ("x", "v", "force", "sdev", "pressure", "energy", "eps_p", "temperature", "q"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
