@@ -551,6 +551,7 @@ class PenetrationMeter:
         self._pool = None  # the meter's thread (measure_later), started on first use
         self._pending = deque()  # the Futures of the measures handed to it, not known done
         self._mesh_key = None  # what the copies of conn and elem_body were taken of
+        self._mesh_of = (None, None)
         self._mesh = None
 
     def measure_later(self, x, conn, elem_body, status, surface, topology, then=None) -> Future:
@@ -559,10 +560,12 @@ class PenetrationMeter:
         meter's thread), or of the result without ``then``. conn and elem_body are copied again
         only when their shape, the arrays or ``topology`` (a count of the changes made to conn
         in place, node separation) change."""
-        key = (topology, id(conn), conn.shape, id(elem_body), elem_body.shape)
-        if key != self._mesh_key:
+        key = (topology, conn.shape, elem_body.shape)
+        if key != self._mesh_key or self._mesh_of[0] is not conn \
+                or self._mesh_of[1] is not elem_body:
             self._mesh = (conn.copy(), elem_body.copy())
             self._mesh_key = key
+            self._mesh_of = (conn, elem_body)  # (held: compared by identity)
         conn_c, body_c = self._mesh
         args = (x.copy(), conn_c, body_c, None if status is None else status.copy(),
                 surface.view())

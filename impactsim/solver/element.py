@@ -1285,8 +1285,9 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     altitude), Q = C_l c + C_q^2 L |tr D| in compression, c the EOS sound speed with 4G/3rho.
     """
     parallel = conn.shape[0] >= PARALLEL_ELEMENTS
-    n_parts = -(-(-(-conn.shape[0] // CHUNK)) // part_chunks)
-    claimed = np.zeros(n_parts, np.int64)  # (the parallel kernel's: made by its caller)
+    n_chunks = -(-conn.shape[0] // CHUNK)
+    claimed = np.zeros(-(-n_chunks // part_chunks), np.int64)  # a flag per part (made here:
+    # the parallel kernel's threads share an array its caller made, solver/workqueue.py)
     args = (x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature, hard,
             thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp, dt, cq,
             cl, rows, fext, part_chunks, chunk_out, threads, plastic,
