@@ -526,6 +526,11 @@ class PenetrationMeter:
     those of ``measure`` called in the run's thread at the same moments. Its kernels release
     the GIL, and its hashes query in the calling thread (``SpatialHash(chunked=False)``)."""
 
+    # the meter's thread and what it was handed, and the arrays its kept candidates were found
+    # for (compared by identity): a resumed run starts them afresh (solver/checkpoint.py; its
+    # first measure finds the candidates again, the same pairs)
+    CHECKPOINT_TRANSIENT = ("_pool", "_pending", "_mesh", "_mesh_of", "_mesh_key", "_of")
+
     def __init__(self, skin: float = SKIN):
         self.skin_rel = float(skin)
         # boundary nodes near another body (queried by tets)

@@ -339,10 +339,14 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
         return row
 
     # what a checkpoint needs of the run besides the Simulation (solver/checkpoint.py)
-    sim.run_bookkeeping = lambda: {
-        "next_frame": next_frame, "e0": e0, "history_bytes": history.position(),
-        "series": series.position(),
-        "pass_series": {k: w.position() for k, w in pass_series.items()}}
+    def run_bookkeeping():
+        for meter in meters:  # their measures done first: the state a checkpoint walks is still
+            meter.wait()
+        return {"next_frame": next_frame, "e0": e0, "history_bytes": history.position(),
+                "series": series.position(),
+                "pass_series": {k: w.position() for k, w in pass_series.items()}}
+
+    sim.run_bookkeeping = run_bookkeeping
     try:
         if saved is None:
             e0 = history_row()["total_energy"]
