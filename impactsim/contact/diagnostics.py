@@ -529,7 +529,7 @@ class PenetrationMeter:
     # the meter's thread and what it was handed, and the arrays its kept candidates were found
     # for (compared by identity): a resumed run starts them afresh (solver/checkpoint.py; its
     # first measure finds the candidates again, the same pairs)
-    CHECKPOINT_TRANSIENT = ("_pool", "_pending", "_mesh", "_mesh_of", "_mesh_key", "_of")
+    CHECKPOINT_TRANSIENT = ("_pool", "_pending", "_mesh", "_mesh_of", "_mesh_topology", "_of")
 
     def __init__(self, skin: float = SKIN):
         self.skin_rel = float(skin)
@@ -555,21 +555,20 @@ class PenetrationMeter:
         self._near = None
         self._pool = None  # the meter's thread (measure_later), started on first use
         self._pending = deque()  # the Futures of the measures handed to it, not known done
-        self._mesh_key = None  # what the copies of conn and elem_body were taken of
-        self._mesh_of = (None, None)
+        self._mesh_of = (None, None)  # what the copies of conn and elem_body were taken of
+        self._mesh_topology = None
         self._mesh = None
 
     def measure_later(self, x, conn, elem_body, status, surface, topology, then=None) -> Future:
         """``measure`` in the meter's own thread (class docstring) on copies of x and status
         and a view of ``surface`` taken now: a Future of ``then(result)`` (called in the
         meter's thread), or of the result without ``then``. conn and elem_body are copied again
-        only when their shape, the arrays or ``topology`` (a count of the changes made to conn
-        in place, node separation) change."""
-        key = (topology, conn.shape, elem_body.shape)
-        if key != self._mesh_key or self._mesh_of[0] is not conn \
-                or self._mesh_of[1] is not elem_body:
+        only when the arrays or ``topology`` (a count of the changes made to conn in place, node
+        separation) change."""
+        if (topology != self._mesh_topology or self._mesh_of[0] is not conn
+                or self._mesh_of[1] is not elem_body):
             self._mesh = (conn.copy(), elem_body.copy())
-            self._mesh_key = key
+            self._mesh_topology = topology
             self._mesh_of = (conn, elem_body)  # (held: compared by identity)
         conn_c, body_c = self._mesh
         args = (x.copy(), conn_c, body_c, None if status is None else status.copy(),

@@ -1238,7 +1238,7 @@ PARALLEL_ELEMENTS = 4 * PART
 def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                    hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
                    use_anp, dt, cq, cl, force, rows, fext, extra_ptr, extra_rows, part_chunks,
-                   chunk_out, threads, plastic, guard=None):
+                   chunk_out, threads, plastic, guard=None, claimed=None):
     """Advance every element from step n to n+1 and compute its nodal forces at n+1.
 
     x (n,3) positions x^{n+1}; v (n,3) velocities U^{n+1} (the step's velocity); dt the step.
@@ -1258,6 +1258,9 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     which has that one writer, and each node's rows are then summed in part order into
     `force` (and left zero: fext must be zero on entry). Every node thus gets its elements'
     forces in the same order whatever the number of threads.
+
+    `claimed`: the caller's buffer of the parts' flags (`part_flags`; zeroed here), or None
+    for a new one.
 
     `plastic`: None when every tet is elastic (the radial return is then not even compiled:
     a case of elastic bodies waits that much less for its first step with a cold cache), else
@@ -1285,9 +1288,8 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     altitude), Q = C_l c + C_q^2 L |tr D| in compression, c the EOS sound speed with 4G/3rho.
     """
     parallel = conn.shape[0] >= PARALLEL_ELEMENTS
-    n_chunks = -(-conn.shape[0] // CHUNK)
-    claimed = np.zeros(-(-n_chunks // part_chunks), np.int64)  # a flag per part (made here:
-    # the parallel kernel's threads share an array its caller made, solver/workqueue.py)
+    claimed = part_flags(conn.shape[0], part_chunks, claimed)
+    claimed[:] = 0
     args = (x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature, hard,
             thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp, dt, cq,
             cl, rows, fext, part_chunks, chunk_out, threads, plastic,
@@ -1298,6 +1300,17 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
         claimed[:] = 0
         kernel(*args, True)
     (_sum_parallel if parallel else _sum_serial)(force, fext, extra_ptr, extra_rows)
+
+
+def part_flags(n_elem: int, part_chunks: int, buf=None) -> np.ndarray:
+    """element_update's flags, one per part of `part_chunks` chunks (int64): `buf` when it has
+    that size, else a new array. Made outside the parallel kernel: its threads share an array
+    its caller made (solver/workqueue.py)."""
+    n_chunks = -(-n_elem // CHUNK)
+    n_parts = -(-n_chunks // part_chunks)
+    if buf is not None and buf.shape == (n_parts,) and buf.dtype == np.int64:
+        return buf
+    return np.zeros(n_parts, np.int64)
 
 
 # nogil: the frame writer's thread (output/series.py) runs while the kernel does

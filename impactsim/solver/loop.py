@@ -110,6 +110,7 @@ class Simulation:
             raise ValueError(f"part size {part_size} is not a multiple of {E.CHUNK}")
         self.force_rows = force_rows(self.model.conn, self.model.n_node, part_size)
         self.fext = np.zeros((self.force_rows.n_rows, 3))
+        self.part_claims = None  # the tet kernel's flags per part (element.part_flags)
         hugepages.pack(self.force_rows)  # the kernel's fext is packed in __init__
 
     def next_dt(self, limit: float = math.inf) -> float:
@@ -193,13 +194,15 @@ class Simulation:
             nodal_volume_ratio(self.vol_now, m.vol0, m.status, m.n2e_ptr, m.n2e, self.jnode)
         hexes_only = m.n_elem == 0 and bool(self.block_runners)
         if not hexes_only:  # hexes only: no tet kernel to run (nor to compile); blocks write
+            self.part_claims = E.part_flags(m.conn.shape[0], fr.part_size // E.CHUNK,
+                                            self.part_claims)
             E.element_update(
                 m.x, m.v, m.conn, m.elem_mat, m.status, m.sdev, m.pressure, m.q, m.eps_p,
                 m.eps_rate, m.temperature, self.hardening, self.thermal, m.energy, m.vol,
                 self.vol_eos, m.vol0, m.elem_mass, m.mat_params, self.jnode, self.use_anp, dt,
                 self.cq, self.cl, m.force, fr.rows, self.fext, fr.extra_ptr, fr.extra_rows,
                 fr.part_size // E.CHUNK, self.chunk_out, numba.get_num_threads(), self.plastic,
-                self.guard if dt > 0.0 else None)
+                self.guard if dt > 0.0 else None, self.part_claims)
         # verdicts for a step taken (a zero step refreshes forces only) by the tet kernel
         self.guard_step = m.step if dt > 0.0 and self.guard is not None and not hexes_only else -1
         out = self.chunk_out
