@@ -9,6 +9,8 @@ several parts, must end bit for bit the same on one thread and on two (and with 
 kernel element_update uses for small meshes, as with the parallel one).
 """
 
+import inspect
+
 import numba
 import numpy as np
 import pytest
@@ -95,9 +97,9 @@ def test_parts_taken_from_other_threads_give_the_same_bits(monkeypatch):
     update = E.element_update
 
     def with_more_threads(*args, **kw):
-        args = list(args)
-        args[-3] = 5  # `threads`
-        return update(*args, **kw)
+        bound = inspect.signature(update).bind(*args, **kw)
+        bound.arguments["threads"] = 5
+        return update(*bound.args, **bound.kwargs)
 
     monkeypatch.setattr(E, "element_update", with_more_threads)
     b, _ = _run(2)
