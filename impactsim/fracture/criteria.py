@@ -511,7 +511,10 @@ def _criteria_one(e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0
     return 1 if dam > 0 else 0, 1 if dam == 2 else 0, frac, tested, cleared
 
 
-@numba.njit(cache=True, parallel=True)
+# parfor fusion off: its two loops run over different ranges (blocks, cells) and never fuse,
+# but numba's fusion pass over this large inlined body took 7.6 of its 30 s of compiling (the
+# warm-up's longest kernel; docs/performance.md "First run"); the code and results are the same
+@numba.njit(cache=True, parallel={"fusion": False})
 def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p,
                       eps_p_prev, damage, eps_rate, temperature, mat_params, face_flag, adj,
                       surface_only, dt, action, spall_mode, pnode, jnode, spall_k, integrate,
