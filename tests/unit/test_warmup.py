@@ -28,6 +28,8 @@ def test_warmup_scenes_cover_the_pipeline_and_leave_a_cache_a_later_process_uses
     # candidate lists kept over steps (contact/skin.py): built, then kept and filtered
     for name in ("contact.node-face", "contact.edge-edge"):
         assert 0 < contact[name]["candidate_list_builds"] < contact["steps"], name
+    # the same scene on the threads (the parallel query and tet kernel) finds contact too
+    assert s["contact-threads"]["contact.node-face"]["corrected_pairs"] > 0
     frac = s["fracture"]
     # the kept candidate lists followed the erosion (contact/skin.py, SkinList.follow)
     for name in ("contact.node-face", "contact.edge-edge"):
