@@ -75,9 +75,9 @@ def scenes() -> list[tuple[str, str, int]]:
     contact = ("[run]\nname = 'c'\nend_time = 1e-6\n" + lower + upper
                + "[contact]\npasses = ['node-face', 'edge-edge']\nfriction = 0.1\n")
     out.append(("contact", contact, 12))
-    # the same on every thread: the parallel versions of the contact query and of the tet
-    # kernel for plastic tets without the guard (PARALLEL_SCENES), which fracture-threads
-    # compiled until they were moved here, where they need no fracture kernel (STAGES)
+    # the same on every thread (PARALLEL_SCENES): the parallel versions of the contact query
+    # and of the tet kernel for plastic tets without the guard; they need no fracture kernel,
+    # so they compile in the first stage, after the contact scene (STAGES)
     out.append(("contact-threads", contact, 6))
     # fracture: a fast block through a thin plate that spalls at once, erodes, and sheds
     # particles that hit faces, the wall and each other; flat enough to be measured as a plate
@@ -255,11 +255,12 @@ def warm_up(verbose: bool = True, names=None) -> dict[str, dict]:
 
 # The scenes for two processes on two cores, in two stages, each of two groups of about equal
 # compile time (cold cache, AMD EPYC Zen 4, session 21; docs/performance.md "First run"). First
-# tets with walls, hexes and node separation, then contact on the threads (the contact
-# kernels are in the cache by then: 78 s) beside contact and fracture (81 s, the longest
-# chain: fracture needs the contact kernels); then the scenes that need the fracture kernels,
-# hex fracture (17 s) beside fracture and an elastic bar on the threads (16 s). A kernel two
-# groups of a stage reach (the tet element kernel, for one) is compiled in both.
+# tets with walls, hexes and node separation, then contact on the threads, whose contact
+# kernels the other group's contact scene has put in the cache by then (88 s), beside contact
+# and fracture (91 s, the longest chain: fracture needs the contact kernels); then the scenes
+# that need the fracture kernels, hex fracture (18 s) beside fracture and an elastic bar on the
+# threads (16 s). A kernel two groups of a stage reach (the tet element kernel, for one) is
+# compiled in both; one reached before the other group cached it is compiled twice, not wrong.
 STAGES = (
     (("elastic-wall", "jc-wall", "jc-wall-anp", "hex", "separation", "separation-contact",
       "separation-hex", "contact-threads"),
