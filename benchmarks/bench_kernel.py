@@ -8,7 +8,7 @@ on fresh copies of it, with Johnson-Cook and with the block made elastic, interl
 the minimum and the median of the process CPU time per element; the minimum is the least
 disturbed by other work on the machine.
 
-    python benchmarks/bench_kernel.py [--warm 20] [--reps 15] [--erode] [--rev REV]
+    python benchmarks/bench_kernel.py [--warm 20] [--reps 15] [--erode] [--rev REV [--guard]]
 
 It also times the Johnson-Cook kernel giving the distortion guard's verdicts (solver/guard.py,
 as in a scene with fracture criteria): "JC + guard".
@@ -16,7 +16,7 @@ as in a scene with fracture criteria): "JC + guard".
 --erode erodes one tet of every block of 32 (status ERODED), the case of sphere-plate's mixed
 blocks. --rev REV times the revision's kernel (its package exported as compare.py does) against
 the working tree's instead, alternating on the same frozen state, with Johnson-Cook, and prints
-how far apart their results are.
+how far apart their results are; with --guard both give the distortion guard's verdicts.
 """
 
 from __future__ import annotations
@@ -49,6 +49,8 @@ def main(argv=None) -> dict:
     ap.add_argument("--reps", type=int, default=15)
     ap.add_argument("--erode", action="store_true", help="one tet of every block eroded")
     ap.add_argument("--rev", default="", help="A/B against this revision's kernel")
+    ap.add_argument("--guard", action="store_true",
+                    help="with --rev: both kernels give the guard's verdicts")
     args = ap.parse_args(argv)
     if args.rev:
         return _ab(args)
@@ -121,6 +123,7 @@ def _ab(args) -> dict:
     frozen = {k: getattr(m, k).copy() for k in names}
     frozen["hard"], frozen["thermal"] = sim.hardening.copy(), sim.thermal.copy()
     times = {k: [] for k in kernels}
+    guards = {k: np.zeros(m.n_elem, dtype=np.int8) for k in kernels}
     results = {}
     for rep in range(args.reps + 1):
         for label, K in kernels.items():
@@ -132,12 +135,14 @@ def _ab(args) -> dict:
               a["eps_p"], a["eps_rate"], a["temperature"], a["hard"], a["thermal"], a["energy"],
               a["vol"], a["vol"], m.vol0, m.elem_mass, m.mat_params, sim.jnode, False, dt,
               sim.cq, sim.cl, m.force, fr.rows, sim.fext, fr.extra_ptr, fr.extra_rows,
-              fr.part_size // K.CHUNK, sim.chunk_out, 1, *((True,) if takes_plastic else ()))
+              fr.part_size // K.CHUNK, sim.chunk_out, 1, *((True,) if takes_plastic else ()),
+              *((guards[label],) if args.guard else ()))
             if rep:
                 times[label].append(1e9 * (time.process_time() - c0) / m.n_elem)
             results[label] = (a, m.force.copy())
     print(f"element kernel, 1 thread, {m.n_elem} tets after {args.warm} steps"
-          f"{', one tet per block eroded' if args.erode else ''}, JC, CPU ns per element:")
+          f"{', one tet per block eroded' if args.erode else ''}, JC"
+          f"{' + guard' if args.guard else ''}, CPU ns per element:")
     (ra, fa), (rb, fb) = results.values()
     for label, t in times.items():
         print(f"  {label:>14}: min {min(t):7.1f}   median {np.median(t):7.1f}")

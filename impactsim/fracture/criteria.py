@@ -64,11 +64,11 @@ import numpy as np
 
 from impactsim.fracture.ductile import damage_increment, ductile, fracture_strain, triaxiality
 from impactsim.fracture.principal import max_principal, max_principal_stretch
-from impactsim.fracture.spall import SPALL_CELL, spall_pressure, spalls
+from impactsim.fracture.spall import SPALL_CELL, SPALL_PATCH, spall_pressure, spalls
 from impactsim.materials import params as P
 from impactsim.model import DAMAGED, ERODED, FRACTURED, INTACT
-from impactsim.solver.guard import (CLEARED, FLAGGED, GUARD_FRACTION, LANES, PASSED, UNKNOWN,
-                                    volume6_lane, volume6_of)
+from impactsim.solver.guard import (CLEARED, FLAGGED, GUARD_FRACTION, LANES, PASSED,
+                                    SPALL_CLEAR, UNKNOWN, VERDICT, volume6_lane, volume6_of)
 
 NONE, PARTICLE, ERODE, GUARD, MELT = 0, 1, 2, 3, 4
 MAX_PLASTIC_STRAIN = 200.0  # [-] a cell strained beyond this leaves the mesh (3b)
@@ -332,7 +332,8 @@ def _gather_block(x, v, conn, vol0, e0, buf, with_x, with_v):
 
 # the guard's verdict on a cell (solver/guard.py: UNKNOWN, CLEARED, PASSED, FLAGGED), as
 # ``fracture_criteria`` keeps it in ``action`` for ``_criteria_one`` (UNKNOWN: the full
-# criteria work it out)
+# criteria work it out); a verdict the tet kernel gave may carry its SPALL_CLEAR mark, which
+# the second loop takes off
 
 
 @numba.njit(cache=True, inline="always")
@@ -421,17 +422,18 @@ def _quiet_table(mat_params, surface_only, mq):
 
 
 @numba.njit(cache=True, inline="always")
-def _quiet(e, mk, status, sdev, p, eps_p, eps_p_prev, damage, temperature, face_flag, mq,
-           guard_ok):
+def _quiet(e, mk, status, sdev, pressure, spall_mode, conn, pnode, eps_p, eps_p_prev, damage,
+           temperature, face_flag, mq, guard_ok, spall_clear):
     """True only for a cell on which the full criteria (``_criteria_one``) change nothing and
     take no action: intact, its plastic strain unchanged since the last call (no damage
-    increment; eps_p_prev already equal), Gershgorin's spall bound (with the pressure p spall
+    increment; eps_p_prev already equal), Gershgorin's spall bound (with the pressure spall
     reads) not above the spall strength, no erosion criterion met where it applies, for the
     ductile criterion damage below 1, and for a material with failure data a guard that does
     not flag it (guard_ok: the block's verdict) and, on the surface, neither molten nor
     strained beyond MAX_PLASTIC_STRAIN nor with all four faces free (a possible one-cell
-    fragment: the full criteria decide). mq: ``_quiet_table``. The tests in the order that
-    rejects a cell soonest."""
+    fragment: the full criteria decide). spall_clear: the tet kernel found the bound clear
+    (solver/guard.py ``spall_marks``), and the stress and pressure are not read. mq:
+    ``_quiet_table``. The tests in the order that rejects a cell soonest."""
     if status[e] != INTACT:
         return False
     ep = eps_p[e]
@@ -440,11 +442,16 @@ def _quiet(e, mk, status, sdev, p, eps_p, eps_p_prev, damage, temperature, face_
     fail = mq[mk, Q_FAIL] != 0.0
     if fail and not guard_ok:
         return False
-    sxx, syy, szz = sdev[e, 0], sdev[e, 1], sdev[e, 2]
-    sxy, syz, szx = sdev[e, 3], sdev[e, 4], sdev[e, 5]
-    if max(sxx + abs(sxy) + abs(szx), syy + abs(sxy) + abs(syz),
-           szz + abs(syz) + abs(szx)) - p > mq[mk, Q_SPALL]:
-        return False
+    if not spall_clear:
+        p = pressure[e]
+        if spall_mode != SPALL_CELL:
+            p = spall_pressure(spall_mode, p, 0.25 * (
+                pnode[conn[e, 0]] + pnode[conn[e, 1]] + pnode[conn[e, 2]] + pnode[conn[e, 3]]))
+        sxx, syy, szz = sdev[e, 0], sdev[e, 1], sdev[e, 2]
+        sxy, syz, szx = sdev[e, 3], sdev[e, 4], sdev[e, 5]
+        if max(sxx + abs(sxy) + abs(szx), syy + abs(sxy) + abs(syz),
+               szz + abs(syz) + abs(szx)) - p > mq[mk, Q_SPALL]:
+            return False
     f0, f1 = face_flag[4 * e], face_flag[4 * e + 1]
     f2, f3 = face_flag[4 * e + 2], face_flag[4 * e + 3]
     surf = f0 or f1 or f2 or f3
@@ -538,7 +545,8 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
     pre-test, and where it leaves a lane or rests the full test on the whole block); then per
     cell: one on which the full criteria would change
     nothing and take no action (``_quiet``: far from the impact, nearly all) costs a few
-    tests, the others run the full criteria with the verdict (``_criteria_one``), whose
+    tests (the spall bound's from the kernel's mark, ``guard.spall_marks``, where it gave one
+    and the spall pressure is the cell's or the lesser one), the others run the full criteria with the verdict (``_criteria_one``), whose
     pointwise steps (``element_state``, ``element_action``) are shared with the hexes' kernel
     (impactsim.fracture.hexes). The same statuses, actions, accumulators and counts as the full
     criteria on every cell (tests/unit/test_fracture_screen.py).
@@ -573,15 +581,19 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
                                 action[e0:e0 + GB])
     for e in range(n_blk * GB, n_elem):
         action[e] = UNKNOWN
+    # the kernel's mark of a clear spall bound holds for the cell's own pressure and for the
+    # larger of it and the patch's ("cell", "lesser"), not for the patch's alone
+    marks = spall_mode != SPALL_PATCH
     for e in numba.prange(n_elem):
         verdict = int(action[e])
         mk = elem_mat[e]
-        p = pressure[e]
-        if spall_mode != SPALL_CELL:
-            p = spall_pressure(spall_mode, p, 0.25 * (
-                pnode[conn[e, 0]] + pnode[conn[e, 1]] + pnode[conn[e, 2]] + pnode[conn[e, 3]]))
-        if verdict >= 0 and _quiet(e, mk, status, sdev, p, eps_p, eps_p_prev, damage,
-                                   temperature, face_flag, mq, verdict != FLAGGED):
+        clear = False
+        if verdict >= 0:
+            clear = marks and (verdict & SPALL_CLEAR) != 0
+            verdict &= VERDICT
+        if verdict >= 0 and _quiet(e, mk, status, sdev, pressure, spall_mode, conn, pnode,
+                                   eps_p, eps_p_prev, damage, temperature, face_flag, mq,
+                                   verdict != FLAGGED, clear):
             action[e] = NONE
             if mq[mk, Q_FAIL] != 0.0:
                 n_guard += 1

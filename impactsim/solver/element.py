@@ -994,7 +994,8 @@ def _masked_blocks(e_first, mask, x, v, conn, elem_mat, status, sdev, pressure, 
     whose tets are all elastic, `plastic_kernel`) the radial return is left out at compile
     time. ``guard`` (n_elem,) int8, or empty: the distortion guard's verdicts on the block's
     cells, each pass's on its lanes (those that invert included), PASSED on the eroded ones
-    (the criteria pass them by); only in the plastic specialisation, as in `_chunk`."""
+    (the criteria pass them by), with the spall marks of the lanes it stores; only in the
+    plastic specialisation, as in `_chunk`."""
     verdicts = guard.shape[0] != 0
     for blk in range(CHUNK // B):
         if (mask >> blk) & 1 == 0:
@@ -1053,6 +1054,8 @@ def _masked_blocks(e_first, mask, x, v, conn, elem_mat, status, sdev, pressure, 
                             mat_params[mk, P.S], mat_params[mk, P.GAMMA0], shear, cq, cl, True)
             pdt, pworst, pq = _store_masked(rows, sdev, pressure, q, eps_rate, energy, vol,
                                             vol_eos, fext, use_anp, e0, buf)
+            if plastic is not None and verdicts:
+                G.spall_marks(buf, R_SN, R_PN, mat_params[mk, P.SPALL], e0, guard, R_LIVE)
             bq += pq
             if pdt < bdt:
                 bdt = pdt
@@ -1096,8 +1099,9 @@ def _chunk(ch0, ch1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
     chunks (a part, or all of them on one thread), not one: numba increfs and decrefs every
     array argument at each call of a function that calls others (about 70 atomic counts).
     ``guard`` (n_elem,) int8, or empty: the distortion guard's verdicts on the cells of each
-    full block (solver/guard.py); `_deferred_chunk` gives them on the blocks it leaves. Only in
-    the plastic specialisation (element_update)."""
+    full block (solver/guard.py), with the spall marks of the stress stored
+    (``guard.spall_marks``); `_deferred_chunk` gives them on the blocks it leaves. Only in the
+    plastic specialisation (element_update)."""
     n_elem = conn.shape[0]
     verdicts = guard.shape[0] != 0
     for ch in range(ch0, ch1):
@@ -1150,6 +1154,8 @@ def _chunk(ch0, ch1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
                                     mat_params[mk, P.GAMMA0], shear, cq, cl, None)
                     bdt, bworst, bq = _store_block(rows, sdev, pressure, q, eps_rate, energy, vol,
                                                    vol_eos, fext, use_anp, e0, buf)
+                    if plastic is not None and verdicts:  # the new stress at hand
+                        G.spall_marks(buf, R_SN, R_PN, mat_params[mk, P.SPALL], e0, guard, -1)
                     binv = 0
                 else:
                     deferred |= 1 << ((e0 - ch * CHUNK) // B)
@@ -1269,8 +1275,9 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     `guard` (n_elem,) int8 or None: where given, the distortion guard's verdicts on the
     cells of every full block, for the fracture criteria that run next on the same x, v and dt
     (solver/guard.py): `_chunk` gives them on its blocks, `_masked_blocks` on the lanes of its
-    passes (PASSED on eroded cells, which the criteria pass by); the mesh's last, partial block
-    is not written. Compiled into the plastic specialisation only
+    passes (PASSED on eroded cells, which the criteria pass by), each with SPALL_CLEAR added
+    where the stored stress is clear of the spall strength (``guard.spall_marks``); the mesh's
+    last, partial block is not written. Compiled into the plastic specialisation only
     (`plastic` True): the elastic kernel, the demo's, would otherwise compile the guard's
     loop too (0.5-1 s of a cold cache) for scenes that never ask for it; with plastic None the
     array is left as it is.

@@ -20,6 +20,14 @@ within that of the guard's threshold (1 % of V0 two steps ahead: a margin, not a
 limit). A cell's verdict is the same on any number of threads (each block's arithmetic is).
 It is compiled into the kernel's plastic specialisation only (element.element_update). This
 module is below both (the solver never imports the fracture passes).
+
+After storing a block the kernel also marks each verdict SPALL_CLEAR where the new stress
+keeps Gershgorin's bound of the largest principal stress below the material's spall strength
+(``spall_marks``): the criteria's quiet test (fracture/criteria.py ``_quiet``) then need not
+read the cell's stress and pressure (56 bytes), nor, for the "lesser" spall pressure, its
+nodes' patch pressures. The mark is set with a margin (SPALL_SLACK) far above the difference
+the fastmath rounding can make, so a cell the criteria would not pass as quiet is never
+marked: the marks change what the criteria read, never what they decide.
 """
 
 from __future__ import annotations
@@ -38,6 +46,15 @@ FLAGGED = 3  # the full test flags it
 
 # no verdicts: element_update's guard=None, fracture_criteria's given when the kernel gave none
 NONE_GIVEN = np.empty(0, dtype=np.int8)
+
+# a bit the tet kernel adds to a verdict (``spall_marks``): the cell's new stress is clear of
+# its material's spall strength, so the criteria need not read it (fracture/criteria.py
+# ``_quiet``); VERDICT keeps the verdict itself
+SPALL_CLEAR = 8
+VERDICT = 7
+# the margin of ``spall_marks`` over the rounding of the criteria' own bound, relative to the
+# sum of the magnitudes it is made of (their rounding is a few 1e-16 of it)
+SPALL_SLACK = 1e-10
 
 LANES = 32  # lanes of a block: the tet kernel's and the criteria' (element.B, criteria.GB)
 
@@ -131,3 +148,30 @@ def _volume6_ahead(ax, ay, az, bx, by, bz, cx, cy, cz, dax, day, daz, dbx, dby, 
     bx, by, bz = bx + h * dbx, by + h * dby, bz + h * dbz
     cx, cy, cz = cx + h * dcx, cy + h * dcy, cz + h * dcz
     return ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
+
+
+@numba.njit(cache=True, inline="always", fastmath=FAST)
+def spall_marks(buf, r_s, r_p, spall, e0, out, live):
+    """Add SPALL_CLEAR to the verdicts ``out`` of the cells e0, e0 + 1, ... of a block buffer
+    whose new deviatoric stress (rows r_s .. r_s + 5: xx, yy, zz, xy, yz, zx) and pressure (row
+    r_p) keep Gershgorin's bound of the largest principal stress, max_i (s_ii + sum_j!=i
+    |s_ij|) - p, below ``spall`` (the material's spall strength) by SPALL_SLACK of the
+    magnitudes: the bound the criteria' quiet test (fracture/criteria.py ``_quiet``) computes
+    from the stored stress, which it may then skip. The pressure is the cell's own: the bound
+    holds for the spall pressures "cell" and "lesser" (the larger of the cell's and its
+    patch's), not for "patch". ``live`` -1: every lane (a full block), else the buffer row that
+    is 1.0 on the lanes of a masked pass (the others are left alone). A lane whose bound is
+    not finite gets no mark. One loop over the lanes in SIMD instructions."""
+    L = LANES
+    for i in range(LANES):
+        sxx, syy, szz = buf[r_s * L + i], buf[(r_s + 1) * L + i], buf[(r_s + 2) * L + i]
+        sxy, syz, szx = buf[(r_s + 3) * L + i], buf[(r_s + 4) * L + i], buf[(r_s + 5) * L + i]
+        p = buf[r_p * L + i]
+        axy, ayz, azx = abs(sxy), abs(syz), abs(szx)
+        bound = max(sxx + axy + azx, max(syy + axy + ayz, szz + ayz + azx)) - p
+        size = abs(sxx) + abs(syy) + abs(szz) + axy + ayz + azx + abs(p)
+        clear = bound + SPALL_SLACK * size < spall
+        if live >= 0:
+            clear &= buf[live * L + i] != 0.0
+        j = np.uint64(e0 + i)
+        out[j] = out[j] | SPALL_CLEAR if clear else out[j]

@@ -12,7 +12,15 @@ crushed near GUARD_FRACTION of V0), on 1 and 2 threads:
   decide otherwise): those may differ only within ROUNDING of the threshold;
 - an eroded cell gets PASSED (the criteria pass it by), the mesh's partial last block nothing;
 - with the threshold cells moved off it, ``fracture_criteria`` with the given verdicts leaves
-  the statuses, actions, damage and counts of the criteria that give their own, bit for bit.
+  the statuses, actions, damage and counts of the criteria that give their own, bit for bit,
+  on the state the kernel's step left (the criteria run right after it).
+
+The kernel also marks each verdict SPALL_CLEAR where the new stress keeps Gershgorin's bound
+of the largest principal stress below the spall strength (``guard.spall_marks``), and the
+criteria then skip that test: a mark is set only where the bound, taken from the stored stress,
+is clear by more than half SPALL_SLACK of the magnitudes, and wherever it is clear by twice that;
+marks set everywhere change the criteria's result (the test can fail), and with the patch's
+pressure, which the marks do not cover, they change nothing.
 """
 
 import math
@@ -23,10 +31,12 @@ import pytest
 
 from impactsim.fracture.criteria import (GUARD, GUARD_FRACTION, _volume6, fracture_criteria,
                                          guard_reach)
-from impactsim.fracture.spall import SPALL_LESSER
+from impactsim.fracture.spall import SPALL_LESSER, SPALL_PATCH
+from impactsim.materials import params as P
 from impactsim.model import ERODED, INTACT
 from impactsim.solver import element as E
-from impactsim.solver.guard import FLAGGED, NONE_GIVEN, PASSED
+from impactsim.solver.guard import (FLAGGED, NONE_GIVEN, PASSED, SPALL_CLEAR, SPALL_SLACK,
+                                    VERDICT)
 from impactsim.solver.scatter import force_rows
 from tests.unit.test_fracture_screen import MUTATED, _same, _state
 
@@ -59,7 +69,8 @@ def _on_threshold(s, rng, share=0.05):
 
 def _kernel_verdicts(s, plastic=True):
     """The tet kernel's step on a copy of state s (x, v, dt as given), asking for verdicts;
-    with plastic False its elastic specialisation."""
+    with plastic False its elastic specialisation. Returns the verdicts and the state the step
+    left (its stress, pressure, plastic strain, temperature and volume)."""
     n = s["conn"].shape[0]
     n_node = s["x"].shape[0]
     mp = s["mat_params"]
@@ -80,18 +91,22 @@ def _kernel_verdicts(s, plastic=True):
         np.zeros((n_node, 3)), fr.rows, np.zeros((fr.n_rows, 3)), fr.extra_ptr, fr.extra_rows,
         fr.part_size // E.CHUNK, chunk_out, numba.get_num_threads(),
         E.plastic_kernel(elem_mat, mp) if plastic else None, guard)
-    return guard
+    after = dict(s, sdev=sdev, pressure=pressure, eps_p=eps_p, temperature=temperature, vol=vol)
+    return guard, after
 
 
-def _criteria(s, given):
+def _criteria(s, given, spall_mode=SPALL_LESSER, pretest=True):
+    """fracture_criteria on a copy of state s with the kernel's verdicts ``given`` (or none:
+    the criteria's own, with the pre-test unless ``pretest`` is False)."""
     s = {k: (a.copy() if isinstance(a, np.ndarray) else a) for k, a in s.items()}
     action = np.full(s["conn"].shape[0], 99, np.int8)
-    reach = guard_reach(s["x"], s["v"], 2.2 * s["dt"]) if given is NONE_GIVEN else math.inf
+    reach = (guard_reach(s["x"], s["v"], 2.2 * s["dt"]) if given is NONE_GIVEN and pretest
+             else math.inf)
     counts = fracture_criteria(
         s["x"], s["v"], s["x0"], s["conn"], s["elem_mat"], s["status"], s["sdev"],
         s["pressure"], s["vol"], s["vol0"], s["eps_p"], s["eps_p_prev"], s["damage"],
         s["eps_rate"], s["temperature"], s["mat_params"], s["face_flag"], s["adj"], True,
-        s["dt"], action, SPALL_LESSER, s["pnode"], s["jnode"], s["spall_k"], True, reach,
+        s["dt"], action, spall_mode, s["pnode"], s["jnode"], s["spall_k"], True, reach,
         given)
     return tuple(int(c) for c in counts), action, {k: s[k] for k in MUTATED}
 
@@ -119,12 +134,13 @@ def test_the_kernels_verdicts_are_the_full_guards(threads):
     before = numba.get_num_threads()
     numba.set_num_threads(threads)
     try:
-        given = _kernel_verdicts(s)
+        given, _ = _kernel_verdicts(s)
     finally:
         numba.set_num_threads(before)
+    given = given & VERDICT  # the verdicts without the spall marks
     n = s["conn"].shape[0]
     n_full = n // E.B * E.B
-    assert np.all(given[n_full:] == 99)  # the mesh's last, partial block: not written
+    assert np.all(given[n_full:] == 99 & VERDICT)  # the mesh's last, partial block: not written
     assert np.all(np.isin(given[:n_full], (PASSED, FLAGGED)))  # every full block's cells
     st = s["status"][:n_full].reshape(-1, E.B)
     mats = s["elem_mat"][:n_full].reshape(-1, E.B)
@@ -163,15 +179,70 @@ def test_the_criteria_with_the_kernels_verdicts_act_as_with_their_own(threads):
     before = numba.get_num_threads()
     numba.set_num_threads(threads)
     try:
-        given = _kernel_verdicts(s)
-        got = _criteria(s, given)
-        ref = _criteria(s, NONE_GIVEN)
+        given, after = _kernel_verdicts(s)
+        got = _criteria(after, given)
+        ref = _criteria(after, NONE_GIVEN)
     finally:
         numba.set_num_threads(before)
-    assert np.count_nonzero(given == FLAGGED) > 20
+    assert np.count_nonzero(given & VERDICT == FLAGGED) > 20
     _same(got, ref)
     counts, action, _ = got
     assert counts[2] > 0 and np.count_nonzero(action == GUARD) > 20
+
+
+def _bound(s):
+    """Gershgorin's bound of the largest principal stress with the cell's own pressure, and the
+    sum of the magnitudes it is made of."""
+    sxx, syy, szz, sxy, syz, szx = s["sdev"].T
+    a, b, c = np.abs(sxy), np.abs(syz), np.abs(szx)
+    p = s["pressure"]
+    bound = np.maximum(sxx + a + c, np.maximum(syy + a + b, szz + b + c)) - p
+    return bound, np.abs(sxx) + np.abs(syy) + np.abs(szz) + a + b + c + np.abs(p)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_the_kernels_spall_marks(threads):
+    if threads > numba.config.NUMBA_NUM_THREADS:
+        pytest.skip(f"NUMBA_NUM_THREADS={numba.config.NUMBA_NUM_THREADS}")
+    rng = np.random.default_rng(8)
+    s = _state(8, n=12 * E.CHUNK + 17)  # slow: many cells stay elastic, so are quiet but
+    _blocks_intact(s, rng)              # for the spall test
+    # a third of the cells opened against V0 (the EOS then gives tension), and spall strengths
+    # of that order, so that the new stress of many cells is on either side of them
+    opened = rng.random(s["vol0"].shape[0]) < 0.3
+    s["vol0"][opened] *= 0.97
+    s["mat_params"] = s["mat_params"].copy()
+    spall = s["mat_params"][:, P.SPALL]
+    spall[np.isfinite(spall)] = 3e8
+    before = numba.get_num_threads()
+    numba.set_num_threads(threads)
+    try:
+        given, after = _kernel_verdicts(s)
+        got = _criteria(after, given)
+        ref = _criteria(after, NONE_GIVEN, pretest=False)  # the full guard: PASSED, FLAGGED
+        everywhere = np.where(given >= 0, given | SPALL_CLEAR, given).astype(np.int8)
+        spoilt = _criteria(after, everywhere)
+        patch = (_criteria(after, everywhere, SPALL_PATCH),
+                 _criteria(after, NONE_GIVEN, SPALL_PATCH, pretest=False))
+    finally:
+        numba.set_num_threads(before)
+    n_full = s["conn"].shape[0] // E.B * E.B
+    bound, size = _bound(after)
+    strength = s["mat_params"][s["elem_mat"], P.SPALL]
+    live = np.flatnonzero(s["status"][:n_full] != ERODED)
+    marked = (given[live] & SPALL_CLEAR) != 0
+    margin = (strength - bound)[live]
+    assert np.all(margin[marked] > 0.5 * SPALL_SLACK * size[live][marked])
+    clear = margin > 2.0 * SPALL_SLACK * size[live]
+    inverted = after["vol"][live] <= 0.0  # stored nowhere: no mark
+    assert np.array_equal(marked[~inverted], clear[~inverted])
+    assert marked.sum() > 1000 and (~clear & np.isfinite(strength[live])).sum() > 200
+    _same(got, ref)
+    counts = got[0]
+    assert counts[0] > 20  # cells spalled
+    with pytest.raises(AssertionError):
+        _same(spoilt, ref)  # marks where the bound is not clear: spall passed over
+    _same(*patch)
 
 
 def test_the_elastic_kernel_gives_no_verdicts():
@@ -180,6 +251,6 @@ def test_the_elastic_kernel_gives_no_verdicts():
     rng = np.random.default_rng(7)
     s = _state(7, n=4 * E.CHUNK)
     _blocks_intact(s, rng)
-    assert np.all(_kernel_verdicts(s, plastic=False) == 99)
-    given = _kernel_verdicts(s)
-    assert np.count_nonzero(given == PASSED) > 0
+    assert np.all(_kernel_verdicts(s, plastic=False)[0] == 99)
+    given, _ = _kernel_verdicts(s)
+    assert np.count_nonzero(given & VERDICT == PASSED) > 0
