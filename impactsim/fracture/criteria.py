@@ -543,10 +543,10 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
     Two passes. Per block of GB elements the guard's verdict on every cell: the kernel's, where
     it gave them for the whole block, else in SIMD instructions here (``_guard_verdicts``: the
     pre-test, and where it leaves a lane or rests the full test on the whole block); then per
-    cell: one on which the full criteria would change
-    nothing and take no action (``_quiet``: far from the impact, nearly all) costs a few
-    tests (the spall bound's from the kernel's mark, ``guard.spall_marks``, where it gave one
-    and the spall pressure is the cell's or the lesser one), the others run the full criteria with the verdict (``_criteria_one``), whose
+    cell: one on which the full criteria would change nothing and take no action (``_quiet``:
+    far from the impact, nearly all) costs a few tests (the spall bound's from the kernel's
+    mark, ``guard.spall_marks``, where it gave one and the spall pressure is the cell's or the
+    lesser one), the others run the full criteria with the verdict (``_criteria_one``), whose
     pointwise steps (``element_state``, ``element_action``) are shared with the hexes' kernel
     (impactsim.fracture.hexes). The same statuses, actions, accumulators and counts as the full
     criteria on every cell (tests/unit/test_fracture_screen.py).
