@@ -68,7 +68,8 @@ from impactsim.fracture.spall import SPALL_CELL, SPALL_PATCH, spall_pressure, sp
 from impactsim.materials import params as P
 from impactsim.model import DAMAGED, ERODED, FRACTURED, INTACT
 from impactsim.solver.guard import (CLEARED, FLAGGED, GUARD_FRACTION, LANES, PASSED,
-                                    SPALL_CLEAR, UNKNOWN, VERDICT, volume6_lane, volume6_of)
+                                    SPALL_CLEAR, UNKNOWN, VERDICT, gershgorin_max, volume6_lane,
+                                    volume6_of)
 
 NONE, PARTICLE, ERODE, GUARD, MELT = 0, 1, 2, 3, 4
 MAX_PLASTIC_STRAIN = 200.0  # [-] a cell strained beyond this leaves the mesh (3b)
@@ -228,9 +229,7 @@ def element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev, damage, eps_
     spall = mat_params[mk, P.SPALL]
     # Gershgorin's bound on the largest principal stress first: most cells are far below
     # the spall strength and skip the closed-form eigenvalue
-    if st == INTACT and max(
-            sxx + abs(sxy) + abs(szx), syy + abs(sxy) + abs(syz),
-            szz + abs(syz) + abs(szx)) - p > spall:
+    if st == INTACT and gershgorin_max(sxx, syy, szz, sxy, syz, szx) - p > spall:
         if spalls(e, mk, max_principal(sxx - p, syy - p, szz - p, sxy, syz, szx), dt, spall_k,
                   mat_params, integrate):
             st = DAMAGED
@@ -449,8 +448,7 @@ def _quiet(e, mk, status, sdev, pressure, spall_mode, conn, pnode, eps_p, eps_p_
                 pnode[conn[e, 0]] + pnode[conn[e, 1]] + pnode[conn[e, 2]] + pnode[conn[e, 3]]))
         sxx, syy, szz = sdev[e, 0], sdev[e, 1], sdev[e, 2]
         sxy, syz, szx = sdev[e, 3], sdev[e, 4], sdev[e, 5]
-        if max(sxx + abs(sxy) + abs(szx), syy + abs(sxy) + abs(syz),
-               szz + abs(syz) + abs(szx)) - p > mq[mk, Q_SPALL]:
+        if gershgorin_max(sxx, syy, szz, sxy, syz, szx) - p > mq[mk, Q_SPALL]:
             return False
     f0, f1 = face_flag[4 * e], face_flag[4 * e + 1]
     f2, f3 = face_flag[4 * e + 2], face_flag[4 * e + 3]

@@ -150,6 +150,14 @@ def _volume6_ahead(ax, ay, az, bx, by, bz, cx, cy, cz, dax, day, daz, dbx, dby, 
     return ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
 
 
+@numba.njit(cache=True, inline="always")
+def gershgorin_max(sxx, syy, szz, sxy, syz, szx):
+    """Gershgorin's bound of the largest eigenvalue of the symmetric tensor (xx, yy, zz, xy, yz,
+    zx): max_i (s_ii + sum_j!=i |s_ij|). The spall tests' (``spall_marks``, and the fracture
+    criteria's quiet test and spall pre-check) with the pressure taken off."""
+    return max(sxx + abs(sxy) + abs(szx), syy + abs(sxy) + abs(syz), szz + abs(syz) + abs(szx))
+
+
 @numba.njit(cache=True, inline="always", fastmath=FAST)
 def spall_marks(buf, r_s, r_p, spall, e0, out, live):
     """Add SPALL_CLEAR to the verdicts ``out`` of the cells e0, e0 + 1, ... of a block buffer
@@ -167,9 +175,8 @@ def spall_marks(buf, r_s, r_p, spall, e0, out, live):
         sxx, syy, szz = buf[r_s * L + i], buf[(r_s + 1) * L + i], buf[(r_s + 2) * L + i]
         sxy, syz, szx = buf[(r_s + 3) * L + i], buf[(r_s + 4) * L + i], buf[(r_s + 5) * L + i]
         p = buf[r_p * L + i]
-        axy, ayz, azx = abs(sxy), abs(syz), abs(szx)
-        bound = max(sxx + axy + azx, max(syy + axy + ayz, szz + ayz + azx)) - p
-        size = abs(sxx) + abs(syy) + abs(szz) + axy + ayz + azx + abs(p)
+        bound = gershgorin_max(sxx, syy, szz, sxy, syz, szx) - p
+        size = abs(sxx) + abs(syy) + abs(szz) + abs(sxy) + abs(syz) + abs(szx) + abs(p)
         clear = bound + SPALL_SLACK * size < spall
         if live >= 0:
             clear &= buf[live * L + i] != 0.0
