@@ -1244,7 +1244,8 @@ PARALLEL_ELEMENTS = 4 * PART
 def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature,
                    hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
                    use_anp, dt, cq, cl, force, rows, fext, extra_ptr, extra_rows, part_chunks,
-                   chunk_out, threads, plastic, guard=None, claimed=None):
+                   chunk_out, threads, plastic, guard=None, claimed=None, skip=None,
+                   sum_rows=True):
     """Advance every element from step n to n+1 and compute its nodal forces at n+1.
 
     x (n,3) positions x^{n+1}; v (n,3) velocities U^{n+1} (the step's velocity); dt the step.
@@ -1266,7 +1267,9 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     forces in the same order whatever the number of threads.
 
     `claimed`: the caller's buffer of the parts' flags (`part_flags`; zeroed here), or None
-    for a new one.
+    for a new one. `skip`: None, or (n_parts,) int64 with 1 for each part to leave as it is
+    (its elements, rows and chunk_out untouched: subcycling, solver/subcycle.py). With
+    `sum_rows` False the rows are left for the caller to sum (`force` is not written).
 
     `plastic`: None when every tet is elastic (the radial return is then not even compiled:
     a case of elastic bodies waits that much less for its first step with a cold cache), else
@@ -1296,7 +1299,7 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     """
     parallel = conn.shape[0] >= PARALLEL_ELEMENTS
     claimed = part_flags(conn.shape[0], part_chunks, claimed)
-    claimed[:] = 0
+    claimed[:] = 0 if skip is None else skip
     args = (x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature, hard,
             thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode, use_anp, dt, cq,
             cl, rows, fext, part_chunks, chunk_out, threads, plastic,
@@ -1304,9 +1307,10 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     kernel = _update_parallel if parallel else _update_serial
     kernel(*args, None)
     if chunk_out[:, OUT_DEFERRED].any():  # blocks left: masked passes, the mesh's last block
-        claimed[:] = 0
+        claimed[:] = 0 if skip is None else skip
         kernel(*args, True)
-    (_sum_parallel if parallel else _sum_serial)(force, fext, extra_ptr, extra_rows)
+    if sum_rows:
+        (_sum_parallel if parallel else _sum_serial)(force, fext, extra_ptr, extra_rows)
 
 
 def part_flags(n_elem: int, part_chunks: int, buf=None) -> np.ndarray:
@@ -1383,13 +1387,16 @@ def _update_serial(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
     buf = aligned_empty(TET_ROWS * B)
     n_ch = (conn.shape[0] + CHUNK - 1) // CHUNK
     if deferred is None:
-        _chunk(0, n_ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_rate,
-               temperature, hard, thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params,
-               jnode, use_anp, 0.5 * dt, dt, cq, cl, rows, fext, chunk_out, buf, plastic,
-               guard)
+        for part in range((n_ch + part_chunks - 1) // part_chunks):
+            if claimed[part] == 0:  # not left out (subcycling: solver/subcycle.py)
+                _chunk(part * part_chunks, min(n_ch, (part + 1) * part_chunks), x, v, conn,
+                       elem_mat, status, sdev, pressure, q, eps_p, eps_rate, temperature, hard,
+                       thermal, energy, vol, vol_eos, vol0, elem_mass, mat_params, jnode,
+                       use_anp, 0.5 * dt, dt, cq, cl, rows, fext, chunk_out, buf, plastic,
+                       guard)
         return
     for ch in range(n_ch):
-        if chunk_out[ch, OUT_DEFERRED] != 0.0:
+        if chunk_out[ch, OUT_DEFERRED] != 0.0 and claimed[ch // part_chunks] == 0:
             _deferred_chunk(ch, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p,
                             eps_rate, temperature, hard, thermal, energy, vol, vol_eos, vol0,
                             elem_mass, mat_params, jnode, use_anp, 0.5 * dt, dt, cq, cl, rows,
