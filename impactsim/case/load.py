@@ -18,7 +18,8 @@ from impactsim.case.errors import CaseError, KeyPath, suggest
 from impactsim.case.material import library_material, library_names, read_material
 from impactsim.case.overrides import apply_overrides
 from impactsim.case.read import Reader, in_range, non_negative, positive
-from impactsim.case.schema import Case, Checks, Contact, Fracture, Material, Output, Run
+from impactsim.case.schema import (MAX_SUBCYCLE, Case, Checks, Contact, Fracture, Material,
+                                   Output, Run)
 from impactsim.case.spec import ROOT
 from impactsim.materials import library
 
@@ -166,7 +167,16 @@ def _run(r: Reader, source: Path | None) -> Run:
         max_steps=int(positive(r.get("max_steps"), r.at("max_steps"))),
         dt_collapse=in_range(r.get("dt_collapse"), r.at("dt_collapse"), 0.0, 1.0),
         threads=int(non_negative(r.get("threads"), r.at("threads"))),
+        subcycle=_subcycle(r),
     )
+
+
+def _subcycle(r: Reader) -> int:
+    value = r.get("subcycle")
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= MAX_SUBCYCLE:
+        raise r.error("subcycle", f"must be a whole number of levels from 0 (off) to "
+                      f"{MAX_SUBCYCLE}, got {value!r}")
+    return value
 
 
 def _check_run_name(name: str, r: Reader) -> None:

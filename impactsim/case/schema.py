@@ -130,6 +130,9 @@ class Wall:
     friction: float = 0.0  # Coulomb coefficient; 0 = frictionless sliding
 
 
+MAX_SUBCYCLE = 4  # run.subcycle at most: parts updated every 16 steps (solver/subcycle.py)
+
+
 @dataclass
 class Run:
     name: str
@@ -143,6 +146,7 @@ class Run:
     max_steps: int = 10_000_000
     dt_collapse: float = 1.0e-3  # stop when dt < dt_collapse * initial dt
     threads: int = 0  # numba threads; 0 = automatic (1 below 50k elements, else all)
+    subcycle: int = 0  # levels of subcycling (tets updated every 2^k steps, k <= it); 0 = off
 
 
 @dataclass

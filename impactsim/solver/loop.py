@@ -39,11 +39,14 @@ class Simulation:
     """The state of a run: a Model, its passes and the integrator's own buffers.
 
     cfl: Courant number; element: "tet4" or "anp"; cq, cl: artificial viscosity coefficients;
-    dt_collapse: stop when dt falls below this fraction of the first step.
+    dt_collapse: stop when dt falls below this fraction of the first step; subcycle: 0, or the
+    number K of levels of subcycling (parts of tets updated every 2^k steps, k <= K:
+    solver/subcycle.py).
     """
 
     def __init__(self, model: Model, passes: list[Pass], cfl: float = 0.6, element: str = "tet4",
-                 cq: float = 1.2, cl: float = 0.06, dt_collapse: float = 1e-3):
+                 cq: float = 1.2, cl: float = 0.06, dt_collapse: float = 1e-3,
+                 subcycle: int = 0):
         self.model = model
         self.cfl = cfl
         self.cq, self.cl = cq, cl
@@ -100,7 +103,15 @@ class Simulation:
         # called as on_inverted(sim, dt) when elements invert, instead of stopping the run
         # (checks.negative_volume = "erode": solver/run.py)
         self.on_inverted = None
+        self.sub = None  # the levels of subcycling (solver/subcycle.py), set after the first update
+        self.dt_blocks = math.inf  # the hexahedral blocks' least stable step [s]
         self._update_elements(0.0)  # forces and stable step of the initial state
+        if subcycle and model.n_elem > 0:
+            from impactsim.solver.subcycle import Subcycle
+
+            self.sub = Subcycle(self, subcycle)
+            self.fused = False  # the predictor kicks the nodes due only
+            self._stable_step()
 
     def set_parts(self, part_size: int) -> None:
         """Run the elements in parts of `part_size` (a multiple of element.CHUNK), the unit of
@@ -141,7 +152,18 @@ class Simulation:
         dtv = 0.5 * (self.dt + dt) if self.dt > 0.0 else 0.5 * dt
         m.dtv = dtv
         t0 = wallclock.perf_counter()
-        if self.fused and m.mass.shape[0] < PARALLEL_NODES:
+        if self.sub is not None:
+            self.sub.kick(m, dt)  # the predictor of the nodes due (subcycle.py)
+            t1 = wallclock.perf_counter()
+            self.timings["nodes"] += t1 - t0
+            for p in self.velocity_passes:
+                p.run(m, dt)
+                t2 = wallclock.perf_counter()
+                self.timings[p.name] += t2 - t1
+                t1 = t2
+            move(m.x, m.v, dt)
+            self.timings["nodes"] += wallclock.perf_counter() - t1
+        elif self.fused and m.mass.shape[0] < PARALLEL_NODES:
             # the wall's time is booked with the nodes' (one pass)
             res = predict_walls_move(m.force, m.mass, m.v, m.x, dtv, m.walls, dt)
             if self.fused_wall is not None:
@@ -158,7 +180,7 @@ class Simulation:
                 t1 = t2
             move(m.x, m.v, dt)
             self.timings["nodes"] += wallclock.perf_counter() - t1
-        self._update_elements(dt)
+        self._update_elements(dt, final=dt >= limit)
         t1 = wallclock.perf_counter()
         for p in self.fracture_passes:
             p.run(m, dt)
@@ -185,30 +207,43 @@ class Simulation:
             return f"hex {-1 - k} (body {m.body_names[b.elem_body[-1 - k]]!r})"
         return f"element {k} (body {m.body_names[m.elem_body[k]]!r})"
 
-    def _update_elements(self, dt: float) -> None:
+    def tet_kernel(self, v: np.ndarray, dt: float, skip: np.ndarray | None = None,
+                   guard: bool = True) -> None:
+        """The tet kernel over step dt with the nodes' velocities v (element.element_update);
+        with `skip` (subcycling) only on the parts not flagged, leaving the rows unsummed; the
+        guard's verdicts (if asked for) with `guard`."""
         m = self.model
         fr = self.force_rows
+        self.part_claims = E.part_flags(m.conn.shape[0], fr.part_size // E.CHUNK,
+                                        self.part_claims)
+        E.element_update(
+            m.x, v, m.conn, m.elem_mat, m.status, m.sdev, m.pressure, m.q, m.eps_p,
+            m.eps_rate, m.temperature, self.hardening, self.thermal, m.energy, m.vol,
+            self.vol_eos, m.vol0, m.elem_mass, m.mat_params, self.jnode, self.use_anp, dt,
+            self.cq, self.cl, m.force, fr.rows, self.fext, fr.extra_ptr, fr.extra_rows,
+            fr.part_size // E.CHUNK, self.chunk_out, numba.get_num_threads(), self.plastic,
+            self.guard if dt > 0.0 and guard else None, self.part_claims, skip, skip is None)
+
+    def _update_elements(self, dt: float, final: bool = True) -> None:
+        """The element update at the end of a step of dt (0: forces and stable steps of the
+        state as it is). With subcycling, the parts due (every part if `final`)."""
+        m = self.model
         t0 = wallclock.perf_counter()
         if self.use_anp:
             element_volumes(m.x, m.conn, m.status, self.vol_now)
             nodal_volume_ratio(self.vol_now, m.vol0, m.status, m.n2e_ptr, m.n2e, self.jnode)
         hexes_only = m.n_elem == 0 and bool(self.block_runners)
-        if not hexes_only:  # hexes only: no tet kernel to run (nor to compile); blocks write
-            self.part_claims = E.part_flags(m.conn.shape[0], fr.part_size // E.CHUNK,
-                                            self.part_claims)
-            E.element_update(
-                m.x, m.v, m.conn, m.elem_mat, m.status, m.sdev, m.pressure, m.q, m.eps_p,
-                m.eps_rate, m.temperature, self.hardening, self.thermal, m.energy, m.vol,
-                self.vol_eos, m.vol0, m.elem_mass, m.mat_params, self.jnode, self.use_anp, dt,
-                self.cq, self.cl, m.force, fr.rows, self.fext, fr.extra_ptr, fr.extra_rows,
-                fr.part_size // E.CHUNK, self.chunk_out, numba.get_num_threads(), self.plastic,
-                self.guard if dt > 0.0 else None, self.part_claims)
+        if hexes_only:  # no tet kernel to run (nor to compile); the blocks write the forces
+            pass
+        elif self.sub is None:
+            self.tet_kernel(m.v, dt)
+        elif dt > 0.0:
+            self.sub.update_elements(self, dt, final)
+        else:  # a refresh of the parts updated at the end of this step
+            self.sub.refresh(self)
         # verdicts for a step taken (a zero step refreshes forces only) by the tet kernel
         self.guard_step = m.step if dt > 0.0 and self.guard is not None and not hexes_only else -1
         out = self.chunk_out
-        k = int(np.argmin(out[:, E.OUT_DT]))
-        self.dt_stable = float(out[k, E.OUT_DT])
-        self.worst_element = int(out[k, E.OUT_WORST])
         m.energy_terms["viscous"] += float(out[:, E.OUT_QWORK].sum())
         inverted = int(out[:, E.OUT_INVERTED].sum())
         if self.block_runners:  # after the tets: the blocks add their forces (blocks.py)
@@ -216,11 +251,13 @@ class Simulation:
 
             bdt, bworst, bq, bhg, binv = update_blocks(self.block_runners, m, dt, self.cq,
                                                        self.cl, hexes_only)
-            if bdt < self.dt_stable or m.n_elem == 0:
-                self.dt_stable, self.worst_element = bdt, bworst
+            self.dt_blocks, self.worst_block = bdt, bworst
             m.energy_terms["viscous"] += bq
             m.energy_terms["hourglass"] += bhg
             inverted += binv
+        if self.sub is not None:
+            self.sub.after_update(self)  # the counted sums cleared, the levels set after a sync
+        self._stable_step()
         self.timings["element"] += wallclock.perf_counter() - t0
         if inverted and self.on_inverted is not None:
             self.guard_step = -1  # the handler may change the state the verdicts were given on
@@ -231,6 +268,19 @@ class Simulation:
                 f"{self._first_inverted()}: a body starting inside another or a wall, a step "
                 "too large, or crushing beyond what the mesh can follow (checks.negative_volume "
                 "= \"erode\" removes such elements and goes on)")
+
+    def _stable_step(self) -> None:
+        """dt_stable and worst_element from the chunks' stable steps (with subcycling, each
+        divided by its part's update interval) and the blocks'."""
+        m = self.model
+        out = self.chunk_out
+        steps = out[:, E.OUT_DT] if self.sub is None else self.sub.effective_steps(out)
+        if m.n_elem and len(steps):
+            k = int(np.argmin(steps))
+            self.dt_stable = float(steps[k])
+            self.worst_element = int(out[k, E.OUT_WORST])
+        if self.block_runners and (self.dt_blocks < self.dt_stable or m.n_elem == 0):
+            self.dt_stable, self.worst_element = self.dt_blocks, self.worst_block
 
     def _first_inverted(self) -> str:
         m = self.model
@@ -284,6 +334,11 @@ class Simulation:
             ie += block_internal_energy(m)
         t = m.energy_terms
         half = 0.5 * self.dt * power
+        if self.sub is not None:  # each node's own time since its kick (subcycle.py)
+            from impactsim.solver.subcycle import half_step_energy
+
+            half = half_step_energy(m.force, m.v, m.mass, self.sub.node_level,
+                                    self.sub.since_kick)
         out = {"kinetic_energy": ke, "internal_energy": ie, "viscous_energy": t["viscous"],
                "contact_dissipated": t["contact_dissipated"], "external_work": t["external_work"],
                "eroded_energy": t["eroded"]}

@@ -245,9 +245,13 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
         for w in mach_warnings(case):
             bar.log("warning: " + w)
         element = resolve_element(case)
+        if case.run.subcycle and any(p.name == "fracture.separation" for p in passes):
+            raise SimulationError(
+                f"{_label(case)}run.subcycle: node separation (a material's "
+                "failure.fracture_strain) cannot run with subcycling yet; set run.subcycle = 0")
         sim = Simulation(model, passes, cfl=case.run.cfl, element=element,
                          cq=case.run.q_quadratic, cl=case.run.q_linear,
-                         dt_collapse=case.run.dt_collapse)
+                         dt_collapse=case.run.dt_collapse, subcycle=case.run.subcycle)
         if chk.negative_volume == "erode":
             sim.on_inverted = lambda s, dt: _erode_inverted(s, checks)
         # the energy watch lives on the Simulation so that a checkpoint carries its state
@@ -474,6 +478,8 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
                          "numba": numba.__version__, "python": platform.python_version()},
         }
         summary.update(watch.report())
+        if sim.sub is not None:
+            summary["subcycle"] = sim.sub.report(model.step)
         if stopped is not None:
             summary["stop"] = {"reason": stopped, "kind": stop_kind,
                                "signal": stops.signal if stop_kind == "signal" else None}
