@@ -1306,11 +1306,21 @@ def element_update(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
             G.NONE_GIVEN if guard is None else guard, claimed)
     kernel = _update_parallel if parallel else _update_serial
     kernel(*args, None)
-    if chunk_out[:, OUT_DEFERRED].any():  # blocks left: masked passes, the mesh's last block
+    if _deferred_left(chunk_out, skip, part_chunks):  # masked passes, the mesh's last block
         claimed[:] = 0 if skip is None else skip
         kernel(*args, True)
     if sum_rows:
         (_sum_parallel if parallel else _sum_serial)(force, fext, extra_ptr, extra_rows)
+
+
+def _deferred_left(chunk_out, skip, part_chunks) -> bool:
+    """Whether a chunk of a part that ran left blocks to the masked passes (the chunks of the
+    parts skipped keep the bits of their last update)."""
+    bits = chunk_out[:, OUT_DEFERRED]
+    if skip is None:
+        return bool(bits.any())
+    ran = np.repeat(skip == 0, part_chunks)[:len(bits)]
+    return bool((bits[ran] != 0.0).any())
 
 
 def part_flags(n_elem: int, part_chunks: int, buf=None) -> np.ndarray:

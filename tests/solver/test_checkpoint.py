@@ -105,6 +105,18 @@ def test_resumed_sphere_through_plate_is_bit_identical(tmp_path):
     assert s["particles"] > 0 and s["bodies"]["plate"]["hole"]["area"] > 0
 
 
+def test_resumed_subcycled_sphere_through_plate_is_bit_identical(tmp_path):
+    """Subcycling's levels, intervals and positions of the last updates come back too (the
+    checkpoints, by time, fall within cycles)."""
+    # a plate of coarse cells (a part of its own: level 1) struck by a finely meshed sphere
+    text = (PLATE.replace('end_time = "3 us"', 'end_time = "3 us"\nsubcycle = 3')
+            .replace('size = ["16 mm", "16 mm", "2 mm"]', 'size = ["20 mm", "20 mm", "2 mm"]')
+            .replace('mesh_size = "1.6 mm"', 'mesh_size = "1.4 mm"')
+            .replace('mesh_size = "3 mm"', 'mesh_size = "0.6 mm"'))
+    s = _resume_from_an_early_checkpoint(text, tmp_path, 1)
+    assert s["subcycle"]["part_updates_share"] < 0.97 and s["particles"] > 0
+
+
 def test_resumed_hex_plate_is_bit_identical(tmp_path):
     """The same with the plate in hexes: the hex blocks' fracture state (free quads, criteria
     scratch), the hex contact surface and the particles come back."""

@@ -14,6 +14,7 @@ from impactsim.case.errors import CaseError
 from impactsim.case.load import load_case
 from impactsim.case.schema import Wall
 from impactsim.mesh.renumber import renumber
+from impactsim.model import ERODED
 from impactsim.mesh.structured import structured_box
 from impactsim.solver import element as E
 from impactsim.solver.build import build_model
@@ -74,12 +75,38 @@ def test_the_graded_mesh_takes_levels_and_spares_updates(graded_runs):
 def test_subcycled_run_follows_the_plain_run(graded_runs):
     (m0, s0, _), (m3, s3, _) = graded_runs
     assert m3.step == pytest.approx(m0.step, rel=0.02)
+    # the coarse parts run at about the fine parts' Courant number instead of a quarter of it:
+    # the wave fronts' ringing differs (at most 2.8 m/s at a node, 0.27 rms, when written)
     dv = m3.v - m0.v
     assert np.sqrt((dv ** 2).mean()) < 0.01 * SPEED
-    assert np.abs(dv).max() < 0.05 * SPEED
+    assert np.abs(dv).max() < 0.1 * SPEED
     # the wave has come back from the wall: the mean velocity has turned
     assert m3.v[:, 2].mean() == pytest.approx(m0.v[:, 2].mean(), abs=0.005 * SPEED)
     assert np.abs(m3.sdev - m0.sdev).max() < 0.05 * np.abs(m0.sdev).max()
+
+
+def test_levels_never_shorten_the_step():
+    """After every step the global step is the least stable step of all (the fine parts'). Here
+    the fine cells are removed mid-cycle: the coarse parts' steps over their intervals then
+    come below the least one, and the cycle ends at once (`Subcycle._binding`) instead of the
+    step shrinking until its end."""
+    mat = material()
+    case = box_case(mat, size=(0.04, 0.04, 0.04), h=0.002, velocity=(0.0, 0.0, -SPEED))
+    case.walls = [Wall(point=(0.0, 0.0, -0.02 - 1e-6), normal=(0.0, 0.0, 1.0))]
+    model = build_model(case, [graded_box()])
+    sim = Simulation(model, build_passes(case, model), cfl=0.6, subcycle=3)
+    least = sim.chunk_out[:, E.OUT_DT].min
+    for _ in range(21):  # into a cycle
+        sim.step()
+        assert sim.dt_stable == least()
+    assert sim.sub.part_level.max() > 0 and sim.sub.step_in_cycle != 0
+    centroid_z = model.x[model.conn].mean(axis=1)[:, 2]
+    model.status[centroid_z < -0.017] = ERODED  # the thin cells, as erosion would
+    sim.refresh_stable_step()
+    for _ in range(3):
+        sim.step()
+        assert sim.dt_stable == least()
+    assert sim.sub.resyncs >= 1
 
 
 def test_subcycled_run_keeps_its_energy(graded_runs):
