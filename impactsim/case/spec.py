@@ -149,8 +149,9 @@ RUN = Table("run", "Time integration and run control.", (
         "initial one (a collapsing element), in (0, 1).", _d(schema.Run, "dt_collapse")),
     Key("threads", "int", "Numba threads; 0 = automatic: one thread below 50 000 elements, all cores above.", _d(schema.Run, "threads")),
     Key("subcycle", "int", "Levels of subcycling, 0 (off) to 4: the tets of a part whose "
-        "stable step is 2^k times the least are updated every 2^k steps, k <= subcycle "
-        "(docs/physics.md, Subcycling).", _d(schema.Run, "subcycle")),
+        "stable step is at least 2^k times the least are updated every 2^k steps, k <= "
+        "subcycle; pays where regions of many parts are meshed much coarser than the finest "
+        "cells (docs/physics.md, Subcycling).", _d(schema.Run, "subcycle")),
 ))
 
 STRENGTH = Table("strength", "Deviatoric strength model. Keys other than `model` apply to one "

@@ -153,14 +153,19 @@ class Simulation:
         m.dtv = dtv
         t0 = wallclock.perf_counter()
         if self.sub is not None:
-            self.sub.kick(m, dt)  # the predictor of the nodes due (subcycle.py)
+            # the predictor of the nodes due (subcycle.py); the velocity passes see as
+            # m.force the force of each node's kick over m.dtv (their work booking's)
+            force, m.force = m.force, self.sub.kick(m, dt)
             t1 = wallclock.perf_counter()
             self.timings["nodes"] += t1 - t0
-            for p in self.velocity_passes:
-                p.run(m, dt)
-                t2 = wallclock.perf_counter()
-                self.timings[p.name] += t2 - t1
-                t1 = t2
+            try:
+                for p in self.velocity_passes:
+                    p.run(m, dt)
+                    t2 = wallclock.perf_counter()
+                    self.timings[p.name] += t2 - t1
+                    t1 = t2
+            finally:
+                m.force = force
             move(m.x, m.v, dt)
             self.timings["nodes"] += wallclock.perf_counter() - t1
         elif self.fused and m.mass.shape[0] < PARALLEL_NODES:
@@ -338,7 +343,7 @@ class Simulation:
             from impactsim.solver.subcycle import half_step_energy
 
             half = half_step_energy(m.force, m.v, m.mass, self.sub.node_level,
-                                    self.sub.since_kick)
+                                    self.sub.since_kick, self.sub.opened)
         out = {"kinetic_energy": ke, "internal_energy": ie, "viscous_energy": t["viscous"],
                "contact_dissipated": t["contact_dissipated"], "external_work": t["external_work"],
                "eroded_energy": t["eroded"]}

@@ -83,6 +83,7 @@ class Subcycle:
         self.skip = np.zeros(n_parts, np.int64)  # element_update's claims: 1 = not this level
         self.x_last = [m.x.copy() for _ in range(levels + 1)]  # x at each level's last update
         self.v_level = np.zeros_like(m.x)
+        self.kick_force = np.zeros_like(m.x)
         self.since_update = np.zeros(levels + 1)  # time since each level's last update [s]
         self.since_kick = np.zeros(levels + 1)  # time since each level's last kick [s]
         self.opened = np.zeros(levels + 1)  # the share of each level's last kick ahead of it [s]
@@ -132,20 +133,27 @@ class Subcycle:
         return chunk_out[:, E.OUT_DT] * scale[:chunk_out.shape[0]]
 
     # --- the step --------------------------------------------------------------------------
-    def kick(self, m, dt: float) -> None:
+    def kick(self, m, dt: float) -> np.ndarray:
         """The predictor of the nodes due at this step: U += dtv F / m, dtv the mean of the time
-        since the node's last kick and its next 2^L steps of dt."""
+        since the node's last kick and its next 2^L steps of dt. Returns the force that gives
+        each node's kick over the step's m.dtv (zero where there was none), for the velocity
+        passes, which recover a node's velocity before the kick as U - m.dtv F / m to book
+        their work."""
         due = self.due(self.step_in_cycle)
         # the last kick gave `opened` ahead of the time that then passed (`since_kick`): the
         # closing share makes the two together that time (exactly the leapfrog's with one level
         # and, at any level, while dt stays the same)
         closing = 2.0 * self.since_kick - self.opened
         opening = np.ldexp(dt, np.arange(self.levels + 1))
-        _kick(m.force, m.mass, m.v, self.node_level, self.next_node_level, due, closing, opening)
+        if self.kick_force.shape != m.force.shape:
+            self.kick_force = np.zeros_like(m.force)
+        _kick(m.force, m.mass, m.v, self.node_level, self.next_node_level, due, closing, opening,
+              m.dtv, self.kick_force)
         self.since_kick[:due + 1] = 0.0
         self.opened[:due + 1] = opening[:due + 1]
         if self.step_in_cycle == 0:  # every node was kicked: its new level stands from now
             self.node_level[:] = self.next_node_level
+        return self.kick_force
 
     def update_elements(self, sim, dt: float, final: bool) -> int:
         """The tet kernel on the parts due at the end of this step (every part when `final`: a
@@ -237,15 +245,18 @@ class Subcycle:
 
 
 @numba.njit(cache=True)
-def half_step_energy(force, v, mass, level, since_kick):
-    """Sum over the nodes with mass of since_kick[L_i] / 2 F_i . U_i: the work the forces add
-    from the mid-time of a node's velocity to the present (Simulation.energies' half-step
-    energy; with one level, dt / 2 sum F . U)."""
+def half_step_energy(force, v, mass, level, since_kick, opened):
+    """Sum over the nodes with mass of (since_kick - opened / 2)[L_i] F_i . U_i: the work the
+    forces add from the mid-time of a node's velocity to the present (Simulation.energies'
+    half-step energy; with one level dt / 2 sum F . U). Within an interval a coarse node's F is
+    that of its last kick, and the term follows the work its elements take from it before
+    their next update books it."""
     total = 0.0
     for i in range(mass.shape[0]):
         if mass[i] > 0.0:
-            total += 0.5 * since_kick[level[i]] * (force[i, 0] * v[i, 0] + force[i, 1] * v[i, 1]
-                                                   + force[i, 2] * v[i, 2])
+            li = level[i]
+            total += (since_kick[li] - 0.5 * opened[li]) * (
+                force[i, 0] * v[i, 0] + force[i, 1] * v[i, 1] + force[i, 2] * v[i, 2])
     return total
 
 
@@ -291,10 +302,11 @@ def _part_levels(conn, status, part_size, node_level, part_level, part_top):
 
 
 @numba.njit(cache=True)
-def _kick(force, mass, v, level, next_level, due, closing, opening):
+def _kick(force, mass, v, level, next_level, due, closing, opening, dtv_step, kick_force):
     """U_i += dtv F_i / m_i for the nodes of the levels <= `due`; dtv = (closing[L_i] +
     opening[L'_i]) / 2 (L' the level from this kick on): with one level, nodal.predict's
-    arithmetic."""
+    arithmetic. kick_force_i = F_i dtv / dtv_step (F_i itself at level 0), zero for the nodes
+    not kicked."""
     for i in range(mass.shape[0]):
         li = level[i]
         mi = mass[i]
@@ -304,6 +316,14 @@ def _kick(force, mass, v, level, next_level, due, closing, opening):
             v[i, 0] += a * force[i, 0]
             v[i, 1] += a * force[i, 1]
             v[i, 2] += a * force[i, 2]
+            r = dtv / dtv_step
+            kick_force[i, 0] = r * force[i, 0]
+            kick_force[i, 1] = r * force[i, 1]
+            kick_force[i, 2] = r * force[i, 2]
+        else:
+            kick_force[i, 0] = 0.0
+            kick_force[i, 1] = 0.0
+            kick_force[i, 2] = 0.0
 
 
 @numba.njit(cache=True)
