@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from impactsim.case.errors import CaseError
-from impactsim.case.load import load_case
+from impactsim.case.load import load_case, load_case_text
 from impactsim.case.schema import Wall
 from impactsim.mesh.renumber import renumber
 from impactsim.model import ERODED
@@ -20,6 +20,7 @@ from impactsim.solver import element as E
 from impactsim.solver.build import build_model
 from impactsim.solver.loop import Simulation
 from impactsim.solver.pipeline import build_passes
+from impactsim.solver.run import run_case
 from tests.builders import box_case, material
 
 SPEED = 50.0  # [m/s] onto the wall
@@ -188,3 +189,47 @@ mesh_size = 0.005
 """)
     with pytest.raises(CaseError, match="run.subcycle"):
         load_case(path)
+
+
+SPHERE_BLOCK = """
+[run]
+name = "sb"
+end_time = "6 us"
+subcycle = 3
+[[material]]
+name = "al"
+library = "al-2024-t3"
+[[material]]
+name = "steel"
+library = "steel-4340"
+[[body]]
+name = "block"
+material = "al"
+shape = "plate"
+size = ["60 mm", "60 mm", "15 mm"]
+position = ["0 mm", "0 mm", "-7.5 mm"]
+mesh_size = "2.5 mm"
+mesher = "structured"
+[[body]]
+name = "sphere"
+material = "steel"
+shape = "sphere"
+radius = "3 mm"
+position = ["0 mm", "0 mm", "3.02 mm"]
+mesh_size = "0.5 mm"
+velocity = ["0 m/s", "0 m/s", "-500 m/s"]
+[contact]
+passes = ["node-face", "edge-edge"]
+[output]
+frames = 2
+"""
+
+
+def test_contact_on_a_coarse_body_books_its_work(tmp_path):
+    """A fine sphere strikes a block of coarse cells (their own parts: level 2 or 3). The
+    contact passes book an impulse's work with the node's velocity before its kick, which a
+    coarse node not kicked in the step did not get (`Subcycle.kick`'s force for them)."""
+    s = run_case(load_case_text(SPHERE_BLOCK), tmp_path / "sb", progress=False)
+    assert s["subcycle"]["part_updates_share"] < 0.8
+    assert s["energy"]["contact_dissipated"] > 0.0 and s["energy"]["internal_energy"] > 0.0
+    assert abs(s["energy_balance_error"]) < 2e-3
