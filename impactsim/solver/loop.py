@@ -27,6 +27,7 @@ from impactsim.solver.nodal import (PARALLEL_NODES, element_volumes, force_power
                                     predict)
 from impactsim.solver.passes import Pass
 from impactsim.solver.scatter import force_rows
+from impactsim.solver.subcycle import Subcycle, half_step_energy
 
 DT_GROWTH = 1.1  # the step may grow by at most this factor per step
 
@@ -107,8 +108,6 @@ class Simulation:
         self.dt_blocks = math.inf  # the hexahedral blocks' least stable step [s]
         self._update_elements(0.0)  # forces and stable step of the initial state
         if subcycle and model.n_elem > 0:
-            from impactsim.solver.subcycle import Subcycle
-
             self.sub = Subcycle(self, subcycle)
             self.fused = False  # the predictor kicks the nodes due only
             self._stable_step()
@@ -238,14 +237,13 @@ class Simulation:
             element_volumes(m.x, m.conn, m.status, self.vol_now)
             nodal_volume_ratio(self.vol_now, m.vol0, m.status, m.n2e_ptr, m.n2e, self.jnode)
         hexes_only = m.n_elem == 0 and bool(self.block_runners)
-        if hexes_only:  # no tet kernel to run (nor to compile); the blocks write the forces
-            pass
-        elif self.sub is None:
+        if self.sub is not None:  # subcycling (never with hexes only)
+            if dt > 0.0:
+                self.sub.update_elements(self, dt, final)
+            else:  # a refresh of the parts updated at the end of this step
+                self.sub.refresh(self)
+        elif not hexes_only:  # hexes only: no tet kernel to run (nor to compile); blocks write
             self.tet_kernel(m.v, dt)
-        elif dt > 0.0:
-            self.sub.update_elements(self, dt, final)
-        else:  # a refresh of the parts updated at the end of this step
-            self.sub.refresh(self)
         # verdicts for a step taken (a zero step refreshes forces only) by the tet kernel
         self.guard_step = m.step if dt > 0.0 and self.guard is not None and not hexes_only else -1
         out = self.chunk_out
@@ -340,8 +338,6 @@ class Simulation:
         t = m.energy_terms
         half = 0.5 * self.dt * power
         if self.sub is not None:  # each node's own time since its kick (subcycle.py)
-            from impactsim.solver.subcycle import half_step_energy
-
             half = half_step_energy(m.force, m.v, m.mass, self.sub.node_level,
                                     self.sub.since_kick, self.sub.opened)
         out = {"kinetic_energy": ke, "internal_energy": ie, "viscous_energy": t["viscous"],

@@ -49,10 +49,10 @@ from impactsim.solver.nodal import PARALLEL_NODES
 from impactsim.solver.scatter import take_node
 
 # a part takes level r only if its stable step is MARGIN * 2^r times the least one. The global
-# step is bounded by every part's step over its interval (`effective_steps`), so a part whose
-# step shrinks within a cycle shortens the step instead of going unstable; the margin only
-# keeps that from happening at once (1.25 spared 28 % of oblique-sphere's updates by the
-# parts' own levels, 1.0 would spare 39 %)
+# step is bounded by every part's step over its interval (`effective_steps`), and a part that
+# comes to bind it ends the cycle (`_binding`), so the margin only keeps that from happening at
+# once; it costs levels (on oblique-sphere the parts' own levels would leave 72 % of the
+# updates at 1.25, 61 % at 1.0: docs/performance.md, "Whole scenes, session 23")
 MARGIN = 1.05
 MAX_LEVELS = MAX_SUBCYCLE  # K at most: a cycle of 16 steps
 
@@ -97,7 +97,8 @@ class Subcycle:
     # --- levels ----------------------------------------------------------------------------
     def assign(self, sim) -> None:
         """Set the levels from the stable steps of a state where every part is fresh (the start,
-        a cycle's end, a refresh). The nodes' new levels take effect at their next kick."""
+        the end of a cycle, or a refresh at such a step). The nodes' new levels take effect at
+        their next kick, which is every node's."""
         m = sim.model
         s_part = _part_steps(sim.chunk_out[:, E.OUT_DT], self.part_chunks, len(self.skip))
         s_min = min(float(s_part.min()) if len(s_part) else np.inf, sim.dt_blocks)
