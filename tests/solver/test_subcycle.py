@@ -40,16 +40,20 @@ def graded_box(edge=0.04, h=0.002, fine=8.0, graded=0.2):
     return renumber(pts, tets)
 
 
-def wall_run(subcycle, end=1.2e-5, mesh=None, threads=None):
-    mat = material()
-    case = box_case(mat, size=(0.04, 0.04, 0.04), h=0.002, velocity=(0.0, 0.0, -SPEED))
+def wall_sim(subcycle, mesh=None):
+    """The cube (graded unless `mesh` is given) at SPEED onto a wall under its fine face."""
+    case = box_case(material(), size=(0.04, 0.04, 0.04), h=0.002, velocity=(0.0, 0.0, -SPEED))
     case.walls = [Wall(point=(0.0, 0.0, -0.02 - 1e-6), normal=(0.0, 0.0, 1.0))]
     model = build_model(case, [graded_box() if mesh is None else mesh])
+    return model, Simulation(model, build_passes(case, model), cfl=0.6, subcycle=subcycle)
+
+
+def wall_run(subcycle, end=1.2e-5, mesh=None, threads=None):
     before = numba.get_num_threads()
     if threads:
         numba.set_num_threads(threads)
     try:
-        sim = Simulation(model, build_passes(case, model), cfl=0.6, subcycle=subcycle)
+        model, sim = wall_sim(subcycle, mesh)
         e0 = sim.energies()["total_energy"]
         while model.time < end:
             sim.step(end - model.time)  # the last step ends on `end`: every part updated
@@ -91,11 +95,7 @@ def test_levels_never_shorten_the_step():
     the fine cells are removed mid-cycle: the coarse parts' steps over their intervals then
     come below the least one, and the cycle ends at once (`Subcycle._binding`) instead of the
     step shrinking until its end."""
-    mat = material()
-    case = box_case(mat, size=(0.04, 0.04, 0.04), h=0.002, velocity=(0.0, 0.0, -SPEED))
-    case.walls = [Wall(point=(0.0, 0.0, -0.02 - 1e-6), normal=(0.0, 0.0, 1.0))]
-    model = build_model(case, [graded_box()])
-    sim = Simulation(model, build_passes(case, model), cfl=0.6, subcycle=3)
+    model, sim = wall_sim(3)
     least = sim.chunk_out[:, E.OUT_DT].min
     for _ in range(21):  # into a cycle
         sim.step()
