@@ -20,7 +20,7 @@ from impactsim.solver import element as E
 from impactsim.solver.build import build_model
 from impactsim.solver.loop import Simulation
 from impactsim.solver.pipeline import build_passes
-from impactsim.solver.run import run_case
+from impactsim.solver.run import SimulationError, run_case
 from tests.builders import box_case, material
 
 SPEED = 50.0  # [m/s] onto the wall
@@ -184,11 +184,20 @@ library = "ofhc-copper"
 name = "b"
 material = "cu"
 shape = "box"
-dimensions = {{ size = [0.01, 0.01, 0.01] }}
+size = [0.01, 0.01, 0.01]
 mesh_size = 0.005
 """)
     with pytest.raises(CaseError, match="run.subcycle"):
         load_case(path)
+    path.write_text(path.read_text().replace(f"subcycle = {value}", "subcycle = 2"))
+    assert load_case(path).run.subcycle == 2
+
+
+def test_node_separation_is_refused_with_subcycling(tmp_path):
+    text = SPHERE_BLOCK.replace('library = "al-2024-t3"',
+                                'library = "al-2024-t3"\nfailure = { fracture_strain = 0.05 }')
+    with pytest.raises(SimulationError, match="run.subcycle: node separation"):
+        run_case(load_case_text(text), tmp_path / "sep", progress=False)
 
 
 SPHERE_BLOCK = """
