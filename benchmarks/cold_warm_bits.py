@@ -53,12 +53,18 @@ for k in range(2):
 """
 
 
-def main() -> int:
+def cold_and_warm() -> tuple[list[str], list[str]]:
+    """The digests of the compiling process and of the loading one."""
     with tempfile.TemporaryDirectory(prefix="impactsim-bits-") as cache:
         env = dict(os.environ, NUMBA_CACHE_DIR=cache, PYTHONPATH=str(ROOT))
         runs = [subprocess.run([sys.executable, "-c", CHILD], env=env, cwd=ROOT, check=True,
                                capture_output=True, text=True).stdout.splitlines()
                 for _ in range(2)]
+    return runs[0], runs[1]
+
+
+def main() -> int:
+    runs = cold_and_warm()
     for cold, warm in zip(*runs):
         mark = "" if cold == warm else "   <- differs"
         print(f"{cold:40s} {warm.split()[-1]}{mark}")

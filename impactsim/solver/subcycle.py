@@ -7,30 +7,34 @@ Levels (docs/performance.md, "What subcycling would take"):
 - each part of the tet kernel (solver/element.py PART tets, the unit of the force rows) gets the
   level R = the largest r <= K with 2^r * MARGIN * s_min <= s_part (s its smallest stable
   step, s_min the mesh's);
-- each node the least level of the parts around it (L = min R; the nodes of the hexahedral
-  blocks 0: the blocks run every step);
+- each node the least level of the parts around it (L = min R; 0 for the nodes of the
+  hexahedral blocks, which run every step, and of prescribed velocities);
 - each part is updated at the level U = the least level of its nodes (U <= L <= R).
 
 A cycle is 2^K steps. At its step j (0 at the cycle's start) the nodes of the levels L with
 j mod 2^L = 0 are due: their velocity takes its kick, U += dtv F / m, with dtv the mean of the
 time since their last kick and the 2^L steps to their next one (each the step's dt times 2^L:
 the leapfrog of ALGORITHMS.md 1, with a node's own step). Every node moves at every step with
-its velocity (the velocity passes, contact, act on all of them as before), so between its
-kicks a coarse node moves on a line, which its fine neighbours see. At the end of a step the
-parts of the levels U due then (the same rule at step j + 1) are updated over the time D since
-their last update with the velocity (x - x_last) / D, the line their nodes moved on since
-(contact impulses in between included), and their rows' sums become the forces of the nodes
-due; the rows of the other nodes are cleared, and their forces are kept. A node's kick thus
-always finds every part around it updated at that moment.
+its velocity (the velocity passes, contact, act on all of them as before; they see as the
+model's force the force of each node's own kick over the step's dtv, with which they book
+their work), so between its kicks a coarse node moves on a line, which its fine neighbours
+see. At the end of a step the parts of the levels U due then (the same rule at step j + 1) are
+updated over the time D since their last update with the velocity (x - x_last) / D, the line
+their nodes moved on since (contact impulses in between included), and their rows' sums become
+the forces of the nodes due; the rows of the other nodes are cleared, and their forces are
+kept. A node's kick thus always finds every part around it updated at that moment.
 
-The global step is C_cfl times the least of s_part / 2^U over the parts (with the stable steps
-of the parts not updated in the step as of their last update): every part's update interval
-stays within its own stable step, and while the levels stand the fine parts' step shrinks
-instead. At the cycle's end and at a step that ends on a time limit (a frame, the end) every
-part is updated, and the levels are set again from the fresh stable steps. A refresh
-(`Simulation.refresh_stable_step` after erosion: a zero step, which changes no state) gives
-every node its forces and every part its stable step at the positions of the moment, and the
-levels stand.
+The global step is C_cfl times the least of s_part / 2^M over the parts (M the coarsest level
+of the part's nodes; the stable steps of the parts not updated in the step as of their last
+update), so no part's update and no node's kick spans more than its own stable step. When a
+part's step over its interval comes below the least stable step (a coarse part crushed, the
+finest cells eroded) the cycle ends at once (`_binding`) instead of the step shrinking. At the
+cycle's end, at such an early end and at a step that ends on a time limit (a frame, the end)
+every part is updated, a kick cut short is made as long as the time that passed (`_settle`),
+and the levels are set again from the fresh stable steps. A refresh
+(`Simulation.refresh_stable_step` after erosion: a zero step) gives the parts updated at the
+end of the step their stable steps and their nodes their forces at the positions of the moment;
+the levels stand.
 
 With every part at level 0 (a mesh whose parts' steps are within a factor 2 MARGIN) the run is
 the run without subcycling, bit for bit.
