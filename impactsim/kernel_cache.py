@@ -129,3 +129,31 @@ def serialize_cache_files(lock_path: Path) -> None:
     IndexDataCacheFile.save = locked(IndexDataCacheFile.save)
     IndexDataCacheFile.load = locked(IndexDataCacheFile.load)
     IndexDataCacheFile._impactsim_lock = lock_path
+
+
+class CompileCounter:
+    """Context manager recording the numba kernels compiled inside it (`.kernels`, qualified
+    names): loading a kernel from the cache is not a compilation."""
+
+    def __enter__(self):
+        from numba.core import event
+
+        kernels = self.kernels = []
+
+        class _Listener(event.Listener):
+            def on_start(self, ev):
+                pass
+
+            def on_end(self, ev):
+                f = ev.data["dispatcher"].py_func
+                kernels.append(f"{f.__module__}.{f.__qualname__}")
+
+        self._listener = _Listener()
+        event.register("numba:compile", self._listener)
+        return self
+
+    def __exit__(self, *exc):
+        from numba.core import event
+
+        event.unregister("numba:compile", self._listener)
+        return False

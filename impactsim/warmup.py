@@ -28,6 +28,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from impactsim.kernel_cache import CompileCounter
+
 # Tiny scenes: case text; each runs for at most `steps` steps.
 _BLOCK = """
 [[body]]
@@ -180,34 +182,6 @@ def _thresholds(values=None):
         (nodal.PARALLEL_NODES, element.PARALLEL_FORCE_NODES, element.PARALLEL_ELEMENTS,
          broadphase.QUERY_MIN_CHUNKS, particle_faces.THREADED_FACES) = values
     return old
-
-
-class CompileCounter:
-    """Context manager recording the numba kernels compiled inside it (`.kernels`, qualified
-    names): loading a kernel from the cache is not a compilation."""
-
-    def __enter__(self):
-        from numba.core import event
-
-        kernels = self.kernels = []
-
-        class _Listener(event.Listener):
-            def on_start(self, ev):
-                pass
-
-            def on_end(self, ev):
-                f = ev.data["dispatcher"].py_func
-                kernels.append(f"{f.__module__}.{f.__qualname__}")
-
-        self._listener = _Listener()
-        event.register("numba:compile", self._listener)
-        return self
-
-    def __exit__(self, *exc):
-        from numba.core import event
-
-        event.unregister("numba:compile", self._listener)
-        return False
 
 
 def warm_up(verbose: bool = True, names=None) -> dict[str, dict]:

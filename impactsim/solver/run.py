@@ -148,10 +148,11 @@ def run_case(case: Case, out_dir: Path | None = None, progress: bool = True,
     when overwrite is False (output/rundir.py). progress=False also silences the log lines
     (warnings are still printed). resume=True continues the run in out_dir from its last
     checkpoint (solver/checkpoint.py)."""
+    from impactsim.kernel_cache import CompileCounter
     from impactsim.solver.stop import watching
 
-    with watching() as stops:
-        return _run(case, out_dir, progress, meshes, stops, overwrite, resume)
+    with watching() as stops, CompileCounter() as compiled:
+        return _run(case, out_dir, progress, meshes, stops, overwrite, resume, compiled)
 
 
 def output_folder(case: Case, out_dir: Path | None) -> Path:
@@ -174,7 +175,7 @@ def _label(case: Case) -> str:
 
 
 def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
-         resume: bool) -> dict:
+         resume: bool, compiled) -> dict:
     import numba
 
     from impactsim.case import case_to_dict
@@ -517,6 +518,13 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
             summary["bodies"].setdefault(name, {}).update(vals)
         summary["units"] = SUMMARY_UNITS
         summary["checks"] = checks.summary()
+        # a kernel compiled in the run computes other last bits than the same kernel loaded from
+        # the cache (docs/user-guide.md, "Reproducibility")
+        summary["kernels_compiled"] = len(compiled.kernels)
+        if compiled.kernels:
+            info(f"note: {len(compiled.kernels)} kernel(s) compiled in this run: a run from the "
+                 "warm cache may differ from it in the last bits (docs/user-guide.md, "
+                 "Reproducibility)")
         for line in checks.closing_lines():
             bar.log(line)
         info(f"energy balance: {100 * summary['energy_balance_error']:+.3g} % at the end, "
