@@ -109,7 +109,6 @@ class Simulation:
         self._update_elements(0.0)  # forces and stable step of the initial state
         if subcycle and model.n_elem > 0:
             self.sub = Subcycle(self, subcycle)
-            self.fused = False  # the predictor kicks the nodes due only
             self._stable_step()
 
     def set_parts(self, part_size: int) -> None:

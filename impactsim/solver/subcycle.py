@@ -91,6 +91,8 @@ class Subcycle:
         self.since_update = np.zeros(levels + 1)  # time since each level's last update [s]
         self.since_kick = np.zeros(levels + 1)  # time since each level's last kick [s]
         self.opened = np.zeros(levels + 1)  # the share of each level's last kick ahead of it [s]
+        self.span = np.ldexp(1.0, np.arange(levels + 1))  # steps between a level's kicks: 2^L
+        self.chunk_scale = np.ones(0)  # 2^-M of each chunk's part (`assign`)
         self.step_in_cycle = 0  # j
         self.synced = True  # every part was updated at the end of the last step
         self.top = levels  # the coarsest level updated then
@@ -116,6 +118,8 @@ class Subcycle:
                      self.levels, self.next_node_level)
         _part_levels(m.conn, m.status, self.part_chunks * E.CHUNK, self.next_node_level,
                      self.part_level, self.part_top)
+        self.chunk_scale = np.repeat(np.ldexp(1.0, -self.part_top.astype(np.int64)),
+                                     self.part_chunks)[:sim.chunk_out.shape[0]]
         if sim.guard is not None:  # the kernel gives the guard's verdicts at level 0 only
             coarse = np.repeat(self.part_level > 0, self.part_chunks * E.CHUNK)
             sim.guard[coarse[:m.n_elem]] = G.UNKNOWN
@@ -134,8 +138,7 @@ class Subcycle:
     def effective_steps(self, chunk_out: np.ndarray) -> np.ndarray:
         """Each chunk's stable step divided by the longest interval, in steps, of its part's
         updates and its nodes' kicks (2^M, M the coarsest level of the part's nodes)."""
-        scale = np.repeat(np.ldexp(1.0, -self.part_top.astype(np.int64)), self.part_chunks)
-        return chunk_out[:, E.OUT_DT] * scale[:chunk_out.shape[0]]
+        return chunk_out[:, E.OUT_DT] * self.chunk_scale
 
     # --- the step --------------------------------------------------------------------------
     def kick(self, m, dt: float) -> np.ndarray:
@@ -149,7 +152,7 @@ class Subcycle:
         # closing share makes the two together that time (exactly the leapfrog's with one level
         # and, at any level, while dt stays the same)
         closing = 2.0 * self.since_kick - self.opened
-        opening = np.ldexp(dt, np.arange(self.levels + 1))
+        opening = dt * self.span
         if self.kick_force.shape != m.force.shape:
             self.kick_force = np.zeros_like(m.force)
         _kick(m.force, m.mass, m.v, self.node_level, self.next_node_level, due, closing, opening,

@@ -6,16 +6,18 @@ must stay what the run without subcycling is, within the error of the longer int
 keep its energy balance; a mesh whose parts all have level 0 must give the same bits.
 """
 
+from pathlib import Path
+
 import numba
 import numpy as np
 import pytest
 
 from impactsim.case.errors import CaseError
-from impactsim.case.load import load_case, load_case_text
+from impactsim.case.load import load_case
 from impactsim.case.schema import Wall
 from impactsim.mesh.renumber import renumber
-from impactsim.model import ERODED
 from impactsim.mesh.structured import structured_box
+from impactsim.model import ERODED
 from impactsim.solver import element as E
 from impactsim.solver.build import build_model
 from impactsim.solver.loop import Simulation
@@ -194,51 +196,30 @@ mesh_size = 0.005
 
 
 def test_node_separation_is_refused_with_subcycling(tmp_path):
-    text = SPHERE_BLOCK.replace('library = "al-2024-t3"',
-                                'library = "al-2024-t3"\nfailure = { fracture_strain = 0.05 }')
+    case = sphere_block("material.block-al.failure={ fracture_strain = 0.05 }")
     with pytest.raises(SimulationError, match="run.subcycle: node separation"):
-        run_case(load_case_text(text), tmp_path / "sep", progress=False)
+        run_case(case, tmp_path / "sep", progress=False)
 
 
-SPHERE_BLOCK = """
-[run]
-name = "sb"
-end_time = "6 us"
-subcycle = 3
-[[material]]
-name = "al"
-library = "al-2024-t3"
-[[material]]
-name = "steel"
-library = "steel-4340"
-[[body]]
-name = "block"
-material = "al"
-shape = "plate"
-size = ["60 mm", "60 mm", "15 mm"]
-position = ["0 mm", "0 mm", "-7.5 mm"]
-mesh_size = "2.5 mm"
-mesher = "structured"
-[[body]]
-name = "sphere"
-material = "steel"
-shape = "sphere"
-radius = "3 mm"
-position = ["0 mm", "0 mm", "3.02 mm"]
-mesh_size = "0.5 mm"
-velocity = ["0 m/s", "0 m/s", "-500 m/s"]
-[contact]
-passes = ["node-face", "edge-edge"]
-[output]
-frames = 2
-"""
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def sphere_block(*more):
+    """benchmarks/cases/sphere-block.toml made small: a 0.5 mm sphere of 3 mm radius into a
+    block of 2.5 mm cells, 60 x 60 x 15 mm (its own parts: level 2 or 3), 6 us."""
+    return load_case(ROOT / "benchmarks" / "cases" / "sphere-block.toml", overrides=[
+        "run.end_time=6 us", "run.subcycle=3", "output.frames=2",
+        'body.block.size=["60 mm", "60 mm", "15 mm"]',
+        'body.block.position=["0 mm", "0 mm", "-7.5 mm"]',
+        'body.sphere.radius=3 mm', 'body.sphere.position=["0 mm", "0 mm", "3.02 mm"]',
+        *more])
 
 
 def test_contact_on_a_coarse_body_books_its_work(tmp_path):
     """A fine sphere strikes a block of coarse cells (their own parts: level 2 or 3). The
     contact passes book an impulse's work with the node's velocity before its kick, which a
     coarse node not kicked in the step did not get (`Subcycle.kick`'s force for them)."""
-    s = run_case(load_case_text(SPHERE_BLOCK), tmp_path / "sb", progress=False)
+    s = run_case(sphere_block(), tmp_path / "sb", progress=False)
     assert s["subcycle"]["part_updates_share"] < 0.8
     assert s["energy"]["contact_dissipated"] > 0.0 and s["energy"]["internal_energy"] > 0.0
     assert abs(s["energy_balance_error"]) < 2e-3
