@@ -12,3 +12,9 @@ __version__ = "0.1.0"
 # waiting costs a thread wake-up per parallel kernel (microseconds) on an idle machine. Set
 # before numba loads OpenMP; a value the user set wins.
 _os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+# every kernel calls its own copies of the functions it calls, whether this process compiled it
+# or loaded it from the cache: the same bits either way (numba_linking.py)
+from impactsim import numba_linking as _numba_linking  # noqa: E402
+
+_numba_linking.apply()
