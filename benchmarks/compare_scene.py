@@ -54,7 +54,7 @@ def _env(tree: Path, threads: int = 1) -> dict:
 def run_once(tree: Path, case: Path, out: Path, sets: list[str], threads: int = 1) -> dict:
     """One run of ``case`` with the package of ``tree`` in a fresh process."""
     cmd = [sys.executable, "-c", "from impactsim.cli import main; main()", "run", str(case),
-           "-o", str(out), "--overwrite", "-q"]
+           "-o", str(out), "-q"]  # a fresh folder: no --overwrite, which old revisions lack
     for s in sets:
         cmd += ["--set", s]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
