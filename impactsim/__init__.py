@@ -14,7 +14,8 @@ __version__ = "0.1.0"
 _os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 # every kernel calls its own copies of the functions it calls, whether this process compiled it
-# or loaded it from the cache: the same bits either way (numba_linking.py)
+# or loaded it from the cache: the same bits either way (numba_linking.py; applied when numba's
+# code generator loads)
 from impactsim import numba_linking as _numba_linking  # noqa: E402
 
-_numba_linking.apply()
+_numba_linking.install()
