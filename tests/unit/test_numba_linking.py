@@ -39,7 +39,7 @@ def test_linked_copies_are_internal_and_shared_weak():
     import llvmlite.binding as ll
     import numba
 
-    import impactsim  # noqa: F401  (installs the patch)
+    from impactsim import numba_linking
 
     @numba.njit
     def callee(a):  # calls enough to stay a function of its own after the optimisation
@@ -55,6 +55,7 @@ def test_linked_copies_are_internal_and_shared_weak():
         return callee(a) - callee(a + 1.0)
 
     assert math.isfinite(caller(3.0))
+    assert numba_linking._APPLIED
     lib = caller.overloads[caller.signatures[0]].library
     name = callee.overloads[callee.signatures[0]].fndesc.llvm_func_name
     assert lib._final_module.get_function(name).linkage == ll.Linkage.internal
