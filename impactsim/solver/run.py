@@ -518,13 +518,12 @@ def _run(case: Case, out_dir, progress: bool, meshes, stops, overwrite: bool,
             summary["bodies"].setdefault(name, {}).update(vals)
         summary["units"] = SUMMARY_UNITS
         summary["checks"] = checks.summary()
-        # a kernel compiled in the run computes other last bits than the same kernel loaded from
-        # the cache (docs/user-guide.md, "Reproducibility")
+        # compiling is part of the run's wall time; the kernels are cached for the next run,
+        # which computes the same bits (impactsim/numba_linking.py)
         summary["kernels_compiled"] = len(compiled.kernels)
         if compiled.kernels:
-            info(f"note: {len(compiled.kernels)} kernel(s) compiled in this run: a run from the "
-                 "warm cache may differ from it in the last bits (docs/user-guide.md, "
-                 "Reproducibility)")
+            info(f"note: {len(compiled.kernels)} kernel(s) compiled in this run, now cached for "
+                 "the next (`make setup` compiles the bundled cases' kernels ahead)")
         for line in checks.closing_lines():
             bar.log(line)
         info(f"energy balance: {100 * summary['energy_balance_error']:+.3g} % at the end, "
