@@ -56,6 +56,32 @@ def test_pairs_equal_brute_force(cell):
     assert np.all(np.diff(keys) > 0)  # sorted
 
 
+@pytest.mark.parametrize("cell", [0.4, 1.0, 3.0])
+def test_each_box_is_entered_in_exactly_the_cells_it_covers(cell):
+    """The hash holds one entry per cell a box covers, with the box's first cell along each
+    axis marked (boxes of one or two cells a side take a branch-free path in the build)."""
+    import math
+
+    lo, hi = random_boxes(np.random.default_rng(3), 300, size=1.5)
+    h = SpatialHash(entry_capacity=16)
+    origin = np.zeros(3)
+    h.build(lo, hi, origin, cell)
+    got = {}
+    for k in range(h.n_entries):
+        key, j = int(h.keys[k]), int(h.ents[k])
+        ijk = ((key >> 43) & 0xFFFFF, (key >> 23) & 0xFFFFF, (key >> 3) & 0xFFFFF)
+        got.setdefault(j, []).append((ijk, key & 7))
+    for j in range(len(lo)):
+        first = [math.floor(lo[j, d] / cell) for d in range(3)]
+        last = [math.floor(hi[j, d] / cell) for d in range(3)]
+        want = sorted(((ix, iy, iz), int(ix == first[0]) | int(iy == first[1]) << 1
+                       | int(iz == first[2]) << 2)
+                      for ix in range(first[0], last[0] + 1)
+                      for iy in range(first[1], last[1] + 1)
+                      for iz in range(first[2], last[2] + 1))
+        assert sorted(got[j]) == want, j
+
+
 def test_same_set_and_self_contact_filters():
     rng = np.random.default_rng(3)
     lo, hi = random_boxes(rng, 100, size=2.0, extent=6.0)
