@@ -303,6 +303,11 @@ class Simulation:
         a pass changed those elements (erosion: a removed element no longer pushes its nodes)."""
         m = self.model
         nodes = np.unique(m.conn[elements])
+        if self.sub is not None:  # subcycling: only the nodes whose forces this step summed
+            # (levels <= the step's top). A node not due keeps the force of its last kick, which
+            # a kick cut short is settled with (subcycle._settle) and the half-step term reads;
+            # its parts are updated, without the removed elements, before its next kick
+            nodes = nodes[self.sub.node_level[nodes] <= self.sub.top]
         E.node_forces(nodes, m.x, m.conn, m.status, m.sdev, m.pressure, m.q, m.n2e_ptr, m.n2e,
                       m.force)
 

@@ -112,6 +112,34 @@ def test_levels_never_shorten_the_step():
     assert sim.sub.resyncs >= 1
 
 
+def test_erosion_mid_cycle_keeps_the_forces_of_nodes_not_due():
+    """Cells between the levels removed in a step that updates only the finest: the nodes due
+    take their forces from the live cells at once (Simulation.refresh_forces), and a node not
+    due keeps the force of its last kick, which a kick cut short is settled with and the
+    half-step term reads (its parts are updated without the removed cells before its next
+    kick)."""
+    model, sim = wall_sim(3)
+    for _ in range(40):
+        sim.step()
+        sub = sim.sub
+        if sub.part_level.max() > 0 and not sub.synced and sub.top < sub.node_level.max():
+            break
+    else:
+        pytest.fail("no step inside a cycle")
+    corner_levels = sub.node_level[model.conn]  # cells with nodes due and nodes not due
+    ids = np.flatnonzero((corner_levels.min(axis=1) <= sub.top)
+                         & (corner_levels.max(axis=1) > sub.top) & (model.status != ERODED))
+    ids = ids[::max(1, len(ids) // 40)]
+    nodes = np.unique(model.conn[ids])
+    due = sub.node_level[nodes] <= sub.top
+    assert due.any() and (~due).any()
+    before = model.force.copy()
+    model.status[ids] = ERODED
+    sim.refresh_forces(ids)
+    np.testing.assert_array_equal(model.force[nodes[~due]], before[nodes[~due]])
+    assert np.any(model.force[nodes[due]] != before[nodes[due]])
+
+
 def test_subcycled_run_keeps_its_energy(graded_runs):
     """At a cycle's end (here the run's end, a time limit) the balance holds as without
     subcycling; within a cycle the coarse parts' internal energy lags (a few tenths of a per
