@@ -1392,8 +1392,9 @@ def _update_serial(x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps_r
                    use_anp, dt, cq, cl, rows, fext, part_chunks, chunk_out, threads, plastic,
                    guard, claimed, deferred):
     """`_update_parallel` on one thread: the parts not `claimed` (the caller's flags) in order,
-    each part's chunks in order, `_chunk` called from here directly (numba links a called kernel's code into its caller and optimises it
-    again there, so every level of calls costs compile time: one more, 1.5 s)."""
+    each part's chunks in order, `_chunk` called from here directly (numba links a called
+    kernel's code into its caller and optimises it again there, so every level of calls costs
+    compile time: one more, 1.5 s)."""
     buf = aligned_empty(TET_ROWS * B)
     n_ch = (conn.shape[0] + CHUNK - 1) // CHUNK
     if deferred is None:

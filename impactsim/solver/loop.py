@@ -150,10 +150,20 @@ class Simulation:
         dtv = 0.5 * (self.dt + dt) if self.dt > 0.0 else 0.5 * dt
         m.dtv = dtv
         t0 = wallclock.perf_counter()
-        if self.sub is not None:
-            # the predictor of the nodes due (subcycle.py); the velocity passes see as
-            # m.force the force of each node's kick over m.dtv (their work booking's)
-            force, m.force = m.force, self.sub.kick(m, dt)
+        if self.sub is None and self.fused and m.mass.shape[0] < PARALLEL_NODES:
+            # the wall's time is booked with the nodes' (one pass)
+            res = predict_walls_move(m.force, m.mass, m.v, m.x, dtv, m.walls, dt)
+            if self.fused_wall is not None:
+                self.fused_wall.book(m, dt, *res)
+            self.timings["nodes"] += wallclock.perf_counter() - t0
+        else:
+            kept = None
+            if self.sub is not None:
+                # the predictor of the nodes due (subcycle.py); the velocity passes see as
+                # m.force the force of each node's kick over m.dtv (their work booking's)
+                kept, m.force = m.force, self.sub.kick(m, dt)
+            else:
+                predict(m.force, m.mass, m.v, dtv)
             t1 = wallclock.perf_counter()
             self.timings["nodes"] += t1 - t0
             try:
@@ -163,24 +173,8 @@ class Simulation:
                     self.timings[p.name] += t2 - t1
                     t1 = t2
             finally:
-                m.force = force
-            move(m.x, m.v, dt)
-            self.timings["nodes"] += wallclock.perf_counter() - t1
-        elif self.fused and m.mass.shape[0] < PARALLEL_NODES:
-            # the wall's time is booked with the nodes' (one pass)
-            res = predict_walls_move(m.force, m.mass, m.v, m.x, dtv, m.walls, dt)
-            if self.fused_wall is not None:
-                self.fused_wall.book(m, dt, *res)
-            self.timings["nodes"] += wallclock.perf_counter() - t0
-        else:
-            predict(m.force, m.mass, m.v, dtv)
-            t1 = wallclock.perf_counter()
-            self.timings["nodes"] += t1 - t0
-            for p in self.velocity_passes:
-                p.run(m, dt)
-                t2 = wallclock.perf_counter()
-                self.timings[p.name] += t2 - t1
-                t1 = t2
+                if kept is not None:
+                    m.force = kept
             move(m.x, m.v, dt)
             self.timings["nodes"] += wallclock.perf_counter() - t1
         self._update_elements(dt, final=dt >= limit)
@@ -340,8 +334,9 @@ class Simulation:
 
             ie += block_internal_energy(m)
         t = m.energy_terms
-        half = 0.5 * self.dt * power
-        if self.sub is not None:  # each node's own time since its kick (subcycle.py)
+        if self.sub is None:
+            half = 0.5 * self.dt * power
+        else:  # each node's own time since its kick (subcycle.py)
             half = half_step_energy(m.force, m.v, m.mass, self.sub.node_level,
                                     self.sub.since_kick, self.sub.opened)
         out = {"kinetic_energy": ke, "internal_energy": ie, "viscous_energy": t["viscous"],
