@@ -248,7 +248,7 @@ def cell_damage(e, mk, p, sdev, eps_p, eps_p_prev, damage, eps_rate, temperature
     ``element_state``: its Johnson-Cook damage if its plastic strain grew since the last call
     and its material accumulates damage (p the pressure its spall test reads), and
     eps_p_prev. The tets' kernel takes it in SIMD instructions on blocks of cells
-    (``_damage_add``), with the same bits."""
+    (``_block_damage``), with the same bits."""
     deps = eps_p[e] - eps_p_prev[e]
     eps_p_prev[e] = eps_p[e]
     if accumulates_damage(mat_params, mk) and deps > 0.0:
@@ -393,7 +393,8 @@ PF_AHEAD = 4  # blocks ahead whose cells' arrays ``_prefetch_block`` asks the ca
 
 
 @numba.njit(cache=True, inline="always")
-def _prefetch_block(e0, given, status, faces, elem_mat, eps_p, damage, temperature, action):
+def _prefetch_block(e0, given, status, faces, elem_mat, eps_p, eps_p_prev, damage, temperature,
+                    action):
     """Ask the caches for what the quiet test reads of block e0 (a few blocks ahead): with
     eight streams the hardware prefetchers leave some cells' lines to stall the loop (the
     criteria took 10 % longer without)."""
@@ -405,6 +406,7 @@ def _prefetch_block(e0, given, status, faces, elem_mat, eps_p, damage, temperatu
     VM.prefetch(elem_mat, e0 + 16)
     for o in range(0, GB, 8):
         VM.prefetch(eps_p, e0 + o)
+        VM.prefetch(eps_p_prev, e0 + o)
         VM.prefetch(damage, e0 + o)
         VM.prefetch(temperature, e0 + o)
     VM.prefetch_write(action, e0)
@@ -462,11 +464,10 @@ def _guard_full_block(buf, h1, h2):
         buf[R_OK * GB + i] = 1.0 if ok else 0.0
 
 
-# The Johnson-Cook damage (step 2b) of the cells whose plastic strain grew, GB at a time: what
-# their increments read is copied into rows of GB lanes of a buffer of their own (``_damage_add``,
-# the cells packed, whatever blocks they come from), which one loop evaluates in SIMD
-# instructions (``_damage_lanes``; ln and exp as the lane functions of solver/vecmath.py) and
-# ``_damage_flush`` adds to the cells
+# The Johnson-Cook damage (step 2b) of a block's cells whose plastic strain grew: what their
+# increments read is packed into rows of GB lanes of a buffer of their own (``_block_damage``),
+# which one loop evaluates in SIMD instructions (``_damage_lanes``; ln and exp as the lane
+# functions of solver/vecmath.py)
 D_DEPS, D_P, D_S = 0, 1, 2  # plastic strain increment, pressure spall reads, deviator (6 rows)
 D_RATE, D_T = 8, 9  # plastic strain rate, temperature
 D_MAT = 10  # rows 10..17: D1..D5, reference rate, room and melt temperature of the material
@@ -476,19 +477,19 @@ D_ROWS = 20
 
 
 @numba.njit(cache=True, inline="always")
-def _damage_add(e0, lanes, elem_mat, status, sdev, pressure, eps_p, eps_p_prev, damage,
-                eps_rate, temperature, mat_params, mq, spall_mode, conn, pnode, dbuf, cells, k):
-    """``cell_damage`` on the live cells e0 .. e0 + lanes - 1 (the same bits): eps_p_prev set
-    to eps_p, and each cell whose plastic strain grew since the last call and whose material
-    accumulates damage packed into dbuf at slot k, k + 1, ... (its index in cells), the full
-    buffer evaluated and added (``_damage_flush``) whenever its GB slots are taken. A block
-    whose plastic strains did not move (most: one vector comparison) is left at once.
-    Returns the slots taken."""
+def _block_damage(e0, lanes, elem_mat, status, sdev, pressure, eps_p, eps_p_prev, damage,
+                  eps_rate, temperature, mat_params, mq, spall_mode, conn, pnode, dbuf, cells):
+    """``cell_damage`` on the live cells e0 .. e0 + lanes - 1 (lanes <= GB; the same bits):
+    eps_p_prev set to eps_p, and the cells whose plastic strain grew since the last call and
+    whose material accumulates damage packed into dbuf's first slots (their indices in
+    cells), evaluated together and their increments added. A block whose plastic strains did
+    not move (most: one vector comparison) is left at once."""
     changed = False
     for i in range(lanes):
         changed |= eps_p[e0 + i] != eps_p_prev[e0 + i]
     if not changed:
-        return k
+        return
+    k = 0
     for i in range(lanes):
         e = e0 + i
         if status[e] == ERODED:
@@ -512,25 +513,15 @@ def _damage_add(e0, lanes, elem_mat, status, sdev, pressure, eps_p, eps_p_prev, 
         dbuf[(D_MAT + 7) * GB + k] = mat_params[mk, P.T_MELT]
         dbuf[D_CUT * GB + k] = mq[mk, Q_DUCT]
         k += 1
-        if k == GB:
-            k = _damage_flush(dbuf, cells, k, damage)
-    return k
-
-
-@numba.njit(cache=True, inline="always")
-def _damage_flush(dbuf, cells, k, damage):
-    """Evaluate the k packed cells of dbuf (``_damage_lanes``: every lane, those past k hold
-    what was left there) and add their increments; returns 0, the slots now free."""
     if k:
-        _damage_lanes(dbuf)
+        _damage_lanes(dbuf)  # every lane: those past k hold what was left there, never read
         for j in range(k):
             damage[cells[j]] += dbuf[D_INC * GB + j]
-    return 0
 
 
 @numba.njit(cache=True, error_model="numpy")
 def _damage_lanes(dbuf):
-    """``ductile.increment_of`` on every lane of dbuf (``_damage_add``), into row D_INC."""
+    """``ductile.increment_of`` on every lane of dbuf (``_block_damage``), into row D_INC."""
     for i in range(GB):
         seq = von_mises(dbuf[D_S * GB + i], dbuf[(D_S + 1) * GB + i],
                         dbuf[(D_S + 2) * GB + i], dbuf[(D_S + 3) * GB + i],
@@ -575,7 +566,7 @@ ALL_FREE = 0x01010101  # the four face flags of a cell read as one uint32: all f
 def _quiet(e, mk, status, sdev, pressure, spall_mode, conn, pnode, eps_p, damage, temperature,
            faces, mq, guard_ok, spall_clear):
     """True only for a cell on which the full criteria (``_criteria_one``, its damage already
-    accumulated: ``_damage_add``) change nothing and take no action: intact, Gershgorin's
+    accumulated: ``_block_damage``) change nothing and take no action: intact, Gershgorin's
     spall bound (with the pressure spall reads) not above the spall strength, no erosion
     criterion met where it applies, for the ductile criterion damage below 1, and for a
     material with failure data a guard that does not flag it (guard_ok: the block's verdict)
@@ -635,7 +626,7 @@ def _criteria_one(e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0
                   temperature, mat_params, face_flag, adj, surface_only, dt, action, spall_mode,
                   pnode, spall_k, integrate, reach, verdict):
     """The full criteria on element e (module docstring), its damage accumulated
-    (``cell_damage``, ``_damage_add``): sets status[e] and action[e]; returns (newly damaged
+    (``cell_damage``, ``_block_damage``): sets status[e] and action[e]; returns (newly damaged
     0/1, by the ductile criterion 0/1, newly fractured 0/1, guard tested 0/1, cleared by the
     pre-test 0/1). reach: the guard pre-test's (inf: no pre-test, ``fracture_criteria``).
     verdict: the guard's (``_guard_verdicts``: CLEARED, PASSED or FLAGGED) when known, else
@@ -698,10 +689,10 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
     Returns (newly damaged, newly fractured, elements with an action, newly damaged by the
     ductile criterion, cells the guard tested, of them cleared by the pre-test).
 
-    On the threads in groups of GROUP_BLOCKS blocks of GB cells. First the group's Johnson-Cook
-    damage (``cell_damage``), of the cells whose plastic strain grew, packed GB at a time and
-    evaluated in SIMD instructions (``_damage_add``); a block the tet kernel marked NO_YIELD
-    has none (solver/guard.py). Then per block: the guard's verdict on every cell, the kernel's
+    Per block of GB cells, on the threads in groups of GROUP_BLOCKS blocks. First the block's
+    Johnson-Cook damage (``cell_damage``), of the cells whose plastic strain grew, packed and
+    evaluated in SIMD instructions (``_block_damage``); a block the tet kernel marked NO_YIELD
+    has none (solver/guard.py). Then the guard's verdict on every cell, the kernel's
     where it gave them for the whole block, else in SIMD instructions here (``_guard_verdicts``:
     the pre-test, and where it leaves a lane the full test on the whole block); a block the
     kernel left elastic, intact, inside the body and clear of spall and the guard is passed
@@ -741,22 +732,17 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
         cells = np.empty(GB, np.int64)
         verdicts = np.empty(GB, np.int8)
         left = np.empty(GB, np.int64)
-        b0, b1 = grp * GROUP_BLOCKS, min(n_blk, (grp + 1) * GROUP_BLOCKS)
-        # first the group's damage (the quiet test reads it), the cells packed GB at a time
-        k = 0
-        for blk in range(b0, b1):
-            e0 = blk * GB
-            if not (blk < n_full and has_given and _all_still(given, e0)):
-                k = _damage_add(e0, min(GB, n_elem - e0), elem_mat, status, sdev, pressure,
-                                eps_p, eps_p_prev, damage, eps_rate, temperature, mat_params, mq,
-                                spall_mode, conn, pnode, dbuf, cells, k)
-        _damage_flush(dbuf, cells, k, damage)
-        for blk in range(b0, b1):
+        for blk in range(grp * GROUP_BLOCKS, min(n_blk, (grp + 1) * GROUP_BLOCKS)):
             e0 = blk * GB
             lanes = min(GB, n_elem - e0)
             if blk + PF_AHEAD < n_full:
                 _prefetch_block(e0 + PF_AHEAD * GB, given, status, faces, elem_mat, eps_p,
-                                damage, temperature, action)
+                                eps_p_prev, damage, temperature, action)
+            # first the block's damage (the quiet test reads it); then the cells, still in L1
+            if not (blk < n_full and has_given and _all_still(given, e0)):
+                _block_damage(e0, lanes, elem_mat, status, sdev, pressure, eps_p, eps_p_prev,
+                              damage, eps_rate, temperature, mat_params, mq, spall_mode, conn,
+                              pnode, dbuf, cells)
             if lanes < GB:  # the mesh's last, partial block: the criteria's own verdicts
                 for i in range(lanes):
                     verdicts[i] = UNKNOWN
