@@ -26,9 +26,7 @@ Per live element e, after the element update of the step:
    the homologous temperature of the strength model. Under the ductile criterion no damage
    accumulates at s* <= -1/3, and an intact cell whose D reaches 1 becomes DAMAGED (then
    loosening, step 2, as after spall); it runs before loosening so that such a cell that has
-   opened loosens in the same step. The damage is accumulated first, for every cell (it reads
-   nothing the other steps change); ln and exp are the lane functions of solver/vecmath.py, a
-   few ulp from libm, so that blocks of cells take it in SIMD instructions.
+   opened loosens in the same step.
 3b. Melt and runaway strain (materials with failure data): a cell within 1 % of the melt
    temperature of its strength model (T* >= MELT_SHARE; no strength left: the Johnson-Cook law
    ends there, and heating stops short of T_melt as the strength vanishes) or
@@ -64,13 +62,12 @@ import math
 import numba
 import numpy as np
 
-from impactsim.fracture.ductile import damage_increment, ductile, increment_of
+from impactsim.fracture.ductile import damage_increment, ductile, fracture_strain, triaxiality
 from impactsim.fracture.principal import max_principal, max_principal_stretch
 from impactsim.fracture.spall import SPALL_CELL, SPALL_PATCH, spall_pressure, spalls
 from impactsim.materials import params as P
 from impactsim.model import DAMAGED, ERODED, FRACTURED, INTACT
-from impactsim.solver import vecmath as VM
-from impactsim.solver.guard import (CLEARED, FLAGGED, GUARD_FRACTION, LANES, NO_YIELD, PASSED,
+from impactsim.solver.guard import (CLEARED, FLAGGED, GUARD_FRACTION, LANES, PASSED,
                                     SPALL_CLEAR, UNKNOWN, VERDICT, gershgorin_max, volume6_lane,
                                     volume6_of)
 
@@ -167,12 +164,6 @@ def guard_clear(x, i0, i1, i2, i3, reach, inv, lim):
 
 
 @numba.njit(cache=True, inline="always")
-def _pretest_inv(reach):
-    """``guard_clear``'s inv for a reach."""
-    return 1.0 / (2.0 * GUARD_K * reach) if reach > 0.0 else math.inf
-
-
-@numba.njit(cache=True, inline="always")
 def _clear_bound(ax, ay, az, bx, by, bz, cx, cy, cz, reach, inv, lim):
     """``guard_clear`` on the edges a, b, c of a tet from its first corner (no branch)."""
     bcx = by * cz - bz * cy
@@ -197,6 +188,13 @@ def _clear_bound(ax, ay, az, bx, by, bz, cx, cy, cz, reach, inv, lim):
     return (d > 0.0) & (d * d > 3.0000001 * r * r * f2)
 
 
+@numba.njit(cache=True, inline="always")
+def jc_fracture_strain(mat_params, mk, pressure, seq, rate, temperature):
+    """Johnson-Cook (1985) fracture strain eps_f at triaxiality -p/seq (capped at 1.5), rate
+    and temperature (fracture/ductile.py)."""
+    return fracture_strain(mat_params, mk, triaxiality(pressure, seq), rate, temperature)
+
+
 @numba.njit(cache=True, parallel=True)
 def patch_fields(vol, vol0, pressure, status, n2e_ptr, n2e, pnode, jnode, corners):
     """Nodal means over the live elements around each node: pressure pnode_i = sum V_e p_e /
@@ -217,54 +215,13 @@ def patch_fields(vol, vol0, pressure, status, n2e_ptr, n2e, pnode, jnode, corner
 
 
 @numba.njit(cache=True, inline="always")
-def von_mises(sxx, syy, szz, sxy, syz, szx):
-    """The von Mises stress of a deviator (the argument of the root kept non-negative, so that
-    the root compiles to the instruction, also in a vector loop)."""
-    return math.sqrt(max(1.5 * (sxx * sxx + syy * syy + szz * szz)
-                         + 3.0 * (sxy * sxy + syz * syz + szx * szx), 0.0))
-
-
-@numba.njit(cache=True, inline="always")
-def accumulates_damage(mat_params, mk):
-    """True for a material whose cells accumulate Johnson-Cook damage: the erosion criterion
-    "jc-damage" or the ductile criterion."""
-    return int(mat_params[mk, P.EROSION]) == 2 or ductile(mat_params, mk)
-
-
-@numba.njit(cache=True, inline="always")
-def cell_pressure(e, pressure, spall_mode, pnode, conn):
-    """The pressure tet e's spall test reads (``spall.spall_pressure``: its own, or with the
-    mean of its nodes' patch pressures pnode)."""
-    p = pressure[e]
-    if spall_mode != SPALL_CELL:
-        p = spall_pressure(spall_mode, p, 0.25 * (pnode[conn[e, 0]] + pnode[conn[e, 1]]
-                                                 + pnode[conn[e, 2]] + pnode[conn[e, 3]]))
-    return p
-
-
-@numba.njit(cache=True, inline="always")
-def cell_damage(e, mk, p, sdev, eps_p, eps_p_prev, damage, eps_rate, temperature, mat_params):
-    """Step 2b of the module docstring for live element e of any type, before
-    ``element_state``: its Johnson-Cook damage if its plastic strain grew since the last call
-    and its material accumulates damage (p the pressure its spall test reads), and
-    eps_p_prev. The tets' kernel takes it in SIMD instructions on blocks of cells
-    (``_block_damage``), with the same bits."""
-    deps = eps_p[e] - eps_p_prev[e]
-    eps_p_prev[e] = eps_p[e]
-    if accumulates_damage(mat_params, mk) and deps > 0.0:
-        damage[e] += damage_increment(mat_params, mk, deps, p,
-                                      von_mises(sdev[e, 0], sdev[e, 1], sdev[e, 2], sdev[e, 3],
-                                                sdev[e, 4], sdev[e, 5]),
-                                      eps_rate[e], temperature[e], ductile(mat_params, mk))
-
-
-@numba.njit(cache=True, inline="always")
-def element_state(e, mk, st, p, sdev, vol, vol0, damage, mat_params, dt, spall_k, integrate):
+def element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev, damage, eps_rate,
+                  temperature, mat_params, dt, spall_k, integrate):
     """Steps 1-3 of the module docstring for live element e of any type (the per-element
-    arrays of the tets and of a hex block have one layout), its damage accumulated
-    (``cell_damage``): spall with the pressure p (``spall.spalls``: the Tuler-Butcher integral
-    spall_k[e] when integrate), the ductile criterion, loosening. Returns (status, newly
-    damaged: 0, 1 by spall or 2 by the ductile criterion, newly fractured 0/1)."""
+    arrays of the tets and of a hex block have one layout): spall with the pressure p
+    (``spall.spalls``: the Tuler-Butcher integral spall_k[e] when integrate), loosening,
+    Johnson-Cook damage (updates damage[e] and eps_p_prev[e]). Returns (status, newly damaged:
+    0, 1 by spall or 2 by the ductile criterion, newly fractured 0/1)."""
     dam = 0
     frac = 0
     sxx, syy, szz = sdev[e, 0], sdev[e, 1], sdev[e, 2]
@@ -277,7 +234,16 @@ def element_state(e, mk, st, p, sdev, vol, vol0, damage, mat_params, dt, spall_k
                   mat_params, integrate):
             st = DAMAGED
             dam = 1
-    if ductile(mat_params, mk) and st == INTACT and damage[e] >= 1.0:
+    code = int(mat_params[mk, P.EROSION])
+    duct = ductile(mat_params, mk)
+    deps = eps_p[e] - eps_p_prev[e]
+    eps_p_prev[e] = eps_p[e]
+    if (code == 2 or duct) and deps > 0.0:
+        seq = math.sqrt(1.5 * (sxx * sxx + syy * syy + szz * szz)
+                        + 3.0 * (sxy * sxy + syz * syz + szx * szx))
+        damage[e] += damage_increment(mat_params, mk, deps, p, seq, eps_rate[e],
+                                      temperature[e], duct)
+    if duct and st == INTACT and damage[e] >= 1.0:
         st = DAMAGED  # ductile fracture (fracture/ductile.py): as spall damages it
         dam = 2
     if st == DAMAGED and 1.0 - vol0[e] / vol[e] > mat_params[mk, P.CHI_STAR]:
@@ -379,40 +345,6 @@ def _all_given(given, e0):
 
 
 @numba.njit(cache=True, inline="always")
-def _all_still(given, e0):
-    """True when the kernel marked every cell of block e0 NO_YIELD (solver/guard.py): their
-    plastic strains are the last call's (eps_p_prev), and no damage is due."""
-    still = True
-    for i in range(GB):
-        g = given[e0 + i]
-        still &= (g > 0) & ((g & NO_YIELD) != 0)
-    return still
-
-
-PF_AHEAD = 4  # blocks ahead whose cells' arrays ``_prefetch_block`` asks the caches for
-
-
-@numba.njit(cache=True, inline="always")
-def _prefetch_block(e0, given, status, faces, elem_mat, eps_p, eps_p_prev, damage, temperature,
-                    action):
-    """Ask the caches for what the quiet test reads of block e0 (a few blocks ahead): with
-    eight streams the hardware prefetchers leave some cells' lines to stall the loop (the
-    criteria took 10 % longer without)."""
-    VM.prefetch(given, e0)
-    VM.prefetch(status, e0)
-    VM.prefetch(faces, e0)
-    VM.prefetch(faces, e0 + 16)
-    VM.prefetch(elem_mat, e0)
-    VM.prefetch(elem_mat, e0 + 16)
-    for o in range(0, GB, 8):
-        VM.prefetch(eps_p, e0 + o)
-        VM.prefetch(eps_p_prev, e0 + o)
-        VM.prefetch(damage, e0 + o)
-        VM.prefetch(temperature, e0 + o)
-    VM.prefetch_write(action, e0)
-
-
-@numba.njit(cache=True, inline="always")
 def _guard_verdicts(x, v, conn, vol0, e0, buf, pretest, reach, inv, h1, h2, out):
     """The guard's verdicts (CLEARED, PASSED, FLAGGED) on the cells e0 .. e0 + GB - 1 into out:
     with the pre-test, on the positions alone, and where it leaves a lane the full test on the
@@ -464,79 +396,9 @@ def _guard_full_block(buf, h1, h2):
         buf[R_OK * GB + i] = 1.0 if ok else 0.0
 
 
-# The Johnson-Cook damage (step 2b) of a block's cells whose plastic strain grew: what their
-# increments read is packed into rows of GB lanes of a buffer of their own (``_block_damage``),
-# which one loop evaluates in SIMD instructions (``_damage_lanes``; ln and exp as the lane
-# functions of solver/vecmath.py)
-D_DEPS, D_P, D_S = 0, 1, 2  # plastic strain increment, pressure spall reads, deviator (6 rows)
-D_RATE, D_T = 8, 9  # plastic strain rate, temperature
-D_MAT = 10  # rows 10..17: D1..D5, reference rate, room and melt temperature of the material
-D_CUT = 18  # 1.0: the ductile criterion's triaxiality cutoff applies
-D_INC = 19  # the increment (out)
-D_ROWS = 20
-
-
-@numba.njit(cache=True, inline="always")
-def _block_damage(e0, lanes, elem_mat, status, sdev, pressure, eps_p, eps_p_prev, damage,
-                  eps_rate, temperature, mat_params, mq, spall_mode, conn, pnode, dbuf, cells):
-    """``cell_damage`` on the live cells e0 .. e0 + lanes - 1 (lanes <= GB; the same bits):
-    eps_p_prev set to eps_p, and the cells whose plastic strain grew since the last call and
-    whose material accumulates damage packed into dbuf's first slots (their indices in
-    cells), evaluated together and their increments added. A block whose plastic strains did
-    not move (most: one vector comparison) is left at once."""
-    changed = False
-    for i in range(lanes):
-        changed |= eps_p[e0 + i] != eps_p_prev[e0 + i]
-    if not changed:
-        return
-    k = 0
-    for i in range(lanes):
-        e = e0 + i
-        if status[e] == ERODED:
-            continue
-        deps = eps_p[e] - eps_p_prev[e]
-        eps_p_prev[e] = eps_p[e]
-        mk = elem_mat[e]
-        if not (deps > 0.0 and mq[mk, Q_DAMAGE] != 0.0):
-            continue
-        cells[k] = e
-        dbuf[D_DEPS * GB + k] = deps
-        dbuf[D_P * GB + k] = cell_pressure(e, pressure, spall_mode, pnode, conn)
-        for c in range(6):
-            dbuf[(D_S + c) * GB + k] = sdev[e, c]
-        dbuf[D_RATE * GB + k] = eps_rate[e]
-        dbuf[D_T * GB + k] = temperature[e]
-        for c in range(5):
-            dbuf[(D_MAT + c) * GB + k] = mat_params[mk, P.JC_D1 + c]
-        dbuf[(D_MAT + 5) * GB + k] = mat_params[mk, P.EPSDOT0]
-        dbuf[(D_MAT + 6) * GB + k] = mat_params[mk, P.T_ROOM]
-        dbuf[(D_MAT + 7) * GB + k] = mat_params[mk, P.T_MELT]
-        dbuf[D_CUT * GB + k] = mq[mk, Q_DUCT]
-        k += 1
-    if k:
-        _damage_lanes(dbuf)  # every lane: those past k hold what was left there, never read
-        for j in range(k):
-            damage[cells[j]] += dbuf[D_INC * GB + j]
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _damage_lanes(dbuf):
-    """``ductile.increment_of`` on every lane of dbuf (``_block_damage``), into row D_INC."""
-    for i in range(GB):
-        seq = von_mises(dbuf[D_S * GB + i], dbuf[(D_S + 1) * GB + i],
-                        dbuf[(D_S + 2) * GB + i], dbuf[(D_S + 3) * GB + i],
-                        dbuf[(D_S + 4) * GB + i], dbuf[(D_S + 5) * GB + i])
-        dbuf[D_INC * GB + i] = increment_of(
-            dbuf[D_DEPS * GB + i], dbuf[D_P * GB + i], seq, dbuf[D_CUT * GB + i] != 0.0,
-            dbuf[D_MAT * GB + i], dbuf[(D_MAT + 1) * GB + i], dbuf[(D_MAT + 2) * GB + i],
-            dbuf[(D_MAT + 3) * GB + i], dbuf[(D_MAT + 4) * GB + i],
-            dbuf[(D_MAT + 5) * GB + i], dbuf[(D_MAT + 6) * GB + i],
-            dbuf[(D_MAT + 7) * GB + i], dbuf[D_RATE * GB + i], dbuf[D_T * GB + i])
-
-
 # columns of the per-material table of ``_quiet`` (``_quiet_table``)
-Q_SPALL, Q_VAL, Q_FAIL, Q_DUCT, Q_ERO_IN, Q_ERO_SURF, Q_MELT, Q_DAMAGE = 0, 1, 2, 3, 4, 5, 6, 7
-Q_COLS = 8
+Q_SPALL, Q_VAL, Q_FAIL, Q_DUCT, Q_ERO_IN, Q_ERO_SURF, Q_MELT = 0, 1, 2, 3, 4, 5, 6
+Q_COLS = 7
 
 
 @numba.njit(cache=True, inline="always")
@@ -544,7 +406,7 @@ def _quiet_table(mat_params, surface_only, mq):
     """Fill mq (n_mat, Q_COLS): spall strength, erosion value, failure data (1.0/0.0), ductile
     criterion (1.0/0.0), the erosion criterion's code inside the body and on its surface (0
     where it cannot hold for an intact cell: none, or "fractured"), the melt temperature of
-    step 3b (as ``element_action`` computes it), Johnson-Cook damage accumulated (1.0/0.0)."""
+    step 3b (as ``element_action`` computes it)."""
     for m in range(mat_params.shape[0]):
         code = int(mat_params[m, P.EROSION])
         code = 0 if code == 4 else code
@@ -556,89 +418,77 @@ def _quiet_table(mat_params, surface_only, mq):
         mq[m, Q_ERO_SURF] = code
         mq[m, Q_MELT] = mat_params[m, P.T_ROOM] + MELT_SHARE * (
             mat_params[m, P.T_MELT] - mat_params[m, P.T_ROOM])
-        mq[m, Q_DAMAGE] = 1.0 if accumulates_damage(mat_params, m) else 0.0
-
-
-ALL_FREE = 0x01010101  # the four face flags of a cell read as one uint32: all free
 
 
 @numba.njit(cache=True, inline="always")
-def _quiet(e, mk, status, sdev, pressure, spall_mode, conn, pnode, eps_p, damage, temperature,
-           faces, mq, guard_ok, spall_clear):
-    """True only for a cell on which the full criteria (``_criteria_one``, its damage already
-    accumulated: ``_block_damage``) change nothing and take no action: intact, Gershgorin's
-    spall bound (with the pressure spall reads) not above the spall strength, no erosion
-    criterion met where it applies, for the ductile criterion damage below 1, and for a
-    material with failure data a guard that does not flag it (guard_ok: the block's verdict)
-    and, on the surface, neither molten nor strained beyond MAX_PLASTIC_STRAIN nor with all
-    four faces free (a possible one-cell fragment: the full criteria decide). spall_clear: the
-    tet kernel found the bound clear (solver/guard.py ``spall_marks``), and the stress and
-    pressure are not read. faces: the face flags as one uint32 per cell; mq:
-    ``_quiet_table``. After the status, the spall bound's branch (taken by few cells), the
-    tests are combined without branches: nearly every cell passes them all."""
+def _quiet(e, mk, status, sdev, pressure, spall_mode, conn, pnode, eps_p, eps_p_prev, damage,
+           temperature, face_flag, mq, guard_ok, spall_clear):
+    """True only for a cell on which the full criteria (``_criteria_one``) change nothing and
+    take no action: intact, its plastic strain unchanged since the last call (no damage
+    increment; eps_p_prev already equal), Gershgorin's spall bound (with the pressure spall
+    reads) not above the spall strength, no erosion criterion met where it applies, for the
+    ductile criterion damage below 1, and for a material with failure data a guard that does
+    not flag it (guard_ok: the block's verdict) and, on the surface, neither molten nor
+    strained beyond MAX_PLASTIC_STRAIN nor with all four faces free (a possible one-cell
+    fragment: the full criteria decide). spall_clear: the tet kernel found the bound clear
+    (solver/guard.py ``spall_marks``), and the stress and pressure are not read. mq:
+    ``_quiet_table``. The tests in the order that rejects a cell soonest."""
     if status[e] != INTACT:
         return False
+    ep = eps_p[e]
+    if not ep == eps_p_prev[e]:
+        return False
+    fail = mq[mk, Q_FAIL] != 0.0
+    if fail and not guard_ok:
+        return False
     if not spall_clear:
-        p = cell_pressure(e, pressure, spall_mode, pnode, conn)
+        p = pressure[e]
+        if spall_mode != SPALL_CELL:
+            p = spall_pressure(spall_mode, p, 0.25 * (
+                pnode[conn[e, 0]] + pnode[conn[e, 1]] + pnode[conn[e, 2]] + pnode[conn[e, 3]]))
         sxx, syy, szz = sdev[e, 0], sdev[e, 1], sdev[e, 2]
         sxy, syz, szx = sdev[e, 3], sdev[e, 4], sdev[e, 5]
         if gershgorin_max(sxx, syy, szz, sxy, syz, szx) - p > mq[mk, Q_SPALL]:
             return False
-    ff = faces[e]
-    surf = ff != 0
-    fail = mq[mk, Q_FAIL] != 0.0
+    f0, f1 = face_flag[4 * e], face_flag[4 * e + 1]
+    f2, f3 = face_flag[4 * e + 2], face_flag[4 * e + 3]
+    surf = f0 or f1 or f2 or f3
     ero = mq[mk, Q_ERO_SURF] if surf else mq[mk, Q_ERO_IN]
-    ep = eps_p[e]
-    d = damage[e]
-    bad = ((fail & (not guard_ok)) | (ero == 3.0) | ((ero == 1.0) & (ep >= mq[mk, Q_VAL]))
-           | ((ero == 2.0) & (d >= mq[mk, Q_VAL])) | ((mq[mk, Q_DUCT] != 0.0) & (d >= 1.0)))
-    if surf & fail:
-        bad |= ((temperature[e] >= mq[mk, Q_MELT]) | (ep > MAX_PLASTIC_STRAIN)
-                | (ff == ALL_FREE))
-    return not bad
-
-
-QUIET_MARKS = SPALL_CLEAR | NO_YIELD
-
-
-@numba.njit(cache=True, inline="always")
-def _block_quiet(given, status, faces, e0):
-    """True when the tet kernel's marks (solver/guard.py) make every cell of block e0 quiet
-    whatever its plastic strain, damage and temperature: each cell intact, with no free face,
-    a verdict that does not flag it, its spall bound clear (SPALL_CLEAR) and its plastic strain
-    left as it was (NO_YIELD: the block took no plastic return this step). Its damage, plastic
-    strain and temperature are then those of the criteria's last call (eps_p_prev equals
-    eps_p after every call), which, had they met a criterion of ``_quiet``, would have changed
-    the cell's status or removed it: so ``_quiet`` holds for each cell unless its material's
-    erosion criterion inside the body is "principal-strain", which reads the positions (the
-    caller's test). The kernel sets NO_YIELD only on its full blocks, of one material.
-    Reads 6 bytes a cell, where ``_quiet`` reads 26; no branch."""
-    ok = True
-    for i in range(GB):
-        g = given[e0 + i]
-        ok &= ((g > 0) & ((g & QUIET_MARKS) == QUIET_MARKS)
-               & ((g & VERDICT) != FLAGGED) & (status[e0 + i] == INTACT) & (faces[e0 + i] == 0))
-    return ok
+    if ero == 3.0 or (ero == 1.0 and ep >= mq[mk, Q_VAL]):
+        return False
+    duct = mq[mk, Q_DUCT] != 0.0
+    if ero == 2.0 or duct:
+        d = damage[e]
+        if (ero == 2.0 and d >= mq[mk, Q_VAL]) or (duct and d >= 1.0):
+            return False
+    if surf and fail:
+        if temperature[e] >= mq[mk, Q_MELT] or ep > MAX_PLASTIC_STRAIN or (f0 and f1 and f2
+                                                                           and f3):
+            return False
+    return True
 
 
 @numba.njit(cache=True, inline="always")
-def _criteria_one(e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p, damage,
-                  temperature, mat_params, face_flag, adj, surface_only, dt, action, spall_mode,
-                  pnode, spall_k, integrate, reach, verdict):
-    """The full criteria on element e (module docstring), its damage accumulated
-    (``cell_damage``, ``_block_damage``): sets status[e] and action[e]; returns (newly damaged
-    0/1, by the ductile criterion 0/1, newly fractured 0/1, guard tested 0/1, cleared by the
-    pre-test 0/1). reach: the guard pre-test's (inf: no pre-test, ``fracture_criteria``).
-    verdict: the guard's (``_guard_verdicts``: CLEARED, PASSED or FLAGGED) when known, else
-    -1. (numba inlines no function of 30 arguments or more.)"""
+def _criteria_one(e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p,
+                  eps_p_prev, damage, eps_rate, temperature, mat_params, face_flag, adj,
+                  surface_only, dt, action, spall_mode, pnode, spall_k, integrate, pretest,
+                  reach, inv, verdict):
+    """The full criteria on element e (module docstring): sets status[e] and action[e];
+    returns (newly damaged 0/1, by the ductile criterion 0/1, newly fractured 0/1, guard
+    tested 0/1, cleared by the pre-test 0/1). verdict: the guard's (``_guard_verdicts``:
+    CLEARED, PASSED or FLAGGED) when known, else -1."""
     action[e] = NONE
     st = status[e]
     if st == ERODED:
         return 0, 0, 0, 0, 0
     mk = elem_mat[e]
     i0, i1, i2, i3 = conn[e, 0], conn[e, 1], conn[e, 2], conn[e, 3]
-    st, dam, frac = element_state(e, mk, st, cell_pressure(e, pressure, spall_mode, pnode, conn),
-                                  sdev, vol, vol0, damage, mat_params, dt, spall_k, integrate)
+    p = pressure[e]
+    if spall_mode != SPALL_CELL:
+        p = spall_pressure(spall_mode, p, 0.25 * (pnode[i0] + pnode[i1] + pnode[i2]
+                                                 + pnode[i3]))
+    st, dam, frac = element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev, damage,
+                                  eps_rate, temperature, mat_params, dt, spall_k, integrate)
     status[e] = st
     on_surface = (face_flag[4 * e] or face_flag[4 * e + 1] or face_flag[4 * e + 2]
                   or face_flag[4 * e + 3])
@@ -655,9 +505,8 @@ def _criteria_one(e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0
     if act == NONE and failing_material(mat_params, mk):
         lim = 6.0 * GUARD_FRACTION * vol0[e]
         tested = 1
-        if reach < math.inf and (verdict == CLEARED if verdict >= 0
-                                 else guard_clear(x, i0, i1, i2, i3, reach,
-                                                  _pretest_inv(reach), lim)):
+        if pretest and (verdict == CLEARED if verdict >= 0
+                        else guard_clear(x, i0, i1, i2, i3, reach, inv, lim)):
             cleared = 1
         elif (verdict == FLAGGED if verdict >= 0
               else (_volume6(x, v, 1.1 * dt, i0, i1, i2, i3) < lim
@@ -667,9 +516,9 @@ def _criteria_one(e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0
     return 1 if dam > 0 else 0, 1 if dam == 2 else 0, frac, tested, cleared
 
 
-# parfor fusion off: numba's fusion pass over this large inlined body took 7.6 of its 30 s of
-# compiling (the warm-up's longest kernel; docs/performance.md "First run"), and its one
-# parallel loop has nothing to fuse with
+# parfor fusion off: its two loops run over different ranges (blocks, cells) and never fuse,
+# but numba's fusion pass over this large inlined body took 7.6 of its 30 s of compiling (the
+# warm-up's longest kernel; docs/performance.md "First run"); the code and results are the same
 @numba.njit(cache=True, parallel={"fusion": False})
 def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p,
                       eps_p_prev, damage, eps_rate, temperature, mat_params, face_flag, adj,
@@ -689,28 +538,22 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
     Returns (newly damaged, newly fractured, elements with an action, newly damaged by the
     ductile criterion, cells the guard tested, of them cleared by the pre-test).
 
-    Per block of GB cells, on the threads in groups of GROUP_BLOCKS blocks. First the block's
-    Johnson-Cook damage (``cell_damage``), of the cells whose plastic strain grew, packed and
-    evaluated in SIMD instructions (``_block_damage``); a block the tet kernel marked NO_YIELD
-    has none (solver/guard.py). Then the guard's verdict on every cell, the kernel's
-    where it gave them for the whole block, else in SIMD instructions here (``_guard_verdicts``:
-    the pre-test, and where it leaves a lane the full test on the whole block); a block the
-    kernel left elastic, intact, inside the body and clear of spall and the guard is passed
-    over whole (``_block_quiet``); in the others a cell on which the full criteria would change
-    nothing and take no action (``_quiet``: far from the impact, nearly all) costs a few tests
-    (the spall bound's from the kernel's mark, ``guard.spall_marks``, where it gave one and the
-    spall pressure is the cell's or the lesser one), and the rest run the full criteria with
-    the verdict (``_criteria_one``), whose pointwise steps (``cell_damage``,
-    ``element_state``, ``element_action``) are shared with the hexes' kernel
-    (impactsim.fracture.hexes). The mesh's last, partial block gets its own verdicts. The same
-    statuses, actions, damage, accumulators and counts as the full criteria on every cell
-    (tests/unit/test_fracture_screen.py; with the kernel's marks, test_guard_verdicts.py).
+    Two passes. Per block of GB elements the guard's verdict on every cell: the kernel's, where
+    it gave them for the whole block, else in SIMD instructions here (``_guard_verdicts``: the
+    pre-test, and where it leaves a lane or rests the full test on the whole block); then per
+    cell: one on which the full criteria would change nothing and take no action (``_quiet``:
+    far from the impact, nearly all) costs a few tests (the spall bound's from the kernel's
+    mark, ``guard.spall_marks``, where it gave one and the spall pressure is the cell's or the
+    lesser one), the others run the full criteria with the verdict (``_criteria_one``), whose
+    pointwise steps (``element_state``, ``element_action``) are shared with the hexes' kernel
+    (impactsim.fracture.hexes). The same statuses, actions, accumulators and counts as the full
+    criteria on every cell (tests/unit/test_fracture_screen.py).
     """
     n_elem = conn.shape[0]
     mq = np.empty((mat_params.shape[0], Q_COLS))
     _quiet_table(mat_params, surface_only, mq)
     pretest = reach < math.inf  # the guard's pre-test (guard_clear); nan: it clears nothing
-    inv = _pretest_inv(reach)
+    inv = 1.0 / (2.0 * GUARD_K * reach) if reach > 0.0 else math.inf
     h1, h2 = 1.1 * dt, 2.2 * dt
     n_dam = 0
     n_frac = 0
@@ -718,82 +561,52 @@ def fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol
     n_duct = 0
     n_guard = 0
     n_clear = 0
-    n_full = n_elem // GB  # full blocks; the mesh's last, partial block after them
-    n_blk = (n_elem + GB - 1) // GB
+    # first the guard's verdict on every cell of the full blocks, in SIMD instructions, kept in
+    # action until the cell's own action replaces it (UNKNOWN: the mesh's last block), the
+    # tet kernel's where it gave them for a whole block
+    n_blk = n_elem // GB
     n_grp = (n_blk + GROUP_BLOCKS - 1) // GROUP_BLOCKS
     has_given = given.shape[0] != 0
-    faces = face_flag.view(np.uint32)
+    for grp in numba.prange(n_grp):
+        buf = np.empty(GUARD_ROWS * GB)
+        for blk in range(grp * GROUP_BLOCKS, min(n_blk, (grp + 1) * GROUP_BLOCKS)):
+            e0 = blk * GB
+            if has_given and _all_given(given, e0):
+                for i in range(GB):
+                    action[e0 + i] = given[e0 + i]
+            else:
+                _guard_verdicts(x, v, conn, vol0, e0, buf, pretest, reach, inv, h1, h2,
+                                action[e0:e0 + GB])
+    for e in range(n_blk * GB, n_elem):
+        action[e] = UNKNOWN
     # the kernel's mark of a clear spall bound holds for the cell's own pressure and for the
     # larger of it and the patch's ("cell", "lesser"), not for the patch's alone
     marks = spall_mode != SPALL_PATCH
-    for grp in numba.prange(n_grp):
-        buf = np.empty(GUARD_ROWS * GB)
-        dbuf = np.empty(D_ROWS * GB)
-        cells = np.empty(GB, np.int64)
-        verdicts = np.empty(GB, np.int8)
-        left = np.empty(GB, np.int64)
-        for blk in range(grp * GROUP_BLOCKS, min(n_blk, (grp + 1) * GROUP_BLOCKS)):
-            e0 = blk * GB
-            lanes = min(GB, n_elem - e0)
-            if blk + PF_AHEAD < n_full:
-                _prefetch_block(e0 + PF_AHEAD * GB, given, status, faces, elem_mat, eps_p,
-                                eps_p_prev, damage, temperature, action)
-            # first the block's damage (the quiet test reads it); then the cells, still in L1
-            if not (blk < n_full and has_given and _all_still(given, e0)):
-                _block_damage(e0, lanes, elem_mat, status, sdev, pressure, eps_p, eps_p_prev,
-                              damage, eps_rate, temperature, mat_params, mq, spall_mode, conn,
-                              pnode, dbuf, cells)
-            if lanes < GB:  # the mesh's last, partial block: the criteria's own verdicts
-                for i in range(lanes):
-                    verdicts[i] = UNKNOWN
-            elif has_given and _all_given(given, e0):
-                if marks and _block_quiet(given, status, faces, e0):
-                    mk = elem_mat[e0]
-                    if mq[mk, Q_ERO_IN] != 3.0:  # quiet: as ``_quiet`` on each cell
-                        for i in range(GB):
-                            action[e0 + i] = NONE
-                        if mq[mk, Q_FAIL] != 0.0:
-                            n_guard += GB  # tested, none cleared (the kernel's: PASSED)
-                        continue
-                for i in range(GB):
-                    verdicts[i] = given[e0 + i]
-            else:
-                _guard_verdicts(x, v, conn, vol0, e0, buf, pretest, reach, inv, h1, h2,
-                                verdicts)
-            # the quiet cells in a tight loop, the others after it (the full criteria, a large
-            # body: in the same loop it made every cell slower)
-            n_left = 0
-            for i in range(lanes):
-                e = e0 + i
-                g = int(verdicts[i])
-                verdict = g & VERDICT
-                mk = elem_mat[e]
-                if status[e] == ERODED:  # as _criteria_one takes it
-                    action[e] = NONE
-                elif g >= 0 and _quiet(e, mk, status, sdev, pressure, spall_mode, conn, pnode,
-                                       eps_p, damage, temperature, faces, mq,
-                                       verdict != FLAGGED, marks and (g & SPALL_CLEAR) != 0):
-                    action[e] = NONE
-                    if mq[mk, Q_FAIL] != 0.0:
-                        n_guard += 1
-                        n_clear += 1 if verdict == CLEARED else 0
-                else:
-                    left[n_left] = i
-                    n_left += 1
-            for j in range(n_left):
-                i = left[j]
-                e = e0 + i
-                g = int(verdicts[i])
-                dam, duct, frac, tested, cleared = _criteria_one(
-                    e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p,
-                    damage, temperature, mat_params, face_flag, adj, surface_only, dt, action,
-                    spall_mode, pnode, spall_k, integrate, reach, g & VERDICT if g >= 0 else -1)
-                n_dam += dam
-                n_duct += duct
-                n_frac += frac
-                n_guard += tested
-                n_clear += cleared
-                n_act += 1 if action[e] != NONE else 0
+    for e in numba.prange(n_elem):
+        verdict = int(action[e])
+        mk = elem_mat[e]
+        clear = False
+        if verdict >= 0:
+            clear = marks and (verdict & SPALL_CLEAR) != 0
+            verdict &= VERDICT
+        if verdict >= 0 and _quiet(e, mk, status, sdev, pressure, spall_mode, conn, pnode,
+                                   eps_p, eps_p_prev, damage, temperature, face_flag, mq,
+                                   verdict != FLAGGED, clear):
+            action[e] = NONE
+            if mq[mk, Q_FAIL] != 0.0:
+                n_guard += 1
+                n_clear += 1 if verdict == CLEARED else 0
+            continue
+        dam, duct, frac, tested, cleared = _criteria_one(
+            e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p, eps_p_prev,
+            damage, eps_rate, temperature, mat_params, face_flag, adj, surface_only, dt, action,
+            spall_mode, pnode, spall_k, integrate, pretest, reach, inv, verdict)
+        n_dam += dam
+        n_duct += duct
+        n_frac += frac
+        n_guard += tested
+        n_clear += cleared
+        n_act += 1 if action[e] != NONE else 0
     return n_dam, n_frac, n_act, n_duct, n_guard, n_clear
 
 

@@ -29,10 +29,11 @@ strains of 0.07-0.4). The erosion criterion `erosion = "jc-damage"` [R20] (crite
 
 from __future__ import annotations
 
+import math
+
 import numba
 
 from impactsim.materials import params as P
-from impactsim.solver.vecmath import exp, ln
 
 TRIAXIALITY_CAP = 1.5  # [-] above it the fit is not used (near-hydrostatic tension)
 TRIAXIALITY_CUTOFF = -1.0 / 3.0  # [-] at or below it no ductile damage (Bao & Wierzbicki 2005)
@@ -54,36 +55,19 @@ def triaxiality(pressure, seq):
 def fracture_strain(mat_params, mk, tri, rate, temperature):
     """Johnson-Cook (1985) fracture strain eps_f at triaxiality tri, plastic strain rate
     [1/s] and temperature [K] (module docstring), at least 1e-9."""
-    return strain_of(mat_params[mk, P.JC_D1], mat_params[mk, P.JC_D1 + 1],
-                     mat_params[mk, P.JC_D1 + 2], mat_params[mk, P.JC_D1 + 3],
-                     mat_params[mk, P.JC_D1 + 4], mat_params[mk, P.EPSDOT0],
-                     mat_params[mk, P.T_ROOM], mat_params[mk, P.T_MELT], tri, rate, temperature)
-
-
-@numba.njit(cache=True, inline="always")
-def strain_of(d1, d2, d3, d4, d5, ref, t_room, t_melt, tri, rate, temperature):
-    """``fracture_strain`` from the material's constants: D1..D5, the reference rate and the
-    room and melt temperatures. Its ln and exp are the lane functions of solver/vecmath.py (a
-    few ulp from libm), so that the fracture criteria evaluate it in SIMD instructions on a
-    block of cells (criteria.py ``_damage_lanes``) with the bits a single cell gets here."""
+    d1 = mat_params[mk, P.JC_D1]
+    d2 = mat_params[mk, P.JC_D1 + 1]
+    d3 = mat_params[mk, P.JC_D1 + 2]
+    d4 = mat_params[mk, P.JC_D1 + 3]
+    d5 = mat_params[mk, P.JC_D1 + 4]
+    ref = mat_params[mk, P.EPSDOT0]
     rstar = rate / ref if ref > 0.0 else 1.0
-    fr = 1.0 + d4 * ln(rstar) if rstar > 1.0 else 1.0
-    ts = (temperature - t_room) / (t_melt - t_room) if t_melt > t_room else 0.0
+    fr = 1.0 + d4 * math.log(rstar) if rstar > 1.0 else 1.0
+    tr, tm = mat_params[mk, P.T_ROOM], mat_params[mk, P.T_MELT]
+    ts = (temperature - tr) / (tm - tr) if tm > tr else 0.0
     ts = min(max(ts, 0.0), 1.0)
-    ef = (d1 + d2 * exp(d3 * tri)) * fr * (1.0 + d5 * ts)
+    ef = (d1 + d2 * math.exp(d3 * tri)) * fr * (1.0 + d5 * ts)
     return max(ef, 1e-9)
-
-
-@numba.njit(cache=True, inline="always")
-def increment_of(deps, pressure, seq, cutoff, d1, d2, d3, d4, d5, ref, t_room, t_melt, rate,
-                 temperature):
-    """``damage_increment`` from the material's constants (``strain_of``)."""
-    tri = triaxiality(pressure, seq)
-    if cutoff:
-        if tri <= TRIAXIALITY_CUTOFF:
-            return 0.0
-        tri = min(tri, DUCTILE_CAP)
-    return deps / strain_of(d1, d2, d3, d4, d5, ref, t_room, t_melt, tri, rate, temperature)
 
 
 @numba.njit(cache=True, inline="always")
@@ -91,11 +75,12 @@ def damage_increment(mat_params, mk, deps, pressure, seq, rate, temperature, cut
     """d eps_p / eps_f for a plastic strain increment deps; cutoff: none at or below the
     triaxiality TRIAXIALITY_CUTOFF (the ductile criterion; the erosion criterion keeps the fit
     everywhere)."""
-    return increment_of(deps, pressure, seq, cutoff, mat_params[mk, P.JC_D1],
-                        mat_params[mk, P.JC_D1 + 1], mat_params[mk, P.JC_D1 + 2],
-                        mat_params[mk, P.JC_D1 + 3], mat_params[mk, P.JC_D1 + 4],
-                        mat_params[mk, P.EPSDOT0], mat_params[mk, P.T_ROOM],
-                        mat_params[mk, P.T_MELT], rate, temperature)
+    tri = triaxiality(pressure, seq)
+    if cutoff:
+        if tri <= TRIAXIALITY_CUTOFF:
+            return 0.0
+        tri = min(tri, DUCTILE_CAP)
+    return deps / fracture_strain(mat_params, mk, tri, rate, temperature)
 
 
 @numba.njit(cache=True, inline="always")

@@ -197,10 +197,9 @@ def hex_fracture_criteria(x, v, x0, conn, elem_mat, status, sdev, pressure, vol,
             for k in range(8):
                 pp += pnode[conn[e, k]]
             p = spall_pressure(spall_mode, p, 0.125 * pp)
-        C.cell_damage(e, mk, p, sdev, eps_p, eps_p_prev, damage, eps_rate, temperature,
-                      mat_params)
-        st, dam, frac = C.element_state(e, mk, st, p, sdev, vol, vol0, damage, mat_params, dt,
-                                        spall_k, integrate)
+        st, dam, frac = C.element_state(e, mk, st, p, sdev, vol, vol0, eps_p, eps_p_prev,
+                                        damage, eps_rate, temperature, mat_params, dt, spall_k,
+                                        integrate)
         n_dam += 1 if dam > 0 else 0
         n_duct += 1 if dam == 2 else 0
         n_frac += frac

@@ -1055,8 +1055,7 @@ def _masked_blocks(e_first, mask, x, v, conn, elem_mat, status, sdev, pressure, 
             pdt, pworst, pq = _store_masked(rows, sdev, pressure, q, eps_rate, energy, vol,
                                             vol_eos, fext, use_anp, e0, buf)
             if plastic is not None and verdicts:
-                G.spall_marks(buf, R_SN, R_PN, mat_params[mk, P.SPALL], e0, guard, R_LIVE,
-                              False)
+                G.spall_marks(buf, R_SN, R_PN, mat_params[mk, P.SPALL], e0, guard, R_LIVE)
             bq += pq
             if pdt < bdt:
                 bdt = pdt
@@ -1140,18 +1139,15 @@ def _chunk(ch0, ch1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
                     if mk >= 0 and plastic is not None and verdicts:  # the corners at hand
                         G.block_verdicts(buf, vol0, e0, dt, guard)
                 if mk >= 0:
-                    still = True  # no plastic strain changed (guard.NO_YIELD)
                     if plastic is not None:  # `_return` written out (its inlining kept increfs)
                         code = int(mat_params[mk, P.STRENGTH])
                         if code == P.JOHNSON_COOK and mat_params[mk, P.JC_C] >= 0.0:
                             if _jc_load(buf, eps_p, temperature, hard, thermal, e0):
                                 if _jc_lanes(buf, mat_params, mk, shear):
                                     _jc_store(buf, eps_p, temperature, hard, thermal, e0)
-                                    still = False
                         elif code != P.ELASTIC:
                             _return_block(buf, code, mat_params, mk, shear, eps_p, temperature,
                                           hard, thermal, e0)
-                            still = False
                     _pressure_block(buf, dt, use_anp, int(mat_params[mk, P.EOS]),
                                     mat_params[mk, P.RHO0], mat_params[mk, P.K],
                                     mat_params[mk, P.C0], mat_params[mk, P.S],
@@ -1159,8 +1155,7 @@ def _chunk(ch0, ch1, x, v, conn, elem_mat, status, sdev, pressure, q, eps_p, eps
                     bdt, bworst, bq = _store_block(rows, sdev, pressure, q, eps_rate, energy, vol,
                                                    vol_eos, fext, use_anp, e0, buf)
                     if plastic is not None and verdicts:  # the new stress at hand
-                        G.spall_marks(buf, R_SN, R_PN, mat_params[mk, P.SPALL], e0, guard, -1,
-                                      still)
+                        G.spall_marks(buf, R_SN, R_PN, mat_params[mk, P.SPALL], e0, guard, -1)
                     binv = 0
                 else:
                     deferred |= 1 << ((e0 - ch * CHUNK) // B)

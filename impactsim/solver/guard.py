@@ -52,11 +52,6 @@ NONE_GIVEN = np.empty(0, dtype=np.int8)
 # ``_quiet``); VERDICT keeps the verdict itself
 SPALL_CLEAR = 8
 VERDICT = 7
-# a bit the tet kernel adds to the verdicts of a full block whose plastic strains it left as
-# they were (no lane yielded: ``spall_marks``'s ``still``): with the criteria's plastic strain
-# at their last call equal to them, nothing of such a cell's damage, strain or temperature
-# changed since (fracture/criteria.py ``_block_quiet``)
-NO_YIELD = 16
 # the margin of ``spall_marks`` over the rounding of the criteria' own bound, relative to the
 # sum of the magnitudes it is made of (their rounding is a few 1e-16 of it)
 SPALL_SLACK = 1e-10
@@ -164,7 +159,7 @@ def gershgorin_max(sxx, syy, szz, sxy, syz, szx):
 
 
 @numba.njit(cache=True, inline="always", fastmath=FAST)
-def spall_marks(buf, r_s, r_p, spall, e0, out, live, still):
+def spall_marks(buf, r_s, r_p, spall, e0, out, live):
     """Add SPALL_CLEAR to the verdicts ``out`` of the cells e0, e0 + 1, ... of a block buffer
     whose new deviatoric stress (rows r_s .. r_s + 5: xx, yy, zz, xy, yz, zx) and pressure (row
     r_p) keep Gershgorin's bound of the largest principal stress, max_i (s_ii + sum_j!=i
@@ -174,8 +169,7 @@ def spall_marks(buf, r_s, r_p, spall, e0, out, live, still):
     holds for the spall pressures "cell" and "lesser" (the larger of the cell's and its
     patch's), not for "patch". ``live`` -1: every lane (a full block), else the buffer row that
     is 1.0 on the lanes of a masked pass (the others are left alone). A lane whose bound is
-    not finite gets no mark. ``still`` (full blocks only): add NO_YIELD to every lane. One
-    loop over the lanes in SIMD instructions."""
+    not finite gets no mark. One loop over the lanes in SIMD instructions."""
     L = LANES
     for i in range(LANES):
         sxx, syy, szz = buf[r_s * L + i], buf[(r_s + 1) * L + i], buf[(r_s + 2) * L + i]
@@ -187,5 +181,4 @@ def spall_marks(buf, r_s, r_p, spall, e0, out, live, still):
         if live >= 0:
             clear &= buf[live * L + i] != 0.0
         j = np.uint64(e0 + i)
-        mark = (SPALL_CLEAR if clear else 0) | (NO_YIELD if still else 0)
-        out[j] = out[j] | mark
+        out[j] = out[j] | SPALL_CLEAR if clear else out[j]

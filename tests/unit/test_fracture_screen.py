@@ -15,8 +15,7 @@ import pytest
 
 from impactsim.case.schema import Failure, Strength
 from impactsim.fracture.criteria import (ERODE, GUARD, MELT, NONE, PARTICLE, _criteria_one,
-                                         cell_damage, cell_pressure, fracture_criteria,
-                                         guard_reach)
+                                         fracture_criteria, guard_reach)
 from impactsim.fracture.spall import SPALL_CELL, SPALL_LESSER, SPALL_PATCH
 from impactsim.materials.params import material_table
 from impactsim.model import DAMAGED, ERODED, FRACTURED, INTACT
@@ -27,17 +26,15 @@ from tests.builders import material
 def _reference(x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p, eps_p_prev,
                damage, eps_rate, temperature, mat_params, face_flag, adj, surface_only, dt,
                action, spall_mode, pnode, jnode, spall_k, integrate, reach):
-    """The full criteria on every cell, in order (the kernel before the screen): its damage,
-    then the rest."""
+    """The full criteria on every cell, in order (the kernel before the screen)."""
+    pretest = reach < math.inf
+    inv = 1.0 / (2.0 * 10.0 * reach) if reach > 0.0 else math.inf
     n_dam = n_frac = n_act = n_duct = n_guard = n_clear = 0
     for e in range(conn.shape[0]):
-        if status[e] != ERODED:
-            cell_damage(e, elem_mat[e], cell_pressure(e, pressure, spall_mode, pnode, conn), sdev,
-                        eps_p, eps_p_prev, damage, eps_rate, temperature, mat_params)
         dam, duct, frac, tested, cleared = _criteria_one(
-            e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p, damage,
-            temperature, mat_params, face_flag, adj, surface_only, dt, action, spall_mode, pnode,
-            spall_k, integrate, reach, -1)
+            e, x, v, x0, conn, elem_mat, status, sdev, pressure, vol, vol0, eps_p, eps_p_prev,
+            damage, eps_rate, temperature, mat_params, face_flag, adj, surface_only, dt, action,
+            spall_mode, pnode, spall_k, integrate, pretest, reach, inv, -1)
         n_dam += dam
         n_duct += duct
         n_frac += frac

@@ -30,14 +30,14 @@ import numba
 import numpy as np
 import pytest
 
-from impactsim.fracture.criteria import (GUARD, GUARD_FRACTION, PARTICLE, _volume6,
-                                         fracture_criteria, guard_reach)
-from impactsim.fracture.spall import SPALL_CELL, SPALL_LESSER, SPALL_PATCH
+from impactsim.fracture.criteria import (GUARD, GUARD_FRACTION, _volume6, fracture_criteria,
+                                         guard_reach)
+from impactsim.fracture.spall import SPALL_LESSER, SPALL_PATCH
 from impactsim.materials import params as P
 from impactsim.model import ERODED, INTACT
 from impactsim.solver import element as E
-from impactsim.solver.guard import (FLAGGED, NO_YIELD, NONE_GIVEN, PASSED, SPALL_CLEAR,
-                                    SPALL_SLACK, VERDICT)
+from impactsim.solver.guard import (FLAGGED, NONE_GIVEN, PASSED, SPALL_CLEAR, SPALL_SLACK,
+                                    VERDICT)
 from impactsim.solver.scatter import force_rows
 from tests.unit.test_fracture_screen import MUTATED, _same, _state
 
@@ -71,9 +71,7 @@ def _on_threshold(s, rng, share=0.05):
 def _kernel_verdicts(s, plastic=True):
     """The tet kernel's step on a copy of state s (x, v, dt as given), asking for verdicts;
     with plastic False its elastic specialisation. Returns the verdicts and the state the step
-    left (its stress, pressure, plastic strain, temperature and volume), with eps_p_prev the
-    plastic strain the step started from: as the criteria's last call leaves it, which the
-    kernel's NO_YIELD marks count on."""
+    left (its stress, pressure, plastic strain, temperature and volume)."""
     n = s["conn"].shape[0]
     n_node = s["x"].shape[0]
     mp = s["mat_params"]
@@ -94,8 +92,7 @@ def _kernel_verdicts(s, plastic=True):
         np.zeros((n_node, 3)), fr.rows, np.zeros((fr.n_rows, 3)), fr.extra_ptr, fr.extra_rows,
         fr.part_size // E.CHUNK, chunk_out, numba.get_num_threads(),
         E.plastic_kernel(elem_mat, mp) if plastic else None, guard)
-    after = dict(s, sdev=sdev, pressure=pressure, eps_p=eps_p, temperature=temperature, vol=vol,
-                 eps_p_prev=s["eps_p"].copy())
+    after = dict(s, sdev=sdev, pressure=pressure, eps_p=eps_p, temperature=temperature, vol=vol)
     return guard, after
 
 
@@ -247,89 +244,6 @@ def test_the_kernels_spall_marks(threads):
     with pytest.raises(AssertionError):
         _same(spoilt, ref)  # marks where the bound is not clear: spall passed over
     _same(*patch)
-
-
-@pytest.mark.parametrize("threads", [1, 2])
-def test_blocks_the_kernel_left_elastic_are_passed_over_whole(threads):
-    """The kernel marks NO_YIELD on the cells of its full blocks whose plastic strains it left
-    as they were, and on no other cell; the criteria pass such a block over whole when it is
-    intact, inside the body and clear of spall and the guard, and give what they give cell by
-    cell; NO_YIELD on blocks whose plastic strains grew changes their result (damage not
-    accumulated: the test can fail)."""
-    if threads > numba.config.NUMBA_NUM_THREADS:
-        pytest.skip(f"NUMBA_NUM_THREADS={numba.config.NUMBA_NUM_THREADS}")
-    rng = np.random.default_rng(9)
-    s = _state(9, n=12 * E.CHUNK + 17)
-    _blocks_intact(s, rng)
-    n = s["conn"].shape[0]
-    n_full = n // E.B * E.B
-    # half the blocks far below yield and spall (cold, their cells at their rest volume) and
-    # without a free face: the inside of a body away from the impact; the others as they were
-    calm = np.repeat(rng.random(n_full // E.B) < 0.5, E.B)
-    s["sdev"][:n_full][calm] *= 0.01
-    s["temperature"][:n_full][calm] = 293.15
-    # as the criteria's last call leaves an intact cell: its damage below the ductile
-    # criterion's 1 (at 1 the cell would have become DAMAGED)
-    s["damage"][:n_full][calm] *= 0.5
-    s["vol0"][:n_full][calm] = s["vol"][:n_full][calm]
-    s["face_flag"].reshape(n, 4)[:n_full][calm] = False
-    # what must keep a block the kernel left elastic from being passed over: a cell opened
-    # (tension beyond the spall strength: no SPALL_CLEAR mark), and after the step a cell
-    # whose face neighbours all left (four free faces: a one-cell fragment) and a cell removed
-    # by another pass; one of each in blocks of their own, in runs of one material with failure
-    # data
-    calm_blocks = np.flatnonzero(calm[::E.B])
-    fail = np.isfinite(s["mat_params"][s["elem_mat"][calm_blocks * E.B + 5], P.SPALL])
-    opened = calm_blocks[fail][::2][:8] * E.B + 5
-    s["vol0"][opened] *= 0.97
-    before = numba.get_num_threads()
-    numba.set_num_threads(threads)
-    try:
-        given, after = _kernel_verdicts(s)
-        left = calm_blocks[fail][1::2] * E.B  # blocks the kernel left elastic, without opened
-        left = left[(given[left] & NO_YIELD) != 0]
-        lone, removed = left[:4] + 5, left[4:8] + 5
-        after["face_flag"] = after["face_flag"].copy()
-        after["face_flag"].reshape(n, 4)[lone] = True
-        after["adj"] = after["adj"].copy()
-        after["adj"][lone, 0] = 0
-        after["status"] = after["status"].copy()
-        after["status"][removed] = ERODED
-        got = _criteria(after, given, SPALL_CELL)
-        ref = _criteria(after, NONE_GIVEN, SPALL_CELL, pretest=False)  # the full guard
-        marked = np.where(given > 0, given | NO_YIELD, given).astype(np.int8)
-        spoilt = _criteria(after, marked, SPALL_CELL)
-    finally:
-        numba.set_num_threads(before)
-    still = (given > 0) & ((given & NO_YIELD) != 0)
-    assert np.array_equal(after["eps_p"][still].view(np.int64), s["eps_p"][still].view(np.int64))
-    blocks = still[:n_full].reshape(-1, E.B)
-    assert np.all(blocks.all(axis=1) | ~blocks.any(axis=1))  # whole blocks
-    st = s["status"][:n_full].reshape(-1, E.B)
-    mats = s["elem_mat"][:n_full].reshape(-1, E.B)
-    vector = np.all(st == INTACT, axis=1) & np.all(mats == mats[:, :1], axis=1)
-    assert not np.any(blocks.all(axis=1) & ~vector)  # on the vector path only
-    grew = (after["eps_p"] != s["eps_p"])[:n_full].reshape(-1, E.B).any(axis=1)
-    assert grew.sum() > 20 and (vector & ~grew).sum() > 20
-    assert np.array_equal(blocks.all(axis=1), vector & ~grew)  # every block left as it was
-    # blocks the criteria pass over whole (``_block_quiet``): intact, no free face, spall clear,
-    # not flagged
-    g = given[:n_full].reshape(-1, E.B)
-    faces = s["face_flag"][:4 * n_full].reshape(-1, 4 * E.B).any(axis=1)
-    whole = (blocks.all(axis=1) & ~faces & np.all((g & SPALL_CLEAR) != 0, axis=1)
-             & np.all((g & VERDICT) != FLAGGED, axis=1))
-    assert whole.sum() > 20
-    _same(got, ref)
-    counts, action, st = ref
-    # in tension beyond the spall strength: spalled, or its Tuler-Butcher integral grown, and
-    # not marked SPALL_CLEAR, in blocks of which some the kernel left elastic
-    spalling = (st["status"][opened] != INTACT) | (st["spall_k"][opened] != after["spall_k"][opened])
-    left_elastic = (given[opened] & NO_YIELD) != 0
-    assert np.all((given[opened] & SPALL_CLEAR) == 0)
-    assert left_elastic.sum() >= 2 and np.all(spalling[left_elastic])
-    assert lone.shape[0] == removed.shape[0] == 4 and np.all(action[lone] == PARTICLE)
-    with pytest.raises(AssertionError):
-        _same(spoilt, ref)
 
 
 def test_the_elastic_kernel_gives_no_verdicts():

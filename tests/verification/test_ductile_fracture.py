@@ -75,10 +75,9 @@ def _drive(kind, rate=1e3, strain=None, n_steps=3000):
             sxx = float(np.mean(s[:, 0] - p))
             lat -= sxx / ((2.0 * K + 2.0 * G / 3.0) * dt)
         for e in range(model.n_elem):
-            C.cell_damage(e, 0, p[e], s, model.eps_p, prev, dam, model.eps_rate,
-                          model.temperature, mp)
-            st, d, _ = C.element_state(e, 0, status[e], p[e], s, model.vol, model.vol0, dam, mp,
-                                       dt, spall_k, True)
+            st, d, _ = C.element_state(e, 0, status[e], p[e], s, model.vol, model.vol0,
+                                       model.eps_p, prev, dam, model.eps_rate, model.temperature,
+                                       mp, dt, spall_k, True)
             status[e] = st
         seq = math.sqrt(1.5 * float(np.sum(s[0, :3] ** 2)) + 3.0 * float(np.sum(s[0, 3:] ** 2)))
         eta = -float(p[0]) / seq if seq > 0 else 0.0
