@@ -22,6 +22,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from impactsim.fracture.particle_cells import touches_marked
 from impactsim.fracture.particles import face_box, pack_node
 
 FACE_CHUNK = 2048  # faces per task (fixed: the chunks do not depend on the threads)
@@ -30,8 +31,9 @@ THREADED_FACES = 4 * FACE_CHUNK  # fewer faces: faces_near on one thread (a laun
 
 
 @numba.njit(cache=True, parallel=True)
-def faces_near_threads(x, v, tau, faces, face_body, n_faces, pad, cloud, lo, hi, sel, sel_body,
-                       bounds, box_lo, box_hi, near, counts, chunk_bounds):
+def faces_near_threads(x, v, tau, faces, face_body, n_faces, pad, cloud, origin, inv_c, dims,
+                       gen, g, lo, hi, sel, sel_body, bounds, box_lo, box_hi, near, counts,
+                       chunk_bounds):
     """``particles.faces_near`` without the table (``pack_all_nodes`` fills it), on the
     threads. Scratch: box_lo, box_hi (n_faces, 3), near (n_faces,) uint8, counts (n_chunk,)
     int64, chunk_bounds (n_chunk, 2, 3), n_chunk = ceil(n_faces / FACE_CHUNK). Writes the near
@@ -43,7 +45,8 @@ def faces_near_threads(x, v, tau, faces, face_body, n_faces, pad, cloud, lo, hi,
             chunk_bounds[c, 0, d] = np.inf
             chunk_bounds[c, 1, d] = -np.inf
         for f in range(c * FACE_CHUNK, min(n_faces, (c + 1) * FACE_CHUNK)):
-            inside = face_box(x, v, tau, faces, f, pad, cloud, box_lo, box_hi, f)
+            inside = (face_box(x, v, tau, faces, f, pad, cloud, box_lo, box_hi, f)
+                      and touches_marked(box_lo, box_hi, f, origin, inv_c, dims, gen, g))
             near[f] = 1 if inside else 0
             if inside:
                 cnt += 1

@@ -16,7 +16,8 @@
 
 Cost per step: the criteria kernel is one pass over the elements (numba); everything else is in
 proportion to what changed (removed elements) or to the particles and the faces near them (the
-particle broad phase hashes only the faces whose swept boxes meet the particles' bounding box).
+particle broad phase hashes only the faces whose swept boxes meet the particles' bounding box
+and touch a cell of a particle's box, ``particle_cells``).
 
 Energy terms (model.energy_terms, [J]): ``eroded`` gains what leaves with eroded elements;
 ``particles`` is the particles' current kinetic plus internal energy (it enters the total energy
@@ -46,6 +47,7 @@ from impactsim.fracture.particles import (NODE_COLS, Particles, faces_near, move
                                           particle_boxes,
                                           particle_face_sweep_packed, particle_particle_sweep,
                                           particle_walls)
+from impactsim.fracture.particle_cells import ParticleCells
 from impactsim.fracture.particle_faces import (FACE_CHUNK, faces_near_threads, pack_all_nodes,
                                                threaded_faces_wanted)
 from impactsim.fracture.removal import remove_elements
@@ -310,6 +312,7 @@ class ParticlePass(Pass):
         self.s = state
         self.hash = SpatialHash()
         self.pp_hash = SpatialHash()
+        self.cells = ParticleCells()  # the cells the particle boxes touch
         self.impacts = 0
         self.collisions = 0
         self.cloud = np.zeros((2, 3))  # bounds of the particle boxes of the step
@@ -346,6 +349,8 @@ class ParticlePass(Pass):
             sel_body = self._buffer("sel_body", n_faces, np.int32, None)
             bounds = self.bounds
             bounds[:] = cloud
+            self.cells.mark_boxes(plo, phi, n, cloud, max(s.h_face, 2.0 * r_max))
+            occ = self.cells.args()  # the cells the particles touch (particle_cells.py)
             if self.nodes.shape[0] != model.n_node:
                 self.nodes = np.zeros((model.n_node, NODE_COLS))
             k = 0
@@ -354,12 +359,12 @@ class ParticlePass(Pass):
                 pack_all_nodes(model.x, model.v, model.mass, self.nodes)
             for b in lists:  # the faces near the particles, list after list, their nodes packed
                 if b.n and threaded:
-                    k += self._faces_near_threads(model, dt, b, pad, cloud, flo[k:], fhi[k:],
-                                                  sel[k:], sel_body[k:])
+                    k += self._faces_near_threads(model, dt, b, pad, cloud, occ, flo[k:],
+                                                  fhi[k:], sel[k:], sel_body[k:])
                 elif b.n:
                     k += faces_near(model.x, model.v, model.mass, dt, b.faces, b.face_body, b.n,
-                                    pad, cloud, flo[k:], fhi[k:], sel[k:], sel_body[k:], bounds,
-                                    self.nodes)
+                                    pad, cloud, *occ, flo[k:], fhi[k:], sel[k:], sel_body[k:],
+                                    bounds, self.nodes)
             if k:
                 origin, cell = grid_for([(bounds[:1], bounds[1:])], max(s.h_face, 2.0 * r_max))
                 self.hash.build(flo[:k], fhi[:k], origin, cell)
@@ -387,11 +392,11 @@ class ParticlePass(Pass):
         # the particles' energy is booked at the end of the step, by the fracture pass (which
         # runs in every step beside this one, after the particles made that step)
 
-    def _faces_near_threads(self, model, dt, b, pad, cloud, flo, fhi, sel, sel_body):
+    def _faces_near_threads(self, model, dt, b, pad, cloud, occ, flo, fhi, sel, sel_body):
         """``faces_near_threads`` on face list b (its scratch rows here)."""
         n_chunk = -(-b.n // FACE_CHUNK)
         return faces_near_threads(
-            model.x, model.v, dt, b.faces, b.face_body, b.n, pad, cloud, flo, fhi, sel,
+            model.x, model.v, dt, b.faces, b.face_body, b.n, pad, cloud, *occ, flo, fhi, sel,
             sel_body, self.bounds, self._buffer("box_lo", b.n), self._buffer("box_hi", b.n),
             self._buffer("near", b.n, np.uint8, None),
             self._buffer("chunk_counts", n_chunk, np.int64, None),

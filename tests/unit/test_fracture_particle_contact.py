@@ -5,6 +5,7 @@ selection of faces; the particle sums."""
 import numpy as np
 import pytest
 
+from impactsim.fracture.particle_cells import ParticleCells
 from impactsim.fracture.particles import (Particles, faces_near, particle_boxes,
                                           particle_face_sweep)
 
@@ -71,6 +72,17 @@ def test_face_with_a_massless_node_takes_no_impulse():
     assert s[5][0, 2] == -100.0 and np.all(s[1] == 0.0)
 
 
+# particle_cells' arguments for a grid of one marked cell: every face touches it, so
+# faces_near keeps the faces that meet the particles' bounding box, no fewer
+EVERY_CELL = (np.zeros(3), 0.0, np.ones(3, np.int64), np.ones(1, np.int32), np.int32(1))
+
+
+def _overlapping(lo, hi, plo, phi):
+    """Whether each box (lo, hi) overlaps one of the boxes (plo, phi) (closed intervals)."""
+    return np.any(np.all((lo[:, None, :] <= phi[None, :, :]) & (plo[None, :, :] <= hi[:, None, :]),
+                         axis=2), axis=1)
+
+
 def test_broad_phase_keeps_exactly_the_faces_near_the_particles():
     rng = np.random.default_rng(3)
     n, nf = 50, 400
@@ -90,8 +102,8 @@ def test_broad_phase_keeps_exactly_the_faces_near_the_particles():
     sel, sel_body, bounds = np.empty((nf, 3), np.int32), np.empty(nf, np.int32), cloud.copy()
     mass = rng.uniform(1e-9, 2e-9, x.shape[0])
     table = np.full((x.shape[0], 8), np.nan)
-    k = faces_near(x, v, mass, TAU, faces, body, nf, 1e-7, cloud, flo, fhi, sel, sel_body,
-                   bounds, table)
+    k = faces_near(x, v, mass, TAU, faces, body, nf, 1e-7, cloud, *EVERY_CELL, flo, fhi, sel,
+                   sel_body, bounds, table)
     ends = np.stack([x[faces], x[faces] + TAU * v[faces]], axis=1).reshape(nf, 6, 3)
     lo, hi = ends.min(axis=1) - 1e-7, ends.max(axis=1) + 1e-7
     near = np.flatnonzero(np.all((lo <= cloud[1]) & (hi >= cloud[0]), axis=1))
@@ -106,6 +118,19 @@ def test_broad_phase_keeps_exactly_the_faces_near_the_particles():
                                                                           v[nodes])
     assert np.array_equal(table[nodes, 6], mass[nodes])
     assert np.isnan(np.delete(table, nodes, axis=0)[:, :7]).all()
+    # with the cells the particle boxes touch (cells of a tenth of the faces' size): fewer
+    # faces, in order, and every one whose box overlaps a particle's among them
+    cells = ParticleCells()
+    cells.mark_boxes(plo, phi, n, cloud, 1e-4)
+    bounds = cloud.copy()
+    k2 = faces_near(x, v, mass, TAU, faces, body, nf, 1e-7, cloud, *cells.args(), flo, fhi, sel,
+                    sel_body, bounds, table)
+    kept = sel[:k2, 0] // 3  # the faces' indices (their nodes are 3 f, 3 f + 1, 3 f + 2)
+    assert np.all(np.diff(kept) > 0) and np.isin(kept, near).all()
+    assert np.array_equal(sel[:k2], faces[kept]) and np.array_equal(sel_body[:k2], body[kept])
+    touching = near[_overlapping(lo[near], hi[near], plo, phi)]
+    assert 0 < touching.size <= k2 < k
+    assert np.isin(touching, kept).all()
 
 
 def test_particle_sums():
@@ -149,6 +174,17 @@ def _particles_over_a_plate(n, collisions):
     return model, ppass
 
 
+def _particles_in_corners(n, collisions):
+    """``_particles_over_a_plate`` with the particles over the corner x, y < -0.6 mm and under
+    the corner x, y > 0.6 mm of the 2 mm plate."""
+    model, ppass = _particles_over_a_plate(n, collisions)
+    pa = ppass.s.particles
+    side = np.sign(pa.x[:n, 2])
+    rng = np.random.default_rng(11)
+    pa.x[:n, :2] = -side[:, None] * rng.uniform(0.6e-3, 1.1e-3, (n, 2))
+    return model, ppass
+
+
 def _brute_pairs(qlo, qhi, elo, ehi, same_set):
     over = np.all((qlo[:, None, :] <= ehi[None, :, :]) & (elo[None, :, :] <= qhi[:, None, :]),
                   axis=2)
@@ -157,12 +193,14 @@ def _brute_pairs(qlo, qhi, elo, ehi, same_set):
     return np.argwhere(over).astype(np.int64)  # sorted by (query, entry)
 
 
-@pytest.mark.parametrize("collisions", [False, True])
-def test_particle_pass_equals_the_sweeps_over_brute_force_pairs(monkeypatch, collisions):
+@pytest.mark.parametrize("collisions, corner", [(False, False), (True, False), (False, True)])
+def test_particle_pass_equals_the_sweeps_over_brute_force_pairs(monkeypatch, collisions, corner):
     """The particle pass (particle boxes, faces near them, spatial hash, sweeps, motion) gives,
     bit for bit, what the sweeps give over every pair of overlapping boxes in sorted order:
     the broad phase finds exactly those pairs, in Gauss-Seidel order, on one thread or two and
-    with the query split in chunks."""
+    with the query split in chunks. ``corner``: the particles over a corner of the plate and
+    under the opposite one, so that the faces left out as touching no particle's cells
+    (particle_cells.py) are most of those near the particles' bounding box."""
     import numba
 
     from impactsim.contact import broadphase
@@ -171,11 +209,12 @@ def test_particle_pass_equals_the_sweeps_over_brute_force_pairs(monkeypatch, col
 
     dt = 2e-9
     n = 1500
-    model, ppass = _particles_over_a_plate(n, collisions)
+    scene = _particles_in_corners if corner else _particles_over_a_plate
+    model, ppass = scene(n, collisions)
     s = ppass.s
     b = s.boundary
     # the reference: boxes as the pass makes them, every overlapping pair, the same sweeps
-    ref_model, ref_pass = _particles_over_a_plate(n, collisions)
+    ref_model, ref_pass = scene(n, collisions)
     rpa = ref_pass.s.particles
     pad = FPass.PAD * s.h_face
     plo, phi, cloud = np.empty((n, 3)), np.empty((n, 3)), np.empty((2, 3))
@@ -183,7 +222,8 @@ def test_particle_pass_equals_the_sweeps_over_brute_force_pairs(monkeypatch, col
     flo, fhi = np.empty((b.n, 3)), np.empty((b.n, 3))
     sel, sel_body, bounds = np.empty((b.n, 3), np.int32), np.empty(b.n, np.int32), cloud.copy()
     k = faces_near(ref_model.x, ref_model.v, ref_model.mass, dt, b.faces, b.face_body, b.n, pad,
-                   cloud, flo, fhi, sel, sel_body, bounds, np.empty((ref_model.n_node, 8)))
+                   cloud, *EVERY_CELL, flo, fhi, sel, sel_body, bounds,
+                   np.empty((ref_model.n_node, 8)))
     pairs = _brute_pairs(plo, phi, flo[:k], fhi[:k], False)
     applied, work = particle_face_sweep(pairs, rpa.x, rpa.v, rpa.m, rpa.radius, sel,
                                         ref_model.x, ref_model.v, ref_model.mass,
@@ -200,10 +240,12 @@ def test_particle_pass_equals_the_sweeps_over_brute_force_pairs(monkeypatch, col
     try:
         for n_threads in sorted({1, threads}):
             numba.set_num_threads(n_threads)
-            m, p = _particles_over_a_plate(n, collisions)
+            m, p = scene(n, collisions)
             m.energy_terms["contact_dissipated"] = 0.0
             p.run(m, dt)
             assert p.impacts == applied
+            hashed = p.hash.boxes.shape[0]  # the faces the pass hashed, of the k near the cloud
+            assert hashed < k / 2 if corner else hashed > k / 2
             np.testing.assert_array_equal(p.s.particles.v[:n], rpa.v[:n])
             np.testing.assert_array_equal(p.s.particles.x[:n], rpa.x[:n])
             np.testing.assert_array_equal(m.v, ref_model.v)
@@ -231,8 +273,8 @@ def test_the_sweeps_node_table_follows_the_impulses():
     flo, fhi = np.empty((b.n, 3)), np.empty((b.n, 3))
     sel, sel_body, bounds = np.empty((b.n, 3), np.int32), np.empty(b.n, np.int32), cloud.copy()
     table = np.full((model.n_node, NODE_COLS), np.nan)
-    k = faces_near(model.x, model.v, model.mass, dt, b.faces, b.face_body, b.n, pad, cloud, flo,
-                   fhi, sel, sel_body, bounds, table)
+    k = faces_near(model.x, model.v, model.mass, dt, b.faces, b.face_body, b.n, pad, cloud,
+                   *EVERY_CELL, flo, fhi, sel, sel_body, bounds, table)
     pairs = _brute_pairs(plo, phi, flo[:k], fhi[:k], False)
     v0, pv0 = model.v.copy(), pa.v.copy()
     applied, work = particle_face_sweep_packed(pairs, pa.x, pa.v, pa.m, pa.radius, sel, table,

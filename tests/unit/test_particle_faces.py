@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from impactsim.fracture import particle_faces as PF
+from impactsim.fracture.particle_cells import ParticleCells
 from impactsim.fracture.particles import NODE_COLS, faces_near, particle_boxes
-from tests.unit.test_fracture_particle_contact import _particles_over_a_plate
+from tests.unit.test_fracture_particle_contact import EVERY_CELL, _particles_over_a_plate
 
 TAU = 1e-8
 
@@ -29,15 +30,21 @@ def _surface(seed=3):
     mass = rng.uniform(1e-9, 2e-9, x.shape[0])
     plo, phi, cloud = np.empty((n, 3)), np.empty((n, 3)), np.empty((2, 3))
     particle_boxes(px, pv, pr, n, TAU, 1e-7, plo, phi, cloud)
-    return x, v, mass, faces, body, cloud
+    return x, v, mass, faces, body, cloud, plo, phi
 
 
 @pytest.mark.parametrize("threads", [1, 2])
-def test_threaded_faces_near_is_faces_near(threads):
+@pytest.mark.parametrize("marked", ["every cell", "the particles' cells"])
+def test_threaded_faces_near_is_faces_near(threads, marked):
     if threads > numba.config.NUMBA_NUM_THREADS:
         pytest.skip(f"NUMBA_NUM_THREADS={numba.config.NUMBA_NUM_THREADS}")
-    x, v, mass, faces, body, cloud = _surface()
+    x, v, mass, faces, body, cloud, plo, phi = _surface()
     nf = faces.shape[0]
+    cells = EVERY_CELL
+    if marked != "every cell":
+        occ = ParticleCells()
+        occ.mark_boxes(plo, phi, plo.shape[0], cloud, 1e-3)
+        cells = occ.args()
     out = {}
     before = numba.get_num_threads()
     numba.set_num_threads(threads)
@@ -48,13 +55,14 @@ def test_threaded_faces_near_is_faces_near(threads):
             bounds = cloud.copy()
             table = np.full((x.shape[0], NODE_COLS), np.nan)
             if side == "serial":
-                k = faces_near(x, v, mass, TAU, faces, body, nf, 1e-7, cloud, flo, fhi, sel,
-                               sel_body, bounds, table)
+                k = faces_near(x, v, mass, TAU, faces, body, nf, 1e-7, cloud, *cells, flo, fhi,
+                               sel, sel_body, bounds, table)
             else:
                 n_chunk = -(-nf // PF.FACE_CHUNK)
                 PF.pack_all_nodes(x, v, mass, table)
                 k = PF.faces_near_threads(
-                    x, v, TAU, faces, body, nf, 1e-7, cloud, flo, fhi, sel, sel_body, bounds,
+                    x, v, TAU, faces, body, nf, 1e-7, cloud, *cells, flo, fhi, sel, sel_body,
+                    bounds,
                     np.empty((nf, 3)), np.empty((nf, 3)), np.empty(nf, np.uint8),
                     np.empty(n_chunk, np.int64), np.empty((n_chunk, 2, 3)))
             out[side] = (k, flo[:k], fhi[:k], sel[:k], sel_body[:k], bounds, table)
@@ -65,6 +73,11 @@ def test_threaded_faces_near_is_faces_near(threads):
     assert 0 < k == k2 < nf - 100  # far faces left out, near ones in every chunk
     chunks = np.isin(faces, sel).all(axis=1).nonzero()[0] // PF.FACE_CHUNK
     assert set(chunks.tolist()) == {0, 1, 2, 3}
+    if marked != "every cell":  # the faces (large triangles) that touch no particle's cell left out
+        every = faces_near(x, v, mass, TAU, faces, body, nf, 1e-7, cloud, *EVERY_CELL,
+                           np.empty((nf, 3)), np.empty((nf, 3)), np.empty((nf, 3), np.int32),
+                           np.empty(nf, np.int32), cloud.copy(), np.empty_like(table))
+        assert k < every
     for a, b in ((flo, flo2), (fhi, fhi2), (bounds, bounds2)):
         assert np.array_equal(a.view(np.int64), b.view(np.int64))
     assert np.array_equal(sel, sel2) and np.array_equal(sel_body, sel_body2)
