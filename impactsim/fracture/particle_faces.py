@@ -32,7 +32,7 @@ THREADED_FACES = 4 * FACE_CHUNK  # fewer faces: faces_near on one thread (a laun
 
 @numba.njit(cache=True, parallel=True)
 def faces_near_threads(x, v, tau, faces, face_body, n_faces, pad, cloud, origin, inv_c, dims,
-                       gen, g, lo, hi, sel, sel_body, bounds, box_lo, box_hi, near, counts,
+                       bits, lo, hi, sel, sel_body, bounds, box_lo, box_hi, near, counts,
                        chunk_bounds):
     """``particles.faces_near`` without the table (``pack_all_nodes`` fills it), on the
     threads. Scratch: box_lo, box_hi (n_faces, 3), near (n_faces,) uint8, counts (n_chunk,)
@@ -46,7 +46,7 @@ def faces_near_threads(x, v, tau, faces, face_body, n_faces, pad, cloud, origin,
             chunk_bounds[c, 1, d] = -np.inf
         for f in range(c * FACE_CHUNK, min(n_faces, (c + 1) * FACE_CHUNK)):
             inside = (face_box(x, v, tau, faces, f, pad, cloud, box_lo, box_hi, f)
-                      and touches_marked(box_lo, box_hi, f, origin, inv_c, dims, gen, g))
+                      and touches_marked(box_lo, box_hi, f, origin, inv_c, dims, bits))
             near[f] = 1 if inside else 0
             if inside:
                 cnt += 1

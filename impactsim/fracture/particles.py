@@ -311,10 +311,10 @@ def particle_boxes(px, pv, pr, n, tau, pad, lo, hi, bounds):
 
 
 @numba.njit(cache=True)
-def faces_near(x, v, mass, tau, faces, face_body, n_faces, pad, cloud, origin, inv_c, dims, gen,
-               g, lo, hi, sel, sel_body, bounds, xv):
+def faces_near(x, v, mass, tau, faces, face_body, n_faces, pad, cloud, origin, inv_c, dims, bits,
+               lo, hi, sel, sel_body, bounds, xv):
     """The faces whose swept, padded boxes meet the box ``cloud (2, 3)`` of all particle boxes
-    and touch a cell of a particle box (``particle_cells``: origin, inv_c, dims, gen, g): only
+    and touch a cell of a particle box (``particle_cells``: origin, inv_c, dims, bits): only
     they can meet a particle this step. Writes their rows (in order) to ``sel (k, 3)``,
     bodies to ``sel_body``, boxes to ``lo, hi``, widens ``bounds (2, 3)`` to cover them and
     packs their nodes into the sweep's table ``xv`` (``pack_face_nodes``, here while the
@@ -323,7 +323,7 @@ def faces_near(x, v, mass, tau, faces, face_body, n_faces, pad, cloud, origin, i
     k = 0
     for f in range(n_faces):
         if not (face_box(x, v, tau, faces, f, pad, cloud, lo, hi, k)
-                and touches_marked(lo, hi, k, origin, inv_c, dims, gen, g)):
+                and touches_marked(lo, hi, k, origin, inv_c, dims, bits)):
             continue
         for j in range(3):
             sel[k, j] = faces[f, j]

@@ -34,7 +34,7 @@ import math
 
 import numpy as np
 
-from impactsim.contact.broadphase import SpatialHash, grid_for
+from impactsim.contact.broadphase import SpatialHash, grid_from_bounds
 from impactsim.contact.passes import PrescribedLock
 from impactsim.fracture import criteria as C
 from impactsim.fracture.boundary import Boundary
@@ -366,7 +366,7 @@ class ParticlePass(Pass):
                                     pad, cloud, *occ, flo[k:], fhi[k:], sel[k:], sel_body[k:],
                                     bounds, self.nodes)
             if k:
-                origin, cell = grid_for([(bounds[:1], bounds[1:])], max(s.h_face, 2.0 * r_max))
+                origin, cell = grid_from_bounds(bounds[0], bounds[1], max(s.h_face, 2.0 * r_max))
                 self.hash.build(flo[:k], fhi[:k], origin, cell)
                 pairs = self.hash.query(plo, phi, pa.ids[:n], pa.no_body[:n], sel[:k],
                                         sel_body[:k], False, False)
@@ -377,7 +377,7 @@ class ParticlePass(Pass):
                     self.impacts += int(applied)
                     work += float(w)
         if s.collisions and n > 1:
-            origin, cell = grid_for([(cloud[:1], cloud[1:])], 2.0 * r_max)
+            origin, cell = grid_from_bounds(cloud[0], cloud[1], 2.0 * r_max)
             self.pp_hash.build(plo, phi, origin, cell)
             pairs = self.pp_hash.query(plo, phi, pa.ids[:n], pa.no_body[:n], pa.ids[:n],
                                        pa.no_body[:n], True, True)

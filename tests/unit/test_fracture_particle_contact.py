@@ -74,7 +74,7 @@ def test_face_with_a_massless_node_takes_no_impulse():
 
 # particle_cells' arguments for a grid of one marked cell: every face touches it, so
 # faces_near keeps the faces that meet the particles' bounding box, no fewer
-EVERY_CELL = (np.zeros(3), 0.0, np.ones(3, np.int64), np.ones(1, np.int32), np.int32(1))
+EVERY_CELL = (np.zeros(3), 0.0, np.ones(3, np.int64), np.ones(1, np.uint64))
 
 
 def _overlapping(lo, hi, plo, phi):

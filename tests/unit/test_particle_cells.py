@@ -43,7 +43,7 @@ def test_every_box_that_overlaps_a_particle_touches_a_marked_cell():
 
 def test_the_grid_of_a_wide_cloud_has_larger_cells():
     """A cloud that would need more than OCC_MAX_CELLS cells of the hash's size gets larger
-    ones (Occupancy.grid): the test stays a superset of the overlaps."""
+    ones (broadphase.occupancy_grid): the test stays a superset of the overlaps."""
     from impactsim.contact.broadphase import OCC_MAX_CELLS
 
     rng = np.random.default_rng(6)
