@@ -584,13 +584,16 @@ def mean_length(x, edges):
 class SpatialHash:
     """Host side of the hash grid: owns the growable buffers (entries and pairs).
 
-    ``chunked``: large queries run on the threads (``query_pairs_chunked``); False keeps every
-    query in the calling thread (a hash used outside the run's thread: the penetration
-    measure, contact/diagnostics.py)."""
+    ``chunked``: large queries run on the threads (``query_pairs_chunked``), from
+    QUERY_MIN_CHUNKS chunks of query rows on, or from ``min_chunks`` where that is fewer (read
+    at each query: the warm-up and the tests lower QUERY_MIN_CHUNKS); False keeps every query
+    in the calling thread (a hash used outside the run's thread: the penetration measure,
+    contact/diagnostics.py)."""
 
     def __init__(self, entry_capacity: int = 1024, pair_capacity: int = 1024,
-                 chunked: bool = True):
+                 chunked: bool = True, min_chunks: int | None = None):
         self.chunked = bool(chunked)
+        self.min_chunks = min_chunks
         self._alloc_entries(entry_capacity)
         self.pairs_buf = np.zeros((max(pair_capacity, 16), 2), dtype=np.int64)
         self.grows = 0  # how often a buffer had to grow (reported in the pass summary)
@@ -637,7 +640,9 @@ class SpatialHash:
         build is not seen (the callers pass fresh arrays or ones they never change)."""
         nq = qlo.shape[0]
         n_chunk = -(-nq // QUERY_CHUNK)
-        chunked = (self.chunked and n_chunk >= QUERY_MIN_CHUNKS
+        least = QUERY_MIN_CHUNKS if self.min_chunks is None else min(self.min_chunks,
+                                                                      QUERY_MIN_CHUNKS)
+        chunked = (self.chunked and n_chunk >= least
                    and numba.get_num_threads() > 1)
         if chunked and self.chunk_counts.shape[0] < n_chunk:
             self.chunk_counts = np.zeros(n_chunk, dtype=np.int64)

@@ -58,6 +58,7 @@ from impactsim.solver.guard import NONE_GIVEN, UNKNOWN
 from impactsim.solver.passes import Pass
 
 EPS_BARY = 1e-6
+PARTICLE_QUERY_CHUNKS = 2  # the particle query runs on the threads from this many chunks
 PAD = 1e-3  # box padding of the particle broad phase, a fraction of the mean face edge length
 
 
@@ -310,7 +311,10 @@ class ParticlePass(Pass):
 
     def __init__(self, state: FractureState):
         self.s = state
-        self.hash = SpatialHash()
+        # the particles' query on the threads from two chunks of rows (QUERY_CHUNK each): a
+        # particle's row costs 0.2-0.4 us, so 2,048 rows pay for the launch (4,451 particles of
+        # oblique-sphere at step 400: 1.6 -> 1.1 ms; docs/performance.md, session 26)
+        self.hash = SpatialHash(min_chunks=PARTICLE_QUERY_CHUNKS)
         self.pp_hash = SpatialHash()
         self.cells = ParticleCells()  # the cells the particle boxes touch
         self.impacts = 0

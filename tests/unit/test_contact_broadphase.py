@@ -153,6 +153,36 @@ def test_threaded_query_gives_the_serial_pairs(monkeypatch, same_set, self_conta
         numba.set_num_threads(threads)
 
 
+def test_a_hash_may_take_fewer_chunks_to_the_threads(monkeypatch):
+    """``min_chunks`` below QUERY_MIN_CHUNKS (the particle hash's) sends a query of that many
+    chunks to the threads, with the serial query's pairs; QUERY_MIN_CHUNKS, where lower (the
+    warm-up), still bounds it."""
+    import numba
+
+    from impactsim.contact import broadphase
+
+    if numba.get_num_threads() < 2:
+        pytest.skip("one thread")
+    rng = np.random.default_rng(12)
+    qlo, qhi = random_boxes(rng, 300, size=0.8, extent=5.0)
+    elo, ehi = random_boxes(rng, 200, size=1.5, extent=5.0)
+    qbody = np.full(300, -1, np.int32)
+    ebody = rng.integers(0, 3, 200).astype(np.int32)
+    rows = np.zeros((1, 1), np.int32)
+    origin, h = grid_for([(qlo, qhi), (elo, ehi)], 1.0)
+    monkeypatch.setattr(broadphase, "QUERY_CHUNK", 100)  # 3 chunks, fewer than 8
+    threaded = {}
+    for least, default in ((None, 8), (2, 8), (8, 2), (3, 8), (4, 8)):
+        monkeypatch.setattr(broadphase, "QUERY_MIN_CHUNKS", default)
+        hs = SpatialHash(min_chunks=least)
+        hs.build(elo, ehi, origin, h)
+        pairs = np.array(hs.query(qlo, qhi, rows, qbody, rows, ebody, False, False))
+        assert {tuple(p) for p in pairs} == brute(qlo, qhi, elo, ehi, qbody, ebody, False)
+        threaded[(least, default)] = hs.chunk_counts.shape[0] == 3  # sized by a chunked query
+    assert threaded == {(None, 8): False, (2, 8): True, (8, 2): True, (3, 8): True,
+                        (4, 8): False}
+
+
 @pytest.mark.parametrize("chunked", [False, True])
 def test_pair_buffer_filled_to_its_last_rows(monkeypatch, chunked):
     """A pair buffer of as many rows as there are pairs, one fewer or one more: the query
