@@ -162,7 +162,7 @@ def test_a_hash_may_take_fewer_chunks_to_the_threads(monkeypatch):
     from impactsim.contact import broadphase
 
     if numba.get_num_threads() < 2:
-        pytest.skip("one thread")
+        pytest.skip(f"NUMBA_NUM_THREADS={numba.config.NUMBA_NUM_THREADS}")
     rng = np.random.default_rng(12)
     qlo, qhi = random_boxes(rng, 300, size=0.8, extent=5.0)
     elo, ehi = random_boxes(rng, 200, size=1.5, extent=5.0)
