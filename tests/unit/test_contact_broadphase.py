@@ -153,6 +153,18 @@ def test_threaded_query_gives_the_serial_pairs(monkeypatch, same_set, self_conta
         numba.set_num_threads(threads)
 
 
+def _particles_and_faces(seed):
+    """300 query boxes of no body (particles) and 200 hashed boxes of three bodies, the rows
+    (unused), and the grid: (qlo, qhi, qbody, elo, ehi, ebody, rows, origin, h)."""
+    rng = np.random.default_rng(seed)
+    qlo, qhi = random_boxes(rng, 300, size=0.8, extent=5.0)
+    elo, ehi = random_boxes(rng, 200, size=1.5, extent=5.0)
+    qbody = np.full(300, -1, np.int32)
+    ebody = rng.integers(0, 3, 200).astype(np.int32)
+    origin, h = grid_for([(qlo, qhi), (elo, ehi)], 1.0)
+    return qlo, qhi, qbody, elo, ehi, ebody, np.zeros((1, 1), np.int32), origin, h
+
+
 def test_a_hash_may_take_fewer_chunks_to_the_threads(monkeypatch):
     """``min_chunks`` below QUERY_MIN_CHUNKS (the particle hash's) sends a query of that many
     chunks to the threads, with the serial query's pairs; QUERY_MIN_CHUNKS, where lower (the
@@ -163,13 +175,7 @@ def test_a_hash_may_take_fewer_chunks_to_the_threads(monkeypatch):
 
     if numba.get_num_threads() < 2:
         pytest.skip(f"NUMBA_NUM_THREADS={numba.config.NUMBA_NUM_THREADS}")
-    rng = np.random.default_rng(12)
-    qlo, qhi = random_boxes(rng, 300, size=0.8, extent=5.0)
-    elo, ehi = random_boxes(rng, 200, size=1.5, extent=5.0)
-    qbody = np.full(300, -1, np.int32)
-    ebody = rng.integers(0, 3, 200).astype(np.int32)
-    rows = np.zeros((1, 1), np.int32)
-    origin, h = grid_for([(qlo, qhi), (elo, ehi)], 1.0)
+    qlo, qhi, qbody, elo, ehi, ebody, rows, origin, h = _particles_and_faces(12)
     monkeypatch.setattr(broadphase, "QUERY_CHUNK", 100)  # 3 chunks, fewer than 8
     threaded = {}
     for least, default in ((None, 8), (2, 8), (8, 2), (3, 8), (4, 8)):
@@ -192,13 +198,7 @@ def test_pair_buffer_filled_to_its_last_rows(monkeypatch, chunked):
 
     from impactsim.contact import broadphase
 
-    rng = np.random.default_rng(11)
-    qlo, qhi = random_boxes(rng, 300, size=0.8, extent=5.0)
-    elo, ehi = random_boxes(rng, 200, size=1.5, extent=5.0)
-    qbody = np.full(300, -1, np.int32)
-    ebody = rng.integers(0, 3, 200).astype(np.int32)
-    rows = np.zeros((1, 1), np.int32)
-    origin, h = grid_for([(qlo, qhi), (elo, ehi)], 1.0)
+    qlo, qhi, qbody, elo, ehi, ebody, rows, origin, h = _particles_and_faces(11)
     ref_hash = SpatialHash()
     ref_hash.build(elo, ehi, origin, h)
     ref = np.array(ref_hash.query(qlo, qhi, rows, qbody, rows, ebody, False, False))
