@@ -10,8 +10,7 @@ no pair, and since the kept faces keep their order, the sweep corrects the same 
 same order (the same bits).
 
 The grid is ``contact.broadphase.occupancy_grid``'s over the particles' bounding box, one bit a
-cell (at most OCC_MAX_CELLS / 8 bytes: 78 kB on oblique-sphere at step 2,900, where an int32 per
-cell missed the caches at every mark and test). Its cell index is monotone in the coordinate
+cell (at most OCC_MAX_CELLS / 8 bytes; 78 kB on oblique-sphere at step 2,900). Its cell index is monotone in the coordinate
 and clamped at the grid's ends, so two boxes that overlap share the cell of the larger of their
 lower corners along each axis: the test keeps every face that overlaps a particle's box.
 ``mark_particles`` sets the bits of the cells of every particle box; ``touches_marked`` tells
@@ -37,7 +36,7 @@ def mark_particles(lo, hi, n, origin, inv_c, dims, bits):
         if x1 - x0 <= 1 and y1 - y0 <= 1 and z1 - z0 <= 1:
             # at most two cells along each axis (nearly every particle: its box is a third of
             # a cell wide): the eight corners' cells, some of them twice, without the loops'
-            # branches on trip counts of one or two, which mispredicted about half the time
+            # branches on trip counts of one or two
             for ix in (x0, x1):
                 for iy in (y0, y1):
                     c = (ix * dims[1] + iy) * dims[2]

@@ -8,7 +8,8 @@ Here the same in three parallel loops, each over fixed chunks (so the result doe
 on the number of threads, and no two threads write one place):
 
 1. per chunk of faces: every face's box into the scratch rows of the face, whether it is near
-   the cloud, the chunk's count and the bounds of its near faces;
+   the cloud and touches a particle's cell (``particle_cells``), the chunk's count and the
+   bounds of its near faces;
 2. per chunk, at the chunk's offset (the counts' prefix): the near faces' rows, bodies and
    boxes, in face order;
 3. per chunk of nodes: every node's row of the sweep's table (``pack_all_nodes``: a stream

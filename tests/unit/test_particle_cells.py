@@ -7,6 +7,7 @@ import numpy as np
 
 from impactsim.fracture.particle_cells import ParticleCells, touches_marked
 from impactsim.fracture.particles import particle_boxes
+from tests.unit.test_fracture_particle_contact import _overlapping
 
 
 def _touching(lo, hi, cells):
@@ -33,8 +34,7 @@ def test_every_box_that_overlaps_a_particle_touches_a_marked_cell():
     pick = rng.integers(0, n, 200)
     lo[:100], hi[:100] = plo[pick[:100]] - 0.3 * cell, plo[pick[:100]]
     lo[100:200], hi[100:200] = phi[pick[100:]], phi[pick[100:]] + 0.3 * cell
-    over = np.any(np.all((lo[:, None, :] <= phi[None, :, :])
-                         & (plo[None, :, :] <= hi[:, None, :]), axis=2), axis=1)
+    over = _overlapping(lo, hi, plo, phi)
     touch = _touching(lo, hi, cells)
     assert over[:200].all()
     assert touch[over].all()  # no pair lost
@@ -58,6 +58,5 @@ def test_the_grid_of_a_wide_cloud_has_larger_cells():
     assert int(np.prod(cells.dims)) <= OCC_MAX_CELLS
     lo = rng.uniform(-1e-4, 1.1e-3, (2000, 3))
     hi = lo + 5e-5
-    over = np.any(np.all((lo[:, None, :] <= phi[None, :, :])
-                         & (plo[None, :, :] <= hi[:, None, :]), axis=2), axis=1)
+    over = _overlapping(lo, hi, plo, phi)
     assert over.sum() > 20 and _touching(lo, hi, cells)[over].all()
