@@ -33,9 +33,11 @@ def run_patched(case_path: Path, patches) -> None:
             setattr(obj, name, old)
 
 
-def arguments(doc: str, rev_help: str, argv=None):
-    """The particle benchmarks' options (--case, --steps, --reps, --rev), parsed; first the
-    kernel cache refreshed, as the CLI does (kernels cached from older sources go first)."""
+def arguments(doc: str, rev_help: str | None, argv=None, steps: str = "800,1500,2200",
+              reps: int = 7):
+    """The particle benchmarks' options (--case, --steps, --reps, and --rev unless rev_help is
+    None), parsed; first the kernel cache refreshed, as the CLI does (kernels cached from older
+    sources go first)."""
     import argparse
 
     from impactsim.kernel_cache import refresh
@@ -44,7 +46,8 @@ def arguments(doc: str, rev_help: str, argv=None):
     root = Path(__file__).resolve().parents[1]
     ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument("--case", default=str(root / "cases" / "oblique-sphere.toml"))
-    ap.add_argument("--steps", default="800,1500,2200")
-    ap.add_argument("--reps", type=int, default=7)
-    ap.add_argument("--rev", default="", help=rev_help)
+    ap.add_argument("--steps", default=steps)
+    ap.add_argument("--reps", type=int, default=reps)
+    if rev_help is not None:
+        ap.add_argument("--rev", default="", help=rev_help)
     return ap.parse_args(argv)
