@@ -25,9 +25,6 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # scene_capture
 
-EVERY_CELL = (np.zeros(3), 0.0, np.ones(3, np.int64), np.ones(1, np.uint64))
-
-
 def capture(case_path: Path, steps: set[int]) -> dict[int, dict]:
     """Per step of ``steps``: the marking's arguments, faces_near_threads' and the query's."""
     from impactsim.contact.broadphase import SpatialHash
@@ -96,7 +93,7 @@ def main(argv=None) -> list[dict]:
 def _timed(kept: dict[int, dict], reps: int) -> list[dict]:
     """The two ways timed on each step's inputs (the module docstring), one row per step."""
     from impactsim.contact.broadphase import SpatialHash, grid_from_bounds
-    from impactsim.fracture.particle_cells import ParticleCells
+    from impactsim.fracture.particle_cells import EVERY_CELL, ParticleCells
     from impactsim.fracture.particle_faces import faces_near_threads
 
     rows = []

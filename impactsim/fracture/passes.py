@@ -353,7 +353,8 @@ class ParticlePass(Pass):
             sel_body = self._buffer("sel_body", n_faces, np.int32, None)
             bounds = self.bounds
             bounds[:] = cloud
-            self.cells.mark_boxes(plo, phi, n, cloud, max(s.h_face, 2.0 * r_max))
+            cell = max(s.h_face, 2.0 * r_max)  # the hash's cell and the particle cells'
+            self.cells.mark_boxes(plo, phi, n, cloud, cell)
             occ = self.cells.args()  # the cells the particles touch (particle_cells.py)
             if self.nodes.shape[0] != model.n_node:
                 self.nodes = np.zeros((model.n_node, NODE_COLS))
@@ -370,8 +371,8 @@ class ParticlePass(Pass):
                                     pad, cloud, *occ, flo[k:], fhi[k:], sel[k:], sel_body[k:],
                                     bounds, self.nodes)
             if k:
-                origin, cell = grid_from_bounds(bounds[0], bounds[1], max(s.h_face, 2.0 * r_max))
-                self.hash.build(flo[:k], fhi[:k], origin, cell)
+                origin, h = grid_from_bounds(bounds[0], bounds[1], cell)
+                self.hash.build(flo[:k], fhi[:k], origin, h)
                 pairs = self.hash.query(plo, phi, pa.ids[:n], pa.no_body[:n], sel[:k],
                                         sel_body[:k], False, False)
                 if pairs.shape[0]:

@@ -5,7 +5,7 @@ selection of faces; the particle sums."""
 import numpy as np
 import pytest
 
-from impactsim.fracture.particle_cells import ParticleCells
+from impactsim.fracture.particle_cells import EVERY_CELL, ParticleCells
 from impactsim.fracture.particles import (Particles, faces_near, particle_boxes,
                                           particle_face_sweep)
 
@@ -70,11 +70,6 @@ def test_face_with_a_massless_node_takes_no_impulse():
     applied, work = _sweep(*s)
     assert applied == 0 and work == 0.0
     assert s[5][0, 2] == -100.0 and np.all(s[1] == 0.0)
-
-
-# particle_cells' arguments for a grid of one marked cell: every face touches it, so
-# faces_near keeps the faces that meet the particles' bounding box, no fewer
-EVERY_CELL = (np.zeros(3), 0.0, np.ones(3, np.int64), np.ones(1, np.uint64))
 
 
 def _overlapping(lo, hi, plo, phi):

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from impactsim.fracture import particle_faces as PF
-from impactsim.fracture.particle_cells import ParticleCells
+from impactsim.fracture.particle_cells import EVERY_CELL, ParticleCells
 from impactsim.fracture.particles import NODE_COLS, faces_near, particle_boxes
-from tests.unit.test_fracture_particle_contact import EVERY_CELL, _particles_over_a_plate
+from tests.unit.test_fracture_particle_contact import _particles_over_a_plate
 
 TAU = 1e-8
 
